@@ -1,0 +1,184 @@
+"""Unit quaternions for attitude, batched over leading dimensions.
+
+Convention (used everywhere in rbenv): scalar first ``q = (w, x, y, z)``, Hamilton product, and
+``q`` maps body to world: ``v_W = q ⊗ (0, v_B) ⊗ q*``. SciPy's ``Rotation`` is scalar-last by
+default; pass ``scalar_first=True`` when converting at the boundary.
+
+Every function accepts arrays with leading batch dimensions, ``(..., 4)`` for quaternions and
+``(..., 3)`` for vectors, and broadcasts them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.errors import InvalidParameterError, describe
+from core.vec import cross, dot
+
+_EPS = np.finfo(float).eps
+
+
+def _split(q: np.ndarray):
+    return q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+
+
+def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Identity quaternion(s) ``(1, 0, 0, 0)`` of batch shape ``shape``. Returns (*shape, 4)."""
+    q = np.zeros((*shape, 4))
+    q[..., 0] = 1.0
+    return q
+
+
+def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` (apply q first, then p). p, q: (..., 4). Returns (..., 4)."""
+    pw, px, py, pz = _split(np.asarray(p, dtype=float))
+    qw, qx, qy, qz = _split(np.asarray(q, dtype=float))
+    return np.stack(
+        (
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ),
+        axis=-1,
+    )
+
+
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """Conjugate ``(w, -x, -y, -z)``; the inverse of a unit quaternion. q: (..., 4)."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def normalize(q: np.ndarray) -> np.ndarray:
+    """Scale ``q`` (..., 4) to unit length. Raises ``InvalidParameterError`` for a zero quaternion."""
+    q = np.asarray(q, dtype=float)
+    n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    if not np.all(n > 0.0):
+        raise InvalidParameterError(
+            f"quaternion must have non-zero length to be normalised, got {describe(q)}"
+        )
+    return q / n
+
+
+def canonical(q: np.ndarray) -> np.ndarray:
+    """Representative with ``w >= 0`` of the double cover ``q ~ -q``. q: (..., 4)."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., :1] < 0.0, -q, q)
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors by unit quaternions: ``q ⊗ (0, v) ⊗ q*``. q: (..., 4), v: (..., 3).
+
+    With body→world ``q`` this maps ``v_B`` to ``v_W``; ``rotate(conjugate(q), v_W)`` gives ``v_B``.
+    """
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    u = q[..., 1:]
+    t = 2.0 * cross(u, v)
+    return v + q[..., :1] * t + cross(u, t)
+
+
+def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate by the inverse of unit ``q``: ``q* ⊗ (0, v) ⊗ q`` (world→body for body→world q)."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    u = q[..., 1:]
+    t = 2.0 * cross(u, v)
+    return v - q[..., :1] * t + cross(u, t)
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``R`` with ``R v = rotate(q, v)``. q: (..., 4) unit. Returns (..., 3, 3)."""
+    w, x, y, z = _split(np.asarray(q, dtype=float))
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    rows = (
+        (1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy)),
+        (2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx)),
+        (2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy)),
+    )
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def from_matrix(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (canonical, ``w >= 0``) of rotation matrices R: (..., 3, 3).
+
+    Uses Shepperd's method: pick the largest of ``w², x², y², z²`` as pivot, so the result is
+    accurate for every rotation, including angles near π.
+    """
+    R = np.asarray(R, dtype=float)
+    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    trace = m00 + m11 + m22
+    # Four candidate solutions, one per pivot; each row is (w, x, y, z) times 4*pivot.
+    cand = np.stack(
+        (
+            np.stack((1 + trace, R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
+                      R[..., 1, 0] - R[..., 0, 1]), axis=-1),
+            np.stack((R[..., 2, 1] - R[..., 1, 2], 1 + m00 - m11 - m22, R[..., 0, 1] + R[..., 1, 0],
+                      R[..., 0, 2] + R[..., 2, 0]), axis=-1),
+            np.stack((R[..., 0, 2] - R[..., 2, 0], R[..., 0, 1] + R[..., 1, 0], 1 - m00 + m11 - m22,
+                      R[..., 1, 2] + R[..., 2, 1]), axis=-1),
+            np.stack((R[..., 1, 0] - R[..., 0, 1], R[..., 0, 2] + R[..., 2, 0],
+                      R[..., 1, 2] + R[..., 2, 1], 1 - m00 - m11 + m22), axis=-1),
+        ),
+        axis=-2,
+    )
+    pivots = np.stack((1 + trace, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22),
+                      axis=-1)
+    best = np.argmax(pivots, axis=-1)
+    q = np.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
+    return canonical(normalize(q))
+
+
+def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotation by ``angle`` (rad, (...)) about ``axis`` ((..., 3), any non-zero length)."""
+    axis = np.asarray(axis, dtype=float)
+    n = np.sqrt(dot(axis, axis))
+    if not np.all(n > 0.0):
+        raise InvalidParameterError(f"axis must be a non-zero 3-vector, got {describe(axis)}")
+    half = 0.5 * np.asarray(angle, dtype=float)
+    s = (np.sin(half) / n)[..., None]
+    return np.concatenate((np.cos(half)[..., None] * np.ones_like(s), s * axis), axis=-1)
+
+
+def from_rotation_vector(v: np.ndarray) -> np.ndarray:
+    """Exponential map: the rotation by angle ``|v|`` (rad) about ``v/|v|``. v: (..., 3).
+
+    Exact for every ``|v|``; uses the Taylor series of ``sin(θ/2)/θ`` near zero.
+    """
+    v = np.asarray(v, dtype=float)
+    theta2 = dot(v, v)
+    theta = np.sqrt(theta2)
+    small = theta2 < 1e-8
+    safe = np.where(small, 1.0, theta)
+    # sin(θ/2)/θ, with its series 1/2 − θ²/48 for tiny θ (error < 1e-18 there).
+    k = np.where(small, 0.5 - theta2 / 48.0, np.sin(0.5 * safe) / safe)
+    return np.concatenate((np.cos(0.5 * theta)[..., None], k[..., None] * v), axis=-1)
+
+
+def to_rotation_vector(q: np.ndarray) -> np.ndarray:
+    """Logarithm map: rotation vector (rad) of unit ``q`` (..., 4), angle in [0, π]."""
+    q = canonical(q)
+    s = np.sqrt(dot(q[..., 1:], q[..., 1:]))
+    theta = 2.0 * np.arctan2(s, q[..., 0])
+    small = s < 1e-12
+    k = np.where(small, 2.0 / np.maximum(q[..., 0], _EPS), theta / np.where(small, 1.0, s))
+    return k[..., None] * q[..., 1:]
+
+
+def angle(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Geodesic angle (rad, in [0, π]) between orientations p and q: the angle of ``p* ⊗ q``.
+
+    p, q: (..., 4) unit. Insensitive to the double cover (``angle(p, -p) == 0``).
+    """
+    d = multiply(conjugate(p), q)
+    s = np.sqrt(dot(d[..., 1:], d[..., 1:]))
+    return 2.0 * np.arctan2(s, np.abs(d[..., 0]))
+
+
+def random(rng: np.random.Generator, shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Uniformly distributed unit quaternions on SO(3) (Haar measure), shape (*shape, 4)."""
+    q = rng.standard_normal((*shape, 4))
+    return normalize(q)
