@@ -1,9 +1,36 @@
 """rbenv's rigid-body core: quaternions, inertia tensors, rigid-body state and integrators.
 
-Imports only NumPy (SciPy only inside :mod:`core.reference`). See DESIGN.md for conventions:
-quaternions are scalar-first, Hamilton, body→world; names carry frames (``_W`` world, ``_B`` body).
+Imports only NumPy (SciPy only inside :mod:`core.reference`). Conventions (DESIGN.md):
+quaternions are scalar-first (w, x, y, z), Hamilton, body→world; names carry frames
+(``_W`` world, ``_B`` body); SI units.
 """
 
 from core import inertia, quaternion
+from core.body import BodyState, RigidBody, angular_momentum_W, rotational_energy
+from core.dynamics import simulate, step
+from core.errors import (
+    InvalidInertiaError,
+    InvalidParameterError,
+    NonFiniteError,
+    RbenvValueError,
+)
+from core.forces import ThrusterLayout, wrench_at_points
+from core.integrators import INTEGRATORS
 
-__all__ = ["inertia", "quaternion"]
+__all__ = [
+    "INTEGRATORS",
+    "BodyState",
+    "InvalidInertiaError",
+    "InvalidParameterError",
+    "NonFiniteError",
+    "RbenvValueError",
+    "RigidBody",
+    "ThrusterLayout",
+    "angular_momentum_W",
+    "inertia",
+    "quaternion",
+    "rotational_energy",
+    "simulate",
+    "step",
+    "wrench_at_points",
+]

@@ -36,12 +36,14 @@ def describe(value) -> str:
 
 
 def require_finite(name: str, value) -> np.ndarray:
-    """Return ``value`` as a float array, raising :class:`NonFiniteError` if any entry is not finite."""
+    """``value`` as a float array; raises :class:`NonFiniteError` if any entry is not finite."""
     arr = np.asarray(value, dtype=float)
     if not np.isfinite(arr).all():
         bad = np.argwhere(~np.isfinite(arr))
         where = "" if arr.ndim == 0 else f" at index {tuple(int(i) for i in bad[0])}"
-        raise NonFiniteError(f"{name} must be finite, got {describe(value)} (non-finite entry{where})")
+        raise NonFiniteError(
+            f"{name} must be finite, got {describe(value)} (non-finite entry{where})"
+        )
     return arr
 
 

@@ -12,14 +12,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from core import kernels
 from core.errors import InvalidParameterError, describe
-from core.vec import cross, dot
+from core.vec import dot
 
 _EPS = np.finfo(float).eps
 
 
 def _split(q: np.ndarray):
     return q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+
+
+def _parts(a) -> tuple:
+    """Components of an (..., k) array as views (floats for a single (k,) vector)."""
+    return kernels.unpack(np.asarray(a, dtype=float))
 
 
 def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
@@ -31,17 +37,7 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` (apply q first, then p). p, q: (..., 4). Returns (..., 4)."""
-    pw, px, py, pz = _split(np.asarray(p, dtype=float))
-    qw, qx, qy, qz = _split(np.asarray(q, dtype=float))
-    return np.stack(
-        (
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ),
-        axis=-1,
-    )
+    return kernels.pack(kernels.qmul(_parts(p), _parts(q)))
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
@@ -51,7 +47,7 @@ def conjugate(q: np.ndarray) -> np.ndarray:
 
 
 def normalize(q: np.ndarray) -> np.ndarray:
-    """Scale ``q`` (..., 4) to unit length. Raises ``InvalidParameterError`` for a zero quaternion."""
+    """Scale ``q`` (..., 4) to unit length; a zero quaternion raises ``InvalidParameterError``."""
     q = np.asarray(q, dtype=float)
     n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
     if not np.all(n > 0.0):
@@ -72,20 +68,12 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
     With body→world ``q`` this maps ``v_B`` to ``v_W``; ``rotate(conjugate(q), v_W)`` gives ``v_B``.
     """
-    q = np.asarray(q, dtype=float)
-    v = np.asarray(v, dtype=float)
-    u = q[..., 1:]
-    t = 2.0 * cross(u, v)
-    return v + q[..., :1] * t + cross(u, t)
+    return kernels.pack(kernels.rotate(_parts(q), _parts(v)))
 
 
 def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate by the inverse of unit ``q``: ``q* ⊗ (0, v) ⊗ q`` (world→body for body→world q)."""
-    q = np.asarray(q, dtype=float)
-    v = np.asarray(v, dtype=float)
-    u = q[..., 1:]
-    t = 2.0 * cross(u, v)
-    return v - q[..., :1] * t + cross(u, t)
+    return kernels.pack(kernels.rotate_inverse(_parts(q), _parts(v)))
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
@@ -148,14 +136,7 @@ def from_rotation_vector(v: np.ndarray) -> np.ndarray:
 
     Exact for every ``|v|``; uses the Taylor series of ``sin(θ/2)/θ`` near zero.
     """
-    v = np.asarray(v, dtype=float)
-    theta2 = dot(v, v)
-    theta = np.sqrt(theta2)
-    small = theta2 < 1e-8
-    safe = np.where(small, 1.0, theta)
-    # sin(θ/2)/θ, with its series 1/2 − θ²/48 for tiny θ (error < 1e-18 there).
-    k = np.where(small, 0.5 - theta2 / 48.0, np.sin(0.5 * safe) / safe)
-    return np.concatenate((np.cos(0.5 * theta)[..., None], k[..., None] * v), axis=-1)
+    return kernels.pack(kernels.exp(_parts(v)))
 
 
 def to_rotation_vector(q: np.ndarray) -> np.ndarray:

@@ -1,0 +1,200 @@
+"""Rigid-body parameters (frozen) and state (arrays with leading batch dimensions)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core import kernels, quaternion
+from core.errors import InvalidParameterError, NonFiniteError, describe, require_positive
+from core.inertia import validate
+
+# A tensor whose principal moments agree to this relative tolerance is treated as isotropic.
+_ISOTROPIC_RTOL = 1e-12
+_UNIT_TOL = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class RigidBody:
+    """Mass (kg) and inertia (kg·m², (3, 3), about the centre of mass, body axes) of one body.
+
+    Validated at construction: mass finite and > 0; inertia symmetric, finite, positive definite
+    and obeying the triangle inequality (a rod, with ``I_zz = 0``, is refused: it has no inverse).
+    ``kind`` records what the step may skip: ``"isotropic"`` (sphere, cube: no change of basis,
+    no gyroscopic term), ``"diagonal"`` (body axes are principal axes) or ``"full"``.
+    """
+
+    mass: float
+    inertia: np.ndarray
+    inertia_inv: np.ndarray = field(init=False, repr=False)
+    kind: str = field(init=False)
+    _diag: tuple = field(init=False, repr=False)
+    _diag_inv: tuple = field(init=False, repr=False)
+    _rows: tuple = field(init=False, repr=False)
+    _inv_rows: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        mass = require_positive("mass", self.mass)
+        inertia = validate(self.inertia)
+        inertia.setflags(write=False)
+        inv = np.linalg.inv(inertia)
+        inv = 0.5 * (inv + inv.T)
+        inv.setflags(write=False)
+        d = np.diag(inertia).copy()
+        off = np.abs(inertia - np.diag(d)).max()
+        if off == 0.0 and np.ptp(d) <= _ISOTROPIC_RTOL * d.max():
+            kind = "isotropic"
+        elif off == 0.0:
+            kind = "diagonal"
+        else:
+            kind = "full"
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "inertia", inertia)
+        object.__setattr__(self, "inertia_inv", inv)
+        object.__setattr__(self, "kind", kind)
+        # Plain-float copies: the component kernels run at Python-float speed for one body.
+        object.__setattr__(self, "_diag", tuple(d.tolist()))
+        object.__setattr__(self, "_diag_inv", tuple((1.0 / d).tolist()))
+        object.__setattr__(self, "_rows", tuple(tuple(r) for r in inertia.tolist()))
+        object.__setattr__(self, "_inv_rows", tuple(tuple(r) for r in inv.tolist()))
+
+    @property
+    def is_isotropic(self) -> bool:
+        """True when ``I = s·E``: the change of basis and the gyroscopic term vanish."""
+        return self.kind == "isotropic"
+
+    def inertia_times(self, v: tuple) -> tuple:
+        """``I v`` on components (floats or (N,) arrays), body axes."""
+        if self.kind == "isotropic":
+            s = self._diag[0]
+            return (s * v[0], s * v[1], s * v[2])
+        if self.kind == "diagonal":
+            d0, d1, d2 = self._diag
+            return (d0 * v[0], d1 * v[1], d2 * v[2])
+        return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in self._rows)
+
+    def inverse_times(self, v: tuple) -> tuple:
+        """``I⁻¹ v`` on components (floats or (N,) arrays), body axes."""
+        if self.kind == "isotropic":
+            s = self._diag_inv[0]
+            return (s * v[0], s * v[1], s * v[2])
+        if self.kind == "diagonal":
+            d0, d1, d2 = self._diag_inv
+            return (d0 * v[0], d1 * v[1], d2 * v[2])
+        return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in self._inv_rows)
+
+    def apply_inertia(self, v_B: np.ndarray) -> np.ndarray:
+        """``I v`` in body axes. v_B: (..., 3) rad/s. Returns (..., 3) (kg·m²/s for ω)."""
+        return kernels.pack(self.inertia_times(kernels.unpack(np.asarray(v_B, dtype=float))))
+
+    def apply_inverse(self, v_B: np.ndarray) -> np.ndarray:
+        """``I⁻¹ v`` in body axes. v_B: (..., 3) (torque N·m → rad/s², momentum → rad/s)."""
+        return kernels.pack(self.inverse_times(kernels.unpack(np.asarray(v_B, dtype=float))))
+
+    def world_inverse_inertia(self, q: np.ndarray) -> np.ndarray:
+        """World-space inverse inertia ``R I⁻¹ Rᵀ`` (the lecture's change of basis).
+
+        q: (..., 4) body→world, scalar first. Returns (..., 3, 3) in 1/(kg·m²). For isotropic
+        inertia the lecture's uniform-scale shortcut applies: ``R (s⁻¹E) Rᵀ = s⁻¹E``.
+        """
+        q = np.asarray(q, dtype=float)
+        if self.is_isotropic:
+            return np.broadcast_to(self.inertia_inv, (*q.shape[:-1], 3, 3))
+        R = quaternion.to_matrix(q)
+        return R @ self.inertia_inv @ np.swapaxes(R, -1, -2)
+
+    def world_inertia(self, q: np.ndarray) -> np.ndarray:
+        """World-space inertia ``R I Rᵀ``. q: (..., 4) body→world. Returns (..., 3, 3) kg·m²."""
+        q = np.asarray(q, dtype=float)
+        R = quaternion.to_matrix(q)
+        return R @ self.inertia @ np.swapaxes(R, -1, -2)
+
+
+def _vector_field(name: str, value, width: int) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0 or arr.shape[-1] != width:
+        raise InvalidParameterError(f"{name} must have shape (..., {width}), got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise NonFiniteError(f"{name} must be finite, got {describe(arr)}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class BodyState:
+    """State of one or many rigid bodies, world frame, SI units; leading batch dims broadcast.
+
+    position (..., 3) m: centre of mass. velocity (..., 3) m/s. orientation (..., 4): unit
+    quaternion (w, x, y, z), body→world. angular_velocity (..., 3) rad/s: ω_W, world frame, as in
+    the lecture. Fields not given default to zero (identity orientation). Construction checks
+    shapes, finiteness and that orientations are unit to 1e-6 (normalise with
+    ``core.quaternion.normalize`` first if needed).
+    """
+
+    position: np.ndarray = None
+    velocity: np.ndarray = None
+    orientation: np.ndarray = None
+    angular_velocity: np.ndarray = None
+
+    def __post_init__(self):
+        given = {
+            "position": (self.position, 3),
+            "velocity": (self.velocity, 3),
+            "orientation": (self.orientation, 4),
+            "angular_velocity": (self.angular_velocity, 3),
+        }
+        arrays = {k: _vector_field(k, v, w) for k, (v, w) in given.items() if v is not None}
+        shapes = [a.shape[:-1] for a in arrays.values()]
+        try:
+            batch = np.broadcast_shapes(*shapes) if shapes else ()
+        except ValueError as exc:
+            raise InvalidParameterError(
+                f"BodyState fields have incompatible batch shapes {shapes}"
+            ) from exc
+        if "orientation" in arrays:
+            norm = np.linalg.norm(arrays["orientation"], axis=-1)
+            if np.abs(norm - 1.0).max() > _UNIT_TOL:
+                raise InvalidParameterError(
+                    f"orientation must be a unit quaternion (|q| = 1 within {_UNIT_TOL}), got |q| "
+                    f"= {describe(norm)}; use core.quaternion.normalize"
+                )
+        for name, (_, width) in given.items():
+            if name in arrays:
+                full = np.array(np.broadcast_to(arrays[name], (*batch, width)))
+            elif name == "orientation":
+                full = quaternion.identity(batch)
+            else:
+                full = np.zeros((*batch, width))
+            object.__setattr__(self, name, full)
+
+    @classmethod
+    def from_arrays(cls, position, velocity, orientation, angular_velocity) -> BodyState:
+        """Build a state from already-checked float arrays without validation (hot paths)."""
+        state = object.__new__(cls)
+        object.__setattr__(state, "position", position)
+        object.__setattr__(state, "velocity", velocity)
+        object.__setattr__(state, "orientation", orientation)
+        object.__setattr__(state, "angular_velocity", angular_velocity)
+        return state
+
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """Leading batch dimensions shared by all fields."""
+        return self.orientation.shape[:-1]
+
+    @property
+    def angular_velocity_B(self) -> np.ndarray:
+        """Body-frame angular velocity ω_B = Rᵀ ω_W, (..., 3) rad/s."""
+        return quaternion.rotate_inverse(self.orientation, self.angular_velocity)
+
+
+def rotational_energy(body: RigidBody, state: BodyState) -> np.ndarray:
+    """Rotational kinetic energy ``½ ω_B·Iω_B`` in J, shape = state.batch_shape."""
+    w_B = state.angular_velocity_B
+    return 0.5 * np.sum(w_B * body.apply_inertia(w_B), axis=-1)
+
+
+def angular_momentum_W(body: RigidBody, state: BodyState) -> np.ndarray:
+    """Angular momentum about the centre of mass, world frame ``L_W = R I ω_B``, (..., 3)."""
+    w_B = state.angular_velocity_B
+    return quaternion.rotate(state.orientation, body.apply_inertia(w_B))
