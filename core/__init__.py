@@ -5,7 +5,7 @@ quaternions are scalar-first (w, x, y, z), Hamilton, body→world; names carry f
 (``_W`` world, ``_B`` body); SI units.
 """
 
-from core import inertia, quaternion
+from core import inertia, kernels, quaternion
 from core.body import BodyState, RigidBody, angular_momentum_W, rotational_energy
 from core.dynamics import simulate, step
 from core.errors import (
@@ -28,6 +28,7 @@ __all__ = [
     "ThrusterLayout",
     "angular_momentum_W",
     "inertia",
+    "kernels",
     "quaternion",
     "rotational_energy",
     "simulate",

@@ -13,6 +13,7 @@ Equations (correcting the lecture, see DESIGN.md "Physics notes"):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -28,7 +29,8 @@ Kernel = Callable[..., tuple[tuple, tuple]]
 # for the rare steps (h·|ω| ≳ 5) where the explicit first guess lies outside Newton's basin.
 _NEWTON_RTOL = 4.0 * np.finfo(float).eps
 _NEWTON_MAXITER = 8
-_MAX_CONTINUATION = 64
+_MAX_CONTINUATION = 1024
+_CONTINUATION_ABOVE = 1.5  # h·|ω| above which the first guess is not trusted
 _ZERO = (0.0, 0.0, 0.0)
 
 
@@ -125,7 +127,7 @@ def _residual(body, m, x, h):
 
 
 def _all(cond) -> bool:
-    return cond if isinstance(cond, bool) else bool(np.all(cond))
+    return bool(cond) if np.ndim(cond) == 0 else bool(np.all(cond))
 
 
 def _newton(body, m, x, h):
@@ -147,38 +149,51 @@ def _newton(body, m, x, h):
     return x, ok
 
 
+def _continuation(body, m, h, hw):
+    """Solve by continuation in h: Newton at h/K, 2h/K, …, h, each from the previous root.
+
+    K is the smallest power of two with h·|ω|/K ≤ 1, doubled until every entry converges.
+    """
+    pieces = 2 ** max(1, int(np.ceil(np.log2(max(float(np.max(hw)), 1.0)))))
+    while pieces <= _MAX_CONTINUATION:
+        x, ok = m, True
+        for j in range(1, pieces + 1):
+            x, okj = _newton(body, m, x, h * j / pieces)
+            ok = ok & okj
+        if _all(ok):
+            return x
+        pieces *= 2
+    return None
+
+
 def _solve_midpoint(body, m, h):
     """Midpoint momentum ``m̄`` solving ``m̄ = m + ½h m̄ × I⁻¹m̄``.
 
-    Newton from the explicit guess converges for h·|ω| up to about 5. Beyond that the failing
-    entries are re-solved by continuation in h (solve at h/K, 2h/K, …, each from the last),
-    which follows the branch that tends to m as h → 0: the same discrete map, so the invariants
-    stay exact.
+    The wanted root is the branch that tends to m as h → 0. For h·|ω| ≤ 1.5 Newton from the
+    explicit guess finds it. Beyond that Newton may fail (from h·|ω| ≈ 5) or, worse, converge to
+    another root (seen from h·|ω| ≈ 4: invariants still exact, motion wrong), so those entries
+    are solved by continuation in h. Returns NaN components if even that fails.
     """
-    guess = k.add(m, k.cross(m, body.inverse_times(m)), 0.5 * h)
-    x, ok = _newton(body, m, guess, h)
-    if _all(ok):
+    w = body.inverse_times(m)
+    hw = h * k.sqrt(k.dot(w, w))
+    large = hw > _CONTINUATION_ABOVE
+    if np.ndim(hw) == 0:
+        if not large:
+            x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h)
+            if ok:
+                return x
+        x = _continuation(body, m, h, hw)
+        return (math.nan,) * 3 if x is None else x
+    x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h)
+    redo = large | ~ok
+    if not redo.any():
         return x
-    scalar = isinstance(ok, bool)
-    m_arr = np.atleast_2d(np.stack(m, axis=-1))
-    bad = np.ones(1, bool) if scalar else ~ok
-    mb = tuple(m_arr[bad].T)
-    pieces = 2
-    while pieces <= _MAX_CONTINUATION:
-        xb, okb = mb, True
-        for j in range(1, pieces + 1):
-            xb, okj = _newton(body, mb, xb, h * j / pieces)
-            okb = okb & okj
-        if _all(okb):
-            if scalar:
-                return tuple(float(c[0]) for c in xb)
-            x = tuple(np.array(c, dtype=float) for c in x)
-            for c, cb in zip(x, xb, strict=True):
-                c[bad] = cb
-            return x
-        pieces *= 2
-    nan = float("nan") if scalar else np.full_like(m[0], np.nan)
-    return (nan, nan, nan)  # the caller reports the divergence with context
+    sub = tuple(np.broadcast_to(c, redo.shape)[redo] for c in m)
+    xs = _continuation(body, sub, h, hw[redo])
+    out = tuple(np.array(np.broadcast_to(c, redo.shape), dtype=float) for c in x)
+    for c, cs in zip(out, xs if xs is not None else (np.nan,) * 3, strict=True):
+        c[redo] = cs
+    return out
 
 
 def midpoint(body, q, w, h, tau_B=None, tau_W=None):

@@ -99,19 +99,29 @@ def rotate_inverse(q: Quat, v: Vec) -> Vec:
     return (v[0] - w * t[0] + c[0], v[1] - w * t[1] + c[1], v[2] - w * t[2] + c[2])
 
 
+def lecture_increment(q: Quat, w: Vec, h) -> Quat:
+    """The lecture's unnormalised update ``q + ½h q⊗(0, w)`` = ``q ⊗ (1, ½h w)``.
+
+    Its length is ``|q|·sqrt(1 + (h|w|/2)²)``: it must be normalised.
+    """
+    hw = scale(w, 0.5 * h)
+    return qmul(q, (1.0, hw[0], hw[1], hw[2]))
+
+
 def cayley(q: Quat, w: Vec, h) -> Quat:
-    """The lecture's update ``N(q + ½h q⊗(0, w))`` = ``N(q ⊗ (1, ½h w))``.
+    """The lecture's normalised update ``N(q + ½h q⊗(0, w))``.
 
     Turns about w by ``2·atan(h|w|/2)`` (the Cayley map), not ``h|w|``.
     """
-    hw = scale(w, 0.5 * h)
-    return qnormalize(qmul(q, (1.0, hw[0], hw[1], hw[2])))
+    return qnormalize(lecture_increment(q, w, h))
 
 
 def exp(v: Vec) -> Quat:
     """Exponential map: rotation by angle |v| about v/|v|, exact, with a series near zero."""
     theta2 = dot(v, v)
     if isinstance(theta2, float):
+        if not math.isfinite(theta2):  # a diverged state: let the caller's finiteness check speak
+            return (math.nan,) * 4
         theta = math.sqrt(theta2)
         k = 0.5 - theta2 / 48.0 if theta2 < 1e-8 else math.sin(0.5 * theta) / theta
         return (math.cos(0.5 * theta), k * v[0], k * v[1], k * v[2])
