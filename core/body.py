@@ -23,10 +23,12 @@ class RigidBody:
     and obeying the triangle inequality (a rod, with ``I_zz = 0``, is refused: it has no inverse).
     ``kind`` records what the step may skip: ``"isotropic"`` (sphere, cube: no change of basis,
     no gyroscopic term), ``"diagonal"`` (body axes are principal axes) or ``"full"``.
+    ``specialize=False`` forces ``"full"`` (the general path), for benchmarks and cross-checks.
     """
 
     mass: float
     inertia: np.ndarray
+    specialize: bool = True
     inertia_inv: np.ndarray = field(init=False, repr=False)
     kind: str = field(init=False)
     _diag: tuple = field(init=False, repr=False)
@@ -43,7 +45,9 @@ class RigidBody:
         inv.setflags(write=False)
         d = np.diag(inertia).copy()
         off = np.abs(inertia - np.diag(d)).max()
-        if off == 0.0 and np.ptp(d) <= _ISOTROPIC_RTOL * d.max():
+        if not self.specialize:
+            kind = "full"
+        elif off == 0.0 and np.ptp(d) <= _ISOTROPIC_RTOL * d.max():
             kind = "isotropic"
         elif off == 0.0:
             kind = "diagonal"
