@@ -9,6 +9,8 @@ Run: ``python -m benchmarks.specialize`` or ``rbenv bench specialize``.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from benchmarks.common import best_time, pyplot, save_figure, table, write_json
@@ -73,8 +75,9 @@ def translation_cases() -> list[dict]:
         q, w, tau = _states(n)
         state = BodyState(orientation=q, angular_velocity=w)
         force = np.full(w.shape, 0.01)
-        t_on = best_time(lambda: simulate(body, state, H, 20, force=force, torque=tau)) / 20
-        t_off = best_time(lambda: simulate(body, state, H, 20, torque=tau, translation=False)) / 20
+        t_on = best_time(partial(simulate, body, state, H, 20, force=force, torque=tau)) / 20
+        t_off = best_time(partial(simulate, body, state, H, 20, torque=tau,
+                                  translation=False)) / 20
         on = simulate(body, state, H, STEPS, force=force, torque=tau)
         off = simulate(body, state, H, STEPS, torque=tau, translation=False)
         rows.append({"case": "attitude-only (no translation)", "integrator": "midpoint", "N": n,
