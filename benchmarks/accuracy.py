@@ -1,0 +1,188 @@
+"""Work–precision: every integrator over a geometric sweep of dt, against exact references.
+
+Scenes: (a) torque-free rotation near the major axis, (b) near the intermediate axis (the
+Dzhanibekov flip), both against the exact Jacobi-elliptic solution (``core.reference``); (c) a
+thruster-driven slew with piecewise-constant body torque against a tight SciPy DOP853 solution.
+Error: geodesic attitude angle at the final time, plus relative drift of energy and L_W.
+Cost: wall time per simulated second, for one body and per body in a batch of N = 4096.
+Run: ``python -m benchmarks.accuracy`` or ``rbenv bench accuracy``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from benchmarks.common import best_time, fit_order, pyplot, save_figure, table, write_json
+from core import INTEGRATORS, RigidBody, kernels, quaternion, reference
+
+MOMENTS = np.array([5.0, 10.0, 13.0])
+Q0 = quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2]))
+DTS = 0.5 * 2.0 ** -np.arange(0, 11)  # 0.5 s … 0.49 ms
+SLEW_SEGMENT = 0.5  # s: control interval of scene (c); every dt in DTS divides it
+BATCH = 4096
+
+
+def _torque_schedule(duration: float) -> np.ndarray:
+    """Piecewise-constant body torques (N·m) of scene (c): one per control interval."""
+    rng = np.random.default_rng(42)
+    n = round(duration / SLEW_SEGMENT)
+    return rng.uniform(-1.0, 1.0, (n, 3)) * np.array([2.0, 3.0, 3.0])
+
+
+SCENES = {
+    "a: near major axis": {"omega_B0": [0.2, 0.3, 2.0], "T": 10.0, "torque": False},
+    "b: near intermediate axis (flip)": {"omega_B0": [0.05, 2.0, 0.05], "T": 20.0,
+                                         "torque": False},
+    "c: thruster slew (piecewise torque)": {"omega_B0": [0.05, -0.02, 0.03], "T": 10.0,
+                                            "torque": True},
+}
+
+
+def reference_final(scene: dict) -> np.ndarray:
+    """Exact (a, b) or DOP853 (c) final orientation, (4,)."""
+    if not scene["torque"]:
+        sol = reference.TorqueFreeSolution(MOMENTS, scene["omega_B0"], Q0)
+        return sol.orientation(scene["T"])
+    q, w = Q0, np.asarray(scene["omega_B0"], float)
+    for tau in _torque_schedule(scene["T"]):
+        qs, ws = reference.solve_ivp_reference(MOMENTS, w, q, [SLEW_SEGMENT], torque_B=tau)
+        q, w = qs[-1], ws[-1]
+    return q
+
+
+def run(body, scene: dict, integrator: str, dt: float):
+    """Integrate one scene; return final q and the relative drift of energy and of L_W."""
+    advance = INTEGRATORS[integrator].advance
+    q = tuple(Q0.tolist())
+    w = tuple(float(x) for x in scene["omega_B0"])
+    steps_per_segment = round(SLEW_SEGMENT / dt) if scene["torque"] else None
+    n_steps = round(scene["T"] / dt)
+    schedule = _torque_schedule(scene["T"]) if scene["torque"] else None
+    m0 = body.inertia_times(w)
+    E0, L0 = 0.5 * kernels.dot(w, m0), np.array(kernels.rotate(q, m0))
+    with np.errstate(all="ignore"):
+        for i in range(n_steps):
+            tau = None if schedule is None else tuple(schedule[i // steps_per_segment].tolist())
+            q, w = advance(body, q, w, dt, tau)
+    m = body.inertia_times(w)
+    E, L = 0.5 * kernels.dot(w, m), np.array(kernels.rotate(q, m))
+    return np.array(q), abs(E - E0) / E0, np.linalg.norm(L - L0) / np.linalg.norm(L0)
+
+
+def step_costs(body) -> dict:
+    """Seconds per step: one body (float path) and per body at N = BATCH, per integrator."""
+    rng = np.random.default_rng(0)
+    qb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(quaternion.random(rng, (BATCH,))))
+    wb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(rng.normal(0, 1, (BATCH, 3))))
+    tb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(rng.normal(0, 1, (BATCH, 3))))
+    q1, w1, t1 = tuple(Q0.tolist()), (0.2, 0.3, 2.0), (0.1, 0.2, 0.3)
+    out = {}
+    for name, it in INTEGRATORS.items():
+        out[name] = {
+            "single": best_time(lambda it=it: it.advance(body, q1, w1, 0.01, t1)),
+            "batch_per_body": best_time(lambda it=it: it.advance(body, qb, wb, 0.01, tb)) / BATCH,
+        }
+    return out
+
+
+def sweep(body) -> dict:
+    results = {}
+    for label, scene in SCENES.items():
+        q_ref = reference_final(scene)
+        per = {}
+        for name in INTEGRATORS:
+            rows = []
+            for dt in DTS:
+                q, dE, dL = run(body, scene, name, float(dt))
+                err = float(quaternion.angle(q, q_ref)) if np.isfinite(q).all() else np.nan
+                rows.append({"dt": float(dt), "attitude_error_rad": err,
+                             "energy_drift": None if scene["torque"] else float(dE),
+                             "L_W_drift": None if scene["torque"] else float(dL)})
+            per[name] = {"rows": rows, "order": _order(rows)}
+        results[label] = per
+    return results
+
+
+def _order(rows) -> float | None:
+    """Fitted order over the asymptotic range (error between 1e-12 and 0.1 rad)."""
+    pts = [(r["dt"], r["attitude_error_rad"]) for r in rows
+           if r["attitude_error_rad"] is not None and 1e-12 < r["attitude_error_rad"] < 0.1]
+    if len(pts) < 3:
+        return None
+    dt, err = zip(*pts, strict=True)
+    return fit_order(dt, err)
+
+
+def recommendations(results: dict, costs: dict) -> list[dict]:
+    """Cheapest integrator meeting an error target at a use-case's step (scene c: slews)."""
+    slew = results["c: thruster slew (piecewise torque)"]
+    flip = results["b: near intermediate axis (flip)"]
+    out = []
+    for use, dt, target, scene in (
+        ("RL at 10 Hz (dt = 0.125 s), 1° over a 10 s slew", 0.125, np.radians(1.0), slew),
+        ("RL at 2 Hz (dt = 0.5 s), 1° over a 10 s slew", 0.5, np.radians(1.0), slew),
+        ("accurate tumbling (flip), 1e-6 rad at 20 s", None, 1e-6, flip),
+    ):
+        best = None
+        for name, res in scene.items():
+            for r in res["rows"]:
+                err = r["attitude_error_rad"]
+                at_dt = dt is None or abs(r["dt"] - dt) < 1e-12
+                if at_dt and err is not None and np.isfinite(err) and err < target:
+                    cost = costs[name]["single"] / r["dt"]
+                    if best is None or cost < best[1]:
+                        best = (name, cost, r["dt"], err)
+        out.append({"use": use, "integrator": best[0] if best else "none meets it",
+                    "dt": best[2] if best else "-", "error_rad": best[3] if best else "-",
+                    "cost_per_sim_second_us": 1e6 * best[1] if best else "-"})
+    return out
+
+
+def plot(results: dict, costs: dict):
+    plt = pyplot()
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
+    for col, (label, per) in enumerate(results.items()):
+        wp, conv = axes[0, col], axes[1, col]
+        for k, (name, res) in enumerate(per.items()):
+            dt = np.array([r["dt"] for r in res["rows"]])
+            err = np.array([r["attitude_error_rad"] if r["attitude_error_rad"] is not None
+                            else np.nan for r in res["rows"]], dtype=float)
+            err = np.where(np.isfinite(err), np.maximum(err, 1e-16), np.nan)
+            cost = costs[name]["single"] / dt
+            wp.loglog(err, cost, "o-", color=f"C{k}", ms=3, label=name)
+            order = res["order"]
+            tag = f"{name} (p = {order:.2f})" if order is not None else f"{name} (no convergence)"
+            conv.loglog(dt, err, "o-", color=f"C{k}", ms=3, label=tag)
+        wp.set_title(label, fontsize=10)
+        wp.set_xlabel("attitude error at final time (rad)")
+        wp.set_ylabel("wall time per simulated second, one body (s)")
+        conv.set_xlabel("dt (s)")
+        conv.set_ylabel("attitude error (rad)")
+        for ax in (wp, conv):
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=7)
+    fig.suptitle("Work–precision (top) and error vs dt with fitted order p (bottom)")
+    fig.tight_layout()
+    return fig
+
+
+def main() -> dict:
+    body = RigidBody(mass=1.0, inertia=np.diag(MOMENTS))
+    costs = step_costs(body)
+    results = sweep(body)
+    orders = [{"integrator": n, **{s: results[s][n]["order"] for s in results}}
+              for n in INTEGRATORS]
+    print(table(orders, ["integrator", *results]))
+    cost_rows = [{"integrator": n, "one body (us/step)": 1e6 * c["single"],
+                  "N=4096 (ns/body-step)": 1e9 * c["batch_per_body"]} for n, c in costs.items()]
+    print(table(cost_rows, ["integrator", "one body (us/step)", "N=4096 (ns/body-step)"]))
+    rec = recommendations(results, costs)
+    print(table(rec, ["use", "integrator", "dt", "error_rad", "cost_per_sim_second_us"]))
+    write_json("accuracy", {"dts": DTS, "costs": costs, "results": results,
+                            "recommendations": rec})
+    save_figure(plot(results, costs), "accuracy")
+    return {"costs": costs, "results": results, "recommendations": rec}
+
+
+if __name__ == "__main__":
+    main()
