@@ -1,0 +1,185 @@
+"""Numerical stability at the extremes, for every integrator.
+
+Sweeps h·|ω| (0.01 to 10), inertia ratio (up to 1e6), mass (1e-6 to 1e6 kg) and horizon
+(1e6 steps); records whether the state stays finite and the relative drift of energy and |L|.
+Then drives the env to its limits (fast tumble, boom scene, thruster failure) and records that
+each ends in a clear error or a clean termination, never a NaN.
+Run: ``python -m benchmarks.stability`` or ``rbenv bench stability``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from benchmarks.common import pyplot, save_figure, table, write_json
+from core import INTEGRATORS, RigidBody, kernels, quaternion
+
+MOMENTS = np.array([5.0, 10.0, 13.0])
+AXES = {"minor": [2.0, 0.3, 0.2], "intermediate": [0.05, 2.0, 0.05], "major": [0.2, 0.3, 2.0]}
+Q0 = tuple(quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2])).tolist())
+BLOW_UP = 1e6  # energy growth factor taken as divergence
+
+
+def _invariants(body, q, w):
+    m = body.inertia_times(w)
+    energy = 0.5 * kernels.dot(w, m)
+    L_W = np.array(kernels.rotate(q, m), dtype=float)
+    return float(energy), L_W
+
+
+def run(body, omega_B, h, n_steps, integrator, checkpoints=()):
+    """Integrate one body torque-free; return drift record (and drift at checkpoints)."""
+    advance = INTEGRATORS[integrator].advance
+    q, w = Q0, tuple(float(x) for x in omega_B)
+    E0, L0 = _invariants(body, q, w)
+    marks, history, diverged_at = set(checkpoints), [], None
+    for i in range(1, n_steps + 1):
+        q, w = advance(body, q, w, h)
+        if i % 16 == 0 or i == n_steps or i in marks:
+            E, L = _invariants(body, q, w)
+            if not np.isfinite(E) or E > BLOW_UP * E0:
+                diverged_at = i
+                break
+            if i in marks:
+                history.append((i, abs(E - E0) / E0, np.linalg.norm(L - L0) / np.linalg.norm(L0)))
+    record = {"finite": diverged_at is None, "diverged_at_step": diverged_at}
+    if diverged_at is None:
+        E, L = _invariants(body, q, w)
+        G0 = np.linalg.norm(L0)
+        record.update(energy_drift=abs(E - E0) / E0,
+                      momentum_drift=abs(np.linalg.norm(L) - G0) / G0,
+                      L_W_drift=np.linalg.norm(L - L0) / G0)
+    return record, history
+
+
+def sweep_step_size(n_steps=2000) -> list[dict]:
+    body = RigidBody(mass=1.0, inertia=np.diag(MOMENTS))
+    rows = []
+    for integrator in INTEGRATORS:
+        for axis, omega in AXES.items():
+            for hw in (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0):
+                h = hw / float(np.linalg.norm(omega))
+                rec, _ = run(body, omega, h, n_steps, integrator)
+                rows.append({"integrator": integrator, "axis": axis, "h_omega": hw, **rec})
+    return rows
+
+
+def sweep_inertia_ratio(n_steps=2000, h_omega=0.1) -> list[dict]:
+    rows = []
+    rng = np.random.default_rng(0)
+    omega = rng.standard_normal(3)
+    omega /= np.linalg.norm(omega)
+    for ratio in (1e1, 1e2, 1e3, 1e4, 1e5, 1e6):
+        # Slender body: I1 ≪ I2 < I3 with I1 + I2 ≥ I3 (a valid, nearly singular tensor).
+        body = RigidBody(mass=1.0, inertia=np.diag([1.0 / ratio, 1.0, 1.0 + 0.5 / ratio]))
+        for integrator in INTEGRATORS:
+            rec, _ = run(body, omega, h_omega / 1.0, n_steps, integrator)
+            rows.append({"integrator": integrator, "inertia_ratio": ratio, **rec})
+    return rows
+
+
+def sweep_mass(n_steps=2000, h_omega=0.1) -> list[dict]:
+    rows = []
+    omega = np.array(AXES["intermediate"])
+    h = h_omega / float(np.linalg.norm(omega))
+    for mass in (1e-6, 1e-3, 1.0, 1e3, 1e6):
+        body = RigidBody(mass=mass, inertia=mass * np.diag(MOMENTS) / 10.0)
+        for integrator in INTEGRATORS:
+            rec, _ = run(body, omega, h, n_steps, integrator)
+            rows.append({"integrator": integrator, "mass_kg": mass, **rec})
+    return rows
+
+
+def long_horizon(n_steps=1_000_000, h_omega=0.1) -> dict:
+    body = RigidBody(mass=1.0, inertia=np.diag(MOMENTS))
+    omega = np.array(AXES["major"])
+    h = h_omega / float(np.linalg.norm(omega))
+    marks = sorted({int(x) for x in np.logspace(1, np.log10(n_steps), 25)})
+    out = {}
+    for integrator in INTEGRATORS:
+        rec, hist = run(body, omega, h, n_steps, integrator, checkpoints=marks)
+        out[integrator] = {**rec, "history": hist}
+    return out
+
+
+def env_limits() -> list[dict]:
+    """Drive the env where it breaks: each case must end in a clear error or a clean stop."""
+    try:
+        from benchmarks.env_limits import cases
+    except ImportError:
+        return []
+    return cases()
+
+
+def plot(step_rows, horizon):
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.3))
+    ax = axes[0]
+    for k, integrator in enumerate(INTEGRATORS):
+        rows = [r for r in step_rows if r["integrator"] == integrator and r["axis"] == "major"]
+        hw = [r["h_omega"] for r in rows]
+        drift = [max(r.get("energy_drift", np.nan), 1e-17) if r["finite"] else np.nan for r in rows]
+        ax.loglog(hw, drift, "o-", color=f"C{k}", label=integrator)
+        for r in rows:
+            if not r["finite"]:
+                ax.plot(r["h_omega"], 1e2, "x", color=f"C{k}", ms=9, mew=2)
+    ax.axhline(1e2, color="grey", lw=0.5, ls=":")
+    ax.text(0.011, 1.5e2, "× = diverged", fontsize=8)
+    ax.set_xlabel("h·|ω|")
+    ax.set_ylabel("relative energy drift after 2000 steps")
+    ax.set_title("Step-size stability (near the major axis)")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    bx = axes[1]
+    for k, (integrator, rec) in enumerate(horizon.items()):
+        if rec["history"]:
+            steps, e, _ = zip(*rec["history"], strict=True)
+            bx.loglog(steps, np.maximum(e, 1e-17), "-", color=f"C{k}", label=integrator)
+        if not rec["finite"]:
+            bx.axvline(rec["diverged_at_step"], color=f"C{k}", ls="--", lw=0.8)
+    bx.set_xlabel("steps (h·|ω| = 0.1)")
+    bx.set_ylabel("relative energy drift")
+    bx.set_title("Long horizon: 10⁶ steps (dashed: divergence)")
+    bx.legend(fontsize=8)
+    bx.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def summary(step_rows) -> list[dict]:
+    out = []
+    for integrator in INTEGRATORS:
+        rows = [r for r in step_rows if r["integrator"] == integrator]
+        stable = [r["h_omega"] for r in rows if r["finite"]]
+        unstable = [r["h_omega"] for r in rows if not r["finite"]]
+        drift = [r["energy_drift"] for r in rows if r["finite"]]
+        out.append({"integrator": integrator,
+                    "first h|w| that diverged": min(unstable) if unstable else "none ≤ 10",
+                    "largest stable h|w|": max(stable) if stable else "-",
+                    "worst energy drift (finite runs)": max(drift) if drift else "-"})
+    return out
+
+
+def main(horizon_steps: int = 1_000_000) -> dict:
+    steps = sweep_step_size()
+    ratios = sweep_inertia_ratio()
+    masses = sweep_mass()
+    horizon = long_horizon(horizon_steps)
+    env = env_limits()
+    print(table(summary(steps), ["integrator", "first h|w| that diverged", "largest stable h|w|",
+                                 "worst energy drift (finite runs)"]))
+    print(table(ratios, ["integrator", "inertia_ratio", "finite", "energy_drift", "L_W_drift"]))
+    print(table(masses, ["integrator", "mass_kg", "finite", "energy_drift", "L_W_drift"]))
+    print(table([{"integrator": k, **{x: v for x, v in r.items() if x != "history"}}
+                 for k, r in horizon.items()],
+                ["integrator", "finite", "diverged_at_step", "energy_drift", "L_W_drift"]))
+    if env:
+        print(table(env, ["case", "outcome", "detail"]))
+    data = {"step_size": steps, "inertia_ratio": ratios, "mass": masses,
+            "horizon": horizon, "horizon_steps": horizon_steps, "env_limits": env}
+    write_json("stability", data)
+    save_figure(plot(steps, horizon), "stability")
+    return data
+
+
+if __name__ == "__main__":
+    main()
