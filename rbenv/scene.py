@@ -1,0 +1,591 @@
+"""Scenes: frozen descriptions of a satellite, what is modelled, and the episode parameters.
+
+A :class:`Scene` holds everything that does not change during an episode: the rigid body (mass
+properties about the centre of mass, body axes), the thruster layout (body frame), the
+propellant's specific impulse, which effects the step computes (translation, disturbance torque,
+thruster faults, sensor noise), the integrator and the episode rules. Scenes are built in code
+or read from TOML; the shipped ones live in ``rbenv/scenes/*.toml`` (:func:`list_scenes`).
+
+TOML schema (SI units; every table except ``[body]`` and ``[thrusters]`` is optional and
+defaults as in the dataclasses below; unknown keys are errors, so typos do not pass silently)::
+
+    name = "my-sat"                # defaults to the file stem
+    description = "..."
+    sources = ["...", "..."]       # where the numbers come from
+
+    [body]                         # exactly ONE of the three forms:
+    shape = "box"                  # (1) one shape: "box" (size = [w, h, d] FULL extents, m)
+    mass = 24.0                    #     or "cylinder" (radius, height, m; axis = body z);
+    size = [0.2, 0.2, 0.3]         #     hollow = true: closed thin-walled shell
+    # (2) parts = [{shape = "box" | "cylinder" | "point", mass, size | radius + height,
+    #              position = [x, y, z] (centre of the part, m), hollow = false}, ...]
+    #     composed with the parallel-axis theorem; parts are axis-aligned with the body
+    # (3) mass = 24.0, inertia = [[...], [...], [...]] or [Ixx, Iyy, Izz] (kg·m², about
+    #     the centre of mass), com = [x, y, z] (m, default origin)
+
+    [thrusters]
+    positions = [[x, y, z], ...]   # mount points, m, body axes (same origin as the parts)
+    directions = [[x, y, z], ...]  # direction of the force on the body (normalised)
+    max_force = 0.05               # N, a number or one per thruster
+    isp = 65.0                     # s, specific impulse (fuel = impulse / (isp · g0))
+
+    [physics]
+    integrator = "rk4"             # a name in core.INTEGRATORS
+    substeps = 1                   # integrator steps per control step
+    control_dt = 0.5               # s, one env step; throttles are duty cycles over it
+    translation = false            # also integrate the centre of mass under the net force
+
+    [disturbance]                  # torque on the body, body frame, N·m
+    model = "none"                 # "none" | "constant" | "random"
+    torque = [0, 0, 0]             # constant: this torque, always
+    bias_sigma = 1e-6              # random: per-axis Gaussian bias drawn at reset (held all
+    noise_sigma = 0.0              #   episode) + per-axis white noise held per control step
+
+    [faults]                       # thrusters stuck off (no thrust, no fuel)
+    model = "none"                 # "none" | "random"
+    p_reset = 0.0                  # each thruster fails at reset with this probability
+    p_step = 0.0                   # each working thruster fails per control step (mid-episode)
+
+    [sensor_noise]                 # applied to the observation only
+    model = "none"                 # "none" | "gaussian"
+    attitude = 0.0                 # rad, 1σ per axis of a small rotation of the measured attitude
+    rate = 0.0                     # rad/s, 1σ per axis of the measured body rate
+
+    [episode]
+    duration = 80.0                # s (episode_steps = round(duration / control_dt))
+    rate_limit = 0.1745            # rad/s: |ω| above it is loss of control (terminated)
+    success_angle_deg = 1.0        # success: error < this ...
+    success_rate = 0.01            # ... and |ω| < this (rad/s) ...
+    hold_time = 2.0                # ... held for this long (s)
+    max_initial_angle_deg = 180.0  # initial error ≤ this (180: attitude and target uniform)
+    max_initial_rate = 0.02        # rad/s, initial tumble |ω| uniform in [0, this]
+
+Every bad field raises :class:`core.InvalidParameterError` (a ``ValueError``) naming the field,
+the value and the rule; a thruster layout that cannot torque the body both ways about every axis
+names the missing direction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from core import INTEGRATORS, RigidBody, ThrusterLayout
+from core import inertia as inertia_lib
+from core.errors import InvalidParameterError, RbenvValueError, describe
+
+__all__ = [
+    "DEFAULT_SCENE",
+    "Disturbance",
+    "Episode",
+    "Faults",
+    "Physics",
+    "Scene",
+    "SensorNoise",
+    "list_scenes",
+    "load_scene",
+    "mass_properties",
+]
+
+DEFAULT_SCENE = "cubesat-12u"
+G0 = 9.80665  # m/s², standard gravity (defines specific impulse)
+_DIRECTIONS = (("+x", 0, 1.0), ("-x", 0, -1.0), ("+y", 1, 1.0), ("-y", 1, -1.0),
+               ("+z", 2, 1.0), ("-z", 2, -1.0))
+# Relative NNLS residual above which a unit torque direction counts as unreachable.
+_REACH_TOL = 1e-9
+
+
+# --------------------------------------------------------------------------- field checks
+
+
+def _number(path: str, value, *, low=None, high=None, low_open=False, integer=False) -> float:
+    """``value`` as a float (or int) within bounds, else an error naming ``path``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InvalidParameterError(f"{path} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise InvalidParameterError(f"{path} must be finite, got {x!r}")
+    if integer and x != int(x):
+        raise InvalidParameterError(f"{path} must be an integer, got {value!r}")
+    if low is not None and (x <= low if low_open else x < low):
+        rule = ">" if low_open else ">="
+        raise InvalidParameterError(f"{path} must be {rule} {low}, got {value!r}")
+    if high is not None and x > high:
+        raise InvalidParameterError(f"{path} must be <= {high}, got {value!r}")
+    return int(x) if integer else x
+
+
+def _choice(path: str, value, options) -> str:
+    if value not in options:
+        raise InvalidParameterError(f"{path} must be one of {list(options)}, got {value!r}")
+    return value
+
+
+def _array(path: str, value, shape) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidParameterError(f"{path} must be numbers of shape {shape}, got {value!r}") \
+            from exc
+    if arr.shape != shape:
+        raise InvalidParameterError(f"{path} must have shape {shape}, got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise InvalidParameterError(f"{path} must be finite, got {describe(arr)}")
+    arr.setflags(write=False)
+    return arr
+
+
+def _flag(path: str, value) -> bool:
+    if not isinstance(value, bool):
+        raise InvalidParameterError(f"{path} must be true or false, got {value!r}")
+    return value
+
+
+# --------------------------------------------------------------------------- parameter groups
+
+
+@dataclass(frozen=True)
+class Physics:
+    """How the dynamics are integrated: integrator, substeps per control step, control step (s)."""
+
+    integrator: str = "rk4"
+    substeps: int = 1
+    control_dt: float = 0.5
+    translation: bool = False
+
+    def __post_init__(self):
+        _choice("physics.integrator", self.integrator, sorted(INTEGRATORS))
+        object.__setattr__(self, "substeps", _number("physics.substeps", self.substeps, low=1,
+                                                      integer=True))
+        object.__setattr__(self, "control_dt", _number("physics.control_dt", self.control_dt,
+                                                        low=0.0, low_open=True))
+        _flag("physics.translation", self.translation)
+
+    @property
+    def h(self) -> float:
+        """Integrator step in s: ``control_dt / substeps``."""
+        return self.control_dt / self.substeps
+
+
+@dataclass(frozen=True, eq=False)
+class Disturbance:
+    """Disturbance torque on the body, body frame, N·m: none, constant, or random per episode.
+
+    ``random``: a bias with per-axis standard deviation ``bias_sigma`` drawn at reset and held
+    for the episode (environmental torques barely change over a minute) plus, if
+    ``noise_sigma > 0``, per-axis white noise redrawn each control step and held over it.
+    """
+
+    model: str = "none"
+    torque: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bias_sigma: float = 0.0
+    noise_sigma: float = 0.0
+
+    def __post_init__(self):
+        _choice("disturbance.model", self.model, ("none", "constant", "random"))
+        torque = _array("disturbance.torque", self.torque, (3,))
+        bias = _number("disturbance.bias_sigma", self.bias_sigma, low=0.0)
+        noise = _number("disturbance.noise_sigma", self.noise_sigma, low=0.0)
+        _unused(self.model, "constant", "disturbance.torque", np.any(torque != 0.0))
+        _unused(self.model, "random", "disturbance.bias_sigma", bias != 0.0)
+        _unused(self.model, "random", "disturbance.noise_sigma", noise != 0.0)
+        object.__setattr__(self, "torque", torque)
+        object.__setattr__(self, "bias_sigma", bias)
+        object.__setattr__(self, "noise_sigma", noise)
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Thrusters failing stuck-off: at reset with ``p_reset``, per control step with ``p_step``."""
+
+    model: str = "none"
+    p_reset: float = 0.0
+    p_step: float = 0.0
+
+    def __post_init__(self):
+        _choice("faults.model", self.model, ("none", "random"))
+        for name in ("p_reset", "p_step"):
+            p = _number(f"faults.{name}", getattr(self, name), low=0.0, high=1.0)
+            _unused(self.model, "random", f"faults.{name}", p != 0.0)
+            object.__setattr__(self, name, p)
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Gaussian measurement noise on the observation only: attitude (rad) and rate (rad/s), 1σ."""
+
+    model: str = "none"
+    attitude: float = 0.0
+    rate: float = 0.0
+
+    def __post_init__(self):
+        _choice("sensor_noise.model", self.model, ("none", "gaussian"))
+        for name in ("attitude", "rate"):
+            s = _number(f"sensor_noise.{name}", getattr(self, name), low=0.0)
+            _unused(self.model, "gaussian", f"sensor_noise.{name}", s != 0.0)
+            object.__setattr__(self, name, s)
+
+
+@dataclass(frozen=True)
+class Episode:
+    """Episode rules: duration (s), loss-of-control rate, success thresholds, initial ranges."""
+
+    duration: float = 80.0
+    rate_limit: float = 0.1745
+    success_angle_deg: float = 1.0
+    success_rate: float = 0.01
+    hold_time: float = 2.0
+    max_initial_angle_deg: float = 180.0
+    max_initial_rate: float = 0.02
+
+    def __post_init__(self):
+        checks = {
+            "duration": {"low": 0.0, "low_open": True},
+            "rate_limit": {"low": 0.0, "low_open": True},
+            "success_angle_deg": {"low": 0.0, "low_open": True, "high": 180.0},
+            "success_rate": {"low": 0.0, "low_open": True},
+            "hold_time": {"low": 0.0},
+            "max_initial_angle_deg": {"low": 0.0, "high": 180.0},
+            "max_initial_rate": {"low": 0.0},
+        }
+        for name, rule in checks.items():
+            object.__setattr__(self, name, _number(f"episode.{name}", getattr(self, name), **rule))
+        if self.success_rate >= self.rate_limit:
+            raise InvalidParameterError(
+                f"episode.success_rate must be < episode.rate_limit ({self.rate_limit!r}), got "
+                f"{self.success_rate!r}"
+            )
+        if self.max_initial_rate >= self.rate_limit:
+            raise InvalidParameterError(
+                f"episode.max_initial_rate must be < episode.rate_limit ({self.rate_limit!r}) so "
+                f"that no episode starts out of control, got {self.max_initial_rate!r}"
+            )
+
+
+def _unused(model: str, needs: str, path: str, is_set) -> None:
+    if is_set and model != needs:
+        group = path.split(".")[0]
+        raise InvalidParameterError(
+            f"{path} is set but {group}.model is {model!r}; it only applies to model={needs!r}"
+        )
+
+
+# --------------------------------------------------------------------------- the scene
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A satellite and its task: everything fixed during an episode. Validated at construction.
+
+    body: mass (kg) and inertia (kg·m², about the centre of mass, body axes). thrusters: layout in
+    body axes (positions m, directions, max_force N, com_B m). isp: s. The groups say what the
+    step models; ``episode_steps`` is derived: ``round(duration / control_dt)``.
+    """
+
+    name: str
+    body: RigidBody
+    thrusters: ThrusterLayout
+    isp: float = 65.0
+    physics: Physics = field(default_factory=Physics)
+    disturbance: Disturbance = field(default_factory=Disturbance)
+    faults: Faults = field(default_factory=Faults)
+    sensor_noise: SensorNoise = field(default_factory=SensorNoise)
+    episode: Episode = field(default_factory=Episode)
+    description: str = ""
+    sources: tuple = ()
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidParameterError(f"name must be a non-empty string, got {self.name!r}")
+        for attr, cls in (("body", RigidBody), ("thrusters", ThrusterLayout),
+                          ("physics", Physics), ("disturbance", Disturbance), ("faults", Faults),
+                          ("sensor_noise", SensorNoise), ("episode", Episode)):
+            if not isinstance(getattr(self, attr), cls):
+                raise InvalidParameterError(
+                    f"{attr} must be a {cls.__name__}, got {type(getattr(self, attr)).__name__}"
+                )
+        object.__setattr__(self, "isp", _number("thrusters.isp", self.isp, low=0.0,
+                                                low_open=True))
+        object.__setattr__(self, "sources", tuple(str(s) for s in self.sources))
+        check_torque_reach(self.thrusters.torque_matrix_B)
+        steps = self.episode.duration / self.physics.control_dt
+        if round(steps) < 1:
+            raise InvalidParameterError(
+                f"episode.duration ({self.episode.duration!r} s) must span at least one control "
+                f"step of physics.control_dt = {self.physics.control_dt!r} s"
+            )
+
+    @property
+    def episode_steps(self) -> int:
+        """Control steps per episode: ``round(duration / control_dt)``."""
+        return round(self.episode.duration / self.physics.control_dt)
+
+    @property
+    def hold_steps(self) -> int:
+        """Consecutive control steps inside the success thresholds needed for success (≥ 1)."""
+        return max(1, math.ceil(self.episode.hold_time / self.physics.control_dt - 1e-9))
+
+    @property
+    def n_thrusters(self) -> int:
+        """Number of thrusters."""
+        return self.thrusters.n
+
+    def with_physics(self, integrator=None, control_dt=None, substeps=None) -> Scene:
+        """A copy with some physics fields replaced (``None`` keeps the scene's value)."""
+        changes = {k: v for k, v in (("integrator", integrator), ("control_dt", control_dt),
+                                     ("substeps", substeps)) if v is not None}
+        if not changes:
+            return self
+        return dataclasses.replace(self, physics=dataclasses.replace(self.physics, **changes))
+
+    # ----------------------------------------------------------------------- construction
+
+    @classmethod
+    def from_dict(cls, data: dict, *, name: str | None = None) -> Scene:
+        """Build a scene from a TOML-shaped dict (see the module docstring for the schema)."""
+        data = dict(data)
+        _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
+                                    "physics", "disturbance", "faults", "sensor_noise",
+                                    "episode"})
+        scene_name = data.get("name", name)
+        try:
+            mass, com_B, inertia = mass_properties(_table(data, "body", required=True))
+            body = RigidBody(mass=mass, inertia=inertia)
+            thrusters, isp = _thrusters(_table(data, "thrusters", required=True), com_B)
+            groups = {}
+            for key, group in (("physics", Physics), ("disturbance", Disturbance),
+                               ("faults", Faults), ("sensor_noise", SensorNoise),
+                               ("episode", Episode)):
+                table = _table(data, key)
+                _check_keys(key, table, {f.name for f in dataclasses.fields(group)})
+                groups[key] = group(**table)
+            return cls(name=scene_name or "unnamed", body=body, thrusters=thrusters, isp=isp,
+                       description=str(data.get("description", "")),
+                       sources=tuple(data.get("sources", ())), **groups)
+        except RbenvValueError as exc:
+            raise type(exc)(f"scene {scene_name!r}: {exc}") from None
+
+    @classmethod
+    def from_toml(cls, path) -> Scene:
+        """Read a scene from a TOML file (``name`` defaults to the file stem)."""
+        path = Path(path)
+        with path.open("rb") as f:
+            data = _tomllib().load(f)
+        return cls.from_dict(data, name=path.stem)
+
+
+def _tomllib():
+    """The TOML reader: stdlib ``tomllib`` (3.11+), else the ``tomli`` backport."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:
+        try:
+            import tomli as tomllib
+        except ModuleNotFoundError:
+            raise ImportError(
+                "reading rbenv scene files needs a TOML parser: Python >= 3.11 has tomllib; "
+                "on Python 3.10 run `pip install tomli`"
+            ) from None
+    return tomllib
+
+
+def _table(data: dict, key: str, required: bool = False) -> dict:
+    value = data.get(key)
+    if value is None:
+        if required:
+            raise InvalidParameterError(f"[{key}] table is required")
+        return {}
+    if not isinstance(value, dict):
+        raise InvalidParameterError(f"{key} must be a table, got {value!r}")
+    return dict(value)
+
+
+def _check_keys(path: str, table: dict, allowed: set) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise InvalidParameterError(
+            f"{path} has unknown field(s) {unknown}; allowed: {sorted(allowed)}"
+        )
+
+
+# --------------------------------------------------------------------------- mass properties
+
+
+def mass_properties(body: dict) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass (kg), centre of mass (m, (3,)) and inertia about it (kg·m², (3, 3)) of a [body] table.
+
+    Exactly one form: ``shape`` (one box or cylinder at the origin), ``parts`` (point masses,
+    boxes and cylinders composed with the parallel-axis theorem) or ``inertia`` (explicit).
+    """
+    forms = [k for k in ("shape", "parts", "inertia") if k in body]
+    if len(forms) != 1:
+        raise InvalidParameterError(
+            f"body must give exactly one of 'shape', 'parts' or 'inertia', got {forms or 'none'}"
+        )
+    form = forms[0]
+    if form == "shape":
+        mass, inertia = _part_inertia("body", body, allow_point=False)
+        return mass, np.zeros(3), inertia
+    if form == "parts":
+        _check_keys("body", body, {"parts"})
+        return _compose(body["parts"])
+    _check_keys("body", body, {"mass", "inertia", "com"})
+    mass = _number("body.mass", body.get("mass"), low=0.0, low_open=True)
+    raw = np.asarray(body["inertia"], dtype=float)
+    inertia = np.diag(raw) if raw.shape == (3,) else _array("body.inertia", raw, (3, 3))
+    com = _array("body.com", body.get("com", [0.0, 0.0, 0.0]), (3,))
+    return mass, np.array(com), np.array(inertia, dtype=float)
+
+
+def _part_inertia(path: str, part: dict, allow_point: bool) -> tuple[float, np.ndarray]:
+    """Mass and inertia about the part's own centre (body axes) of one shape table."""
+    shapes = ("box", "cylinder", "point") if allow_point else ("box", "cylinder")
+    shape = _choice(f"{path}.shape", part.get("shape"), shapes)
+    keys = {"box": {"size", "hollow"}, "cylinder": {"radius", "height", "hollow"}, "point": set()}
+    _check_keys(path, part, {"shape", "mass"} | keys[shape] | ({"position"} if allow_point
+                                                                  else set()))
+    mass = _number(f"{path}.mass", part.get("mass"), low=0.0, low_open=True)
+    hollow = _flag(f"{path}.hollow", part.get("hollow", False))
+    if shape == "point":
+        return mass, np.zeros((3, 3))
+    if shape == "box":
+        size = _array(f"{path}.size", part.get("size"), (3,))
+        if (size <= 0).any():
+            raise InvalidParameterError(f"{path}.size must be > 0 m, got {describe(size)}")
+        return mass, (inertia_lib.hollow_box if hollow else inertia_lib.solid_box)(mass, size)
+    radius = _number(f"{path}.radius", part.get("radius"), low=0.0, low_open=True)
+    height = _number(f"{path}.height", part.get("height"), low=0.0, low_open=True)
+    if hollow:
+        return mass, hollow_cylinder(mass, radius, height)
+    return mass, inertia_lib.solid_cylinder(mass, radius, height)
+
+
+def hollow_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
+    """Closed thin-walled cylinder (tube + two end discs, uniform areal density), axis body z.
+
+    mass kg, radius and height m. Returns (3, 3) kg·m² about the centre. The tube (area 2πrh)
+    contributes ``m_t r²`` axially and ``m_t (r²/2 + h²/12)`` transversally; each disc (area
+    πr²) ``m_d r²/2`` and ``m_d (r²/4 + h²/4)``.
+    """
+    tube_area, disc_area = 2.0 * math.pi * radius * height, math.pi * radius * radius
+    m_t = mass * tube_area / (tube_area + 2.0 * disc_area)
+    m_d = 0.5 * (mass - m_t)
+    axial = m_t * radius**2 + 2.0 * m_d * 0.5 * radius**2
+    transverse = (m_t * (0.5 * radius**2 + height**2 / 12.0)
+                  + 2.0 * m_d * (0.25 * radius**2 + 0.25 * height**2))
+    return np.diag([transverse, transverse, axial])
+
+
+def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
+    if not isinstance(parts, list) or not parts:
+        raise InvalidParameterError(f"body.parts must be a non-empty list of tables, got {parts!r}")
+    masses, positions, inertias = [], [], []
+    for i, part in enumerate(parts):
+        path = f"body.parts[{i}]"
+        if not isinstance(part, dict):
+            raise InvalidParameterError(f"{path} must be a table, got {part!r}")
+        m, inertia = _part_inertia(path, part, allow_point=True)
+        masses.append(m)
+        positions.append(_array(f"{path}.position", part.get("position"), (3,)))
+        inertias.append(inertia)
+    total = float(sum(masses))
+    com = sum(m * p for m, p in zip(masses, positions, strict=True)) / total
+    inertia = sum(inertia_lib.parallel_axis(J, m, p - com)
+                  for m, p, J in zip(masses, positions, inertias, strict=True))
+    return total, np.asarray(com, dtype=float), inertia
+
+
+# --------------------------------------------------------------------------- thrusters
+
+
+def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
+    _check_keys("thrusters", table, {"positions", "directions", "max_force", "isp"})
+    pos = np.asarray(table.get("positions"), dtype=float)
+    if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) == 0:
+        raise InvalidParameterError(
+            f"thrusters.positions must be a list of [x, y, z] (m), got shape {pos.shape}"
+        )
+    n = len(pos)
+    pos = _array("thrusters.positions", pos, (n, 3))
+    dirs = _array("thrusters.directions", table.get("directions"), (n, 3))
+    fmax = np.asarray(table.get("max_force"), dtype=float)
+    fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
+                  (n,))
+    if (fmax <= 0).any():
+        i = int(np.argmax(fmax <= 0))
+        raise InvalidParameterError(f"thrusters.max_force[{i}] must be > 0 N, got {fmax[i]!r}")
+    lengths = np.linalg.norm(dirs, axis=1)
+    if (lengths == 0).any():
+        i = int(np.argmax(lengths == 0))
+        raise InvalidParameterError(f"thrusters.directions[{i}] must be non-zero, got "
+                                    f"{describe(dirs[i])}")
+    isp = _number("thrusters.isp", table.get("isp"), low=0.0, low_open=True)
+    return ThrusterLayout(positions_B=pos, directions_B=dirs, max_force=fmax, com_B=com_B), isp
+
+
+def check_torque_reach(torque_matrix_B) -> None:
+    """Raise unless non-negative throttles reach torque along each of ±x, ±y, ±z.
+
+    torque_matrix_B: (3, n) N·m per unit throttle. For each unit direction e, NNLS solves
+    ``min ‖B u − e‖, u ≥ 0`` on B scaled by its largest column; a residual above 1e-9 means
+    the direction is unreachable, and the error names it with the best residual.
+    """
+    from scipy.optimize import nnls  # scipy only at scene construction
+
+    B = np.asarray(torque_matrix_B, dtype=float)
+    scale = float(np.linalg.norm(B, axis=0).max())
+    if scale == 0.0:
+        raise InvalidParameterError("thruster layout produces no torque at all (every lever arm "
+                                    "is parallel to its thrust)")
+    Bn = B / scale
+    missing = []
+    for name, axis, sign in _DIRECTIONS:
+        e = np.zeros(3)
+        e[axis] = sign
+        _, residual = nnls(Bn, e, maxiter=50 * B.shape[1])
+        if residual > _REACH_TOL:
+            missing.append(f"{name} (best achievable residual {residual:.3g})")
+    if missing:
+        raise InvalidParameterError(
+            f"thruster layout cannot produce torque along {'; '.join(missing)} with non-negative "
+            "throttles (residual relative to a unit torque in units of the strongest thruster's "
+            "torque); add thrusters whose torque r × F has a component along that direction"
+        )
+
+
+# --------------------------------------------------------------------------- registry
+
+
+def _scene_dir():
+    return resources.files("rbenv") / "scenes"
+
+
+def list_scenes() -> list[str]:
+    """Names of the scenes shipped with rbenv (``rbenv/scenes/*.toml``), sorted."""
+    return sorted(p.name[:-5] for p in _scene_dir().iterdir() if p.name.endswith(".toml"))
+
+
+def load_scene(scene=DEFAULT_SCENE) -> Scene:
+    """A :class:`Scene` from a shipped name, a path to a TOML file, or a Scene (returned as is)."""
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (str, Path)):
+        text = str(scene)
+        if text in list_scenes():
+            with resources.as_file(_scene_dir() / f"{text}.toml") as path:
+                return Scene.from_toml(path)
+        path = Path(scene)
+        if path.suffix == ".toml" and path.is_file():
+            return Scene.from_toml(path)
+        raise InvalidParameterError(
+            f"scene must be a shipped name {list_scenes()}, a path to an existing .toml file or "
+            f"a rbenv.Scene, got {scene!r}"
+        )
+    raise InvalidParameterError(
+        f"scene must be a name, a path or a rbenv.Scene, got {type(scene).__name__}"
+    )
