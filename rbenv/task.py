@@ -391,10 +391,10 @@ def throttle(cfg: TaskConfig, a: np.ndarray) -> np.ndarray:
     return cfg.allocator(np.minimum(np.maximum(a, -1.0), 1.0) * cfg.torque_authority)
 
 
-def wrench(cfg: TaskConfig, u: np.ndarray) -> tuple:
+def wrench(cfg: TaskConfig, u: np.ndarray):
     """Components ``(τx, τy, τz, Σu_iF_i[, Fx, Fy, Fz])``, body frame, of throttles (n,)/(N, n)."""
     if u.ndim == 1:
-        return tuple((u @ cfg.action_matrix).tolist())
+        return (u @ cfg.action_matrix).tolist()  # a list of floats: kernels index it alike
     return tuple(cfg.action_matrix.T @ u.T)
 
 

@@ -292,8 +292,8 @@ class SatelliteReorientVectorEnv(VectorEnv):
         )
 
     def close_extras(self, **kwargs):
-        """Release the renderer, if any."""
-        if self._renderers is not None:
+        """Release the renderer, if any (also after a failed __init__, via __del__)."""
+        if getattr(self, "_renderers", None) is not None:
             self._renderers.close()
             self._renderers = None
 
