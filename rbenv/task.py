@@ -192,6 +192,7 @@ class TaskConfig:
     hold_steps: int = field(init=False)
     disturbance_torque: tuple | None = field(init=False)  # N·m, constant model only
     reward_scales: tuple = field(init=False)  # signed weights with 1/π folded in, per term
+    action_bounds: tuple = field(init=False, repr=False)  # (low, high) arrays for clipping
 
     def __post_init__(self):
         sc = self.scene
@@ -229,6 +230,13 @@ class TaskConfig:
             # Symmetric per-axis authority: the weaker of the two directions about each axis.
             authority = np.array([min(max_torque_along(B, e), max_torque_along(B, -e))
                                   for e in np.eye(3)])
+        # Clipping against arrays is cheaper than against Python scalars (no conversion).
+        n_act = 3 if self.action_mode == "torque" else thr.n
+        low = np.full(n_act, -1.0 if self.action_mode == "torque" else 0.0)
+        high = np.ones(n_act)
+        for arr in (low, high):
+            arr.setflags(write=False)
+        object.__setattr__(self, "action_bounds", (low, high))
         object.__setattr__(self, "allocator", allocator)
         object.__setattr__(self, "torque_authority", authority)
 
@@ -382,13 +390,14 @@ def throttle(cfg: TaskConfig, a: np.ndarray) -> np.ndarray:
     the caller from the propagated NaN thrust (no extra check on the hot path).
     """
     mode = cfg.action_mode
+    low, high = cfg.action_bounds
     if mode == "throttle":
-        return np.minimum(np.maximum(a, 0.0), 1.0)
+        return np.minimum(np.maximum(a, low), high)
     if np.isnan(a).any():
         raise nan_action_error(a)
     if mode == "on_off":
         return (a > 0.0).astype(float)
-    return cfg.allocator(np.minimum(np.maximum(a, -1.0), 1.0) * cfg.torque_authority)
+    return cfg.allocator(np.minimum(np.maximum(a, low), high) * cfg.torque_authority)
 
 
 def wrench(cfg: TaskConfig, u: np.ndarray):

@@ -29,9 +29,9 @@ def make(**kwargs):
 def pd_action(env, obs, wn=0.3, zeta=0.9, w_max=0.1):
     """Rate-limited quaternion-feedback PD (eigenaxis), as a torque-mode action.
 
-    k = 2ωn², c = 2ζωn (small-angle θ̈ + cθ̇ + kθ/2... with q_v ≈ θ/2 ê); the commanded rate
-    −(k/c)·q_v is capped at w_max, and τ = −J c (ω − ω_cmd). q_err is canonical (w ≥ 0), which
-    is the sgn(q0) of Wie's regulator.
+    Gains k = 2ωn², c = 2ζωn (small angles: q_v ≈ θ/2·ê, so θ̈ + cθ̇ + ωn²θ = 0). The
+    commanded rate −(k/c)·q_v is capped at w_max (Wie–Lu rate limit) and τ = −J c (ω − ω_cmd).
+    q_err is canonical (w ≥ 0), which is the sgn(q0) of Wie's regulator (no unwinding).
     """
     u = env.unwrapped
     J, L = u.scene.body.inertia, u.scene.episode.rate_limit
