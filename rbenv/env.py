@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import ClassVar
 
 import gymnasium as gym
@@ -104,12 +103,8 @@ class SatelliteReorientEnv(gym.Env):
         max_initial_angle_deg in [0, 180]; max_initial_rate in rad/s, below the rate limit;
         None keeps the current value.
         """
-        cfg = self.config
-        deg = None if max_initial_angle_deg is None else max_initial_angle_deg
-        angle, rate = task.initial_ranges(
-            cfg.scene, np.degrees(cfg.max_initial_angle) if deg is None else deg,
-            cfg.max_initial_rate if max_initial_rate is None else max_initial_rate)
-        self.config = dataclasses.replace(cfg, max_initial_angle=angle, max_initial_rate=rate)
+        self.config = task.with_initial_ranges(self.config, max_initial_angle_deg,
+                                               max_initial_rate)
 
     # ------------------------------------------------------------------- Gymnasium API
 

@@ -15,6 +15,7 @@ and target axes (it lies on the rotation axis).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
 
@@ -265,6 +266,16 @@ def make_config(scene=None, *, integrator=None, control_dt=None, substeps=None,
     return TaskConfig(scene=sc, action_mode=action_mode,
                       weights=RewardWeights.from_mapping(reward_weights),
                       max_initial_angle=angle, max_initial_rate=rate, allocator_name=allocator)
+
+
+def with_initial_ranges(cfg: TaskConfig, max_initial_angle_deg=None,
+                        max_initial_rate=None) -> TaskConfig:
+    """``cfg`` with new initial-condition ranges (curriculum); None keeps the current value."""
+    deg = max_initial_angle_deg
+    angle, rate = initial_ranges(
+        cfg.scene, float(np.degrees(cfg.max_initial_angle)) if deg is None else deg,
+        cfg.max_initial_rate if max_initial_rate is None else max_initial_rate)
+    return dataclasses.replace(cfg, max_initial_angle=angle, max_initial_rate=rate)
 
 
 def initial_ranges(scene: Scene, max_angle_deg=None, max_rate=None) -> tuple[float, float]:
@@ -544,7 +555,7 @@ def override_start(start: dict, options: dict | None, index: int | None = None) 
     """
     if not options:
         return start
-    allowed = set(STATE_OPTIONS) | {"reset_mask"}
+    allowed = set(STATE_OPTIONS)
     unknown = sorted(set(options) - allowed)
     if unknown:
         raise InvalidParameterError(f"reset options has unknown key(s) {unknown}; allowed: "

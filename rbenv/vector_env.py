@@ -113,6 +113,15 @@ class SatelliteReorientVectorEnv(VectorEnv):
         """The :class:`rbenv.Scene` in use (after option overrides)."""
         return self.config.scene
 
+    def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
+        """Change the initial-condition ranges for every later episode start (curriculum).
+
+        max_initial_angle_deg in [0, 180]; max_initial_rate in rad/s; None keeps the value.
+        Sub-envs already running keep their episode; autoresets use the new ranges.
+        """
+        self.config = task.with_initial_ranges(self.config, max_initial_angle_deg,
+                                               max_initial_rate)
+
     # ------------------------------------------------------------------- reset
 
     def reset(self, *, seed=None, options=None):

@@ -230,3 +230,10 @@ def test_vector_env_pickles_and_runs_in_async_workers():
         assert obs.shape == (2, 7) and np.isfinite(reward).all()
     finally:
         async_envs.close()
+
+
+def test_curriculum_setter_applies_to_resets():
+    envs = make_vec(8)
+    envs.unwrapped.set_initial_ranges(max_initial_angle_deg=5.0, max_initial_rate=0.0)
+    _, info = envs.reset(seed=0)
+    assert info["attitude_error_deg"].max() <= 5.0 + 1e-9 and info["rate_dps"].max() == 0.0
