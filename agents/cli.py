@@ -1,0 +1,75 @@
+"""The ``rbenv`` command: train, evaluate and benchmark.
+
+    rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
+                [--out DIR] [--resume]
+    rbenv evaluate --policy pd|bangbang|zero|random|PATH/TO/model.zip --episodes N --seed S
+                   [--scene NAME] [--json OUT] [--plot OUT.png]
+    rbenv bench accuracy|stability|speed|specialize|inertia
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+BENCHMARKS = ("accuracy", "stability", "speed", "specialize", "inertia")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="rbenv", description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    t = sub.add_parser("train", help="train PPO or SAC, then report against the baselines")
+    t.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
+    t.add_argument("--timesteps", type=int, default=None, help="default: ppo 2M, sac 200k")
+    t.add_argument("--n-envs", type=int, default=None, help="default: ppo 64, sac 8")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--scene", default="cubesat-12u")
+    t.add_argument("--out", default=None, help="run directory (default runs/ALGO-SCENE-seedS)")
+    t.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
+    e = sub.add_parser("evaluate", help="seeded evaluation of a policy")
+    e.add_argument("--policy", required=True, help="pd, bangbang, zero, random or model.zip")
+    e.add_argument("--episodes", type=int, default=100)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--scene", default=None)
+    e.add_argument("--json", default=None, help="write the summary as JSON here")
+    e.add_argument("--plot", default="episodes.png", help="PNG of the first episode")
+    b = sub.add_parser("bench", help="run a benchmark (writes benchmarks/results/NAME.*)")
+    b.add_argument("name", choices=BENCHMARKS)
+    return p
+
+
+def _train(args) -> int:
+    from agents.train import TrainConfig, train
+
+    cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
+                      seed=args.seed, scene=args.scene, out=args.out)
+    train(cfg, resume=args.resume, report=not args.no_report)
+    return 0
+
+
+def _evaluate(args) -> int:
+    from agents.evaluate import evaluate, format_table, plot_episodes, write_json
+
+    result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene)
+    print(format_table([result]))
+    if args.json:
+        write_json([result], args.json)
+    if args.plot:
+        plot_episodes([result], args.plot)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.command == "train":
+        return _train(args)
+    if args.command == "evaluate":
+        return _evaluate(args)
+    importlib.import_module(f"benchmarks.{args.name}").main()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

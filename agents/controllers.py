@@ -1,0 +1,210 @@
+"""Scripted attitude controllers with SB3's ``predict`` interface.
+
+Both laws read only the observation (canonical error quaternion ``q_err = q_target* ⊗ q`` and
+``ω_B / rate_limit``), turn a body-torque demand into thruster throttles through an allocator,
+and are built from an env so they use its scene's inertia and thruster layout. ``predict``
+takes one observation (7,) or a batch (N, 7) and returns ``(actions, state)`` like an SB3 model,
+so one evaluation routine serves scripted and learned policies. ``state`` carries the sign
+memory of the unwinding hysteresis; pass it back on the next call (and ``episode_start`` to
+forget it), exactly as for a recurrent SB3 policy.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rbenv.allocation import make_allocator
+from rbenv.task import TaskConfig
+
+
+def task_config(env) -> TaskConfig:
+    """The :class:`rbenv.task.TaskConfig` of a single env, vector env, or wrapped env."""
+    for candidate in (env, getattr(env, "unwrapped", None), getattr(env, "venv", None)):
+        cfg = getattr(candidate, "config", None)
+        if isinstance(cfg, TaskConfig):
+            return cfg
+    raise TypeError(f"cannot find an rbenv TaskConfig on {type(env).__name__}")
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack((a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class _TorqueController:
+    """Shared plumbing: observation → (error quaternion, ω_B), torque → action."""
+
+    config: TaskConfig
+    allocator_name: str = "pinv"
+    hysteresis: float = 0.05  # |w| of q_err below which the rotation direction is kept
+    inertia: np.ndarray = field(init=False, repr=False)
+    allocate: object = field(init=False, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "inertia", self.config.scene.body.inertia)
+        B = self.config.scene.thrusters.torque_matrix_B
+        object.__setattr__(self, "allocate", make_allocator(self.allocator_name, B))
+
+    def _split(self, obs: np.ndarray, state, episode_start):
+        """Error quaternion with hysteresis-chosen sign (N, 4) and ω_B in rad/s (N, 3)."""
+        rate_limit = self.config.scene.episode.rate_limit
+        q_err = np.array(obs[:, :4], dtype=float)
+        omega_B = np.asarray(obs[:, 4:7], dtype=float) * rate_limit
+        if state is not None:
+            prev = np.asarray(state, dtype=float).reshape(q_err.shape)
+            if episode_start is not None:
+                prev = np.where(np.asarray(episode_start, bool).reshape(-1, 1), 0.0, prev)
+            # Keep the sign continuous with the last step unless the short way round is
+            # clearly shorter (|w| > hysteresis): a canonical q_err flips sign at w = 0,
+            # and following every flip chatters near 180° (Mayhew, Sanfelice & Teel 2011).
+            flip = (np.sum(q_err * prev, axis=1) < 0) & (q_err[:, 0] < self.hysteresis)
+            q_err = np.where(flip[:, None], -q_err, q_err)
+        return q_err, omega_B
+
+    def _act(self, torque_B: np.ndarray) -> np.ndarray:
+        """Action for the env's action mode from a torque demand (N, 3) in N·m."""
+        cfg = self.config
+        if cfg.action_mode == "torque":
+            return np.clip(torque_B / cfg.torque_authority, -1.0, 1.0).astype(np.float32)
+        if cfg.action_mode != "throttle":
+            raise ValueError(
+                f"scripted controllers drive action_mode 'throttle' or 'torque', got "
+                f"{cfg.action_mode!r}"
+            )
+        return self.allocate(torque_B).astype(np.float32)  # throttle = action on [0, 1]
+
+    def torque(self, q_err: np.ndarray, omega_B: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3-style ``(actions, state)`` for observations (7,) or (N, 7); deterministic."""
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        q_err, omega_B = self._split(obs, state, episode_start)
+        action = self._act(self.torque(q_err, omega_B))
+        new_state = q_err.astype(np.float32)
+        return (action[0], new_state[0]) if single else (action, new_state)
+
+    def gyroscopic(self, omega_B: np.ndarray) -> np.ndarray:
+        """``ω × Iω`` (N, 3) N·m, the term the feedback cancels."""
+        return _cross(omega_B, omega_B @ self.inertia.T)
+
+
+@dataclass(frozen=True, eq=False)
+class QuaternionPD(_TorqueController):
+    """Quaternion-feedback PD (Wie, Weiss & Arapostathis 1989) with a slew-rate limit.
+
+    ``τ = −I·c·(ω − ω_c) + ω × Iω`` with ``ω_c = −(k/c)·sgn(q0)·q_v`` capped at ``max_rate``
+    (the rate-limited eigenaxis form of Wie & Lu 1995): a PD ``τ = −I(k q_v + c ω)`` near the
+    target, a coast at ``max_rate`` about the eigenaxis far from it. Gains from natural
+    frequency and damping: ``k = 2ωn²``, ``c = 2ζωn`` (small angle: θ̈ + cθ̇ + (k/2)θ = 0).
+    Uses only the observation; the sign of q0 comes from ``state`` with hysteresis.
+    """
+
+    natural_frequency: float = 0.3  # rad/s
+    damping: float = 1.0
+    max_rate: float | None = None  # rad/s; default 0.5 × the scene's rate limit
+
+    def torque(self, q_err, omega_B):
+        k = 2.0 * self.natural_frequency**2
+        c = 2.0 * self.damping * self.natural_frequency
+        max_rate = self.max_rate or 0.5 * self.config.scene.episode.rate_limit
+        omega_c = -(k / c) * q_err[:, 1:]
+        speed = np.linalg.norm(omega_c, axis=1, keepdims=True)
+        omega_c = omega_c * np.minimum(1.0, max_rate / np.maximum(speed, 1e-300))
+        return -c * (omega_B - omega_c) @ self.inertia.T + self.gyroscopic(omega_B)
+
+    @classmethod
+    def from_env(cls, env, **kwargs) -> QuaternionPD:
+        """Controller for ``env`` (single, vector or wrapped), using its scene's parameters."""
+        return cls(task_config(env), **kwargs)
+
+
+@dataclass(frozen=True, eq=False)
+class EigenaxisBangBang(_TorqueController):
+    """Rate-limited time-optimal eigenaxis slew, with a PD capture near the target.
+
+    Far from the target the commanded rate about the eigenaxis follows the bang-bang
+    switching curve ``ω_c = −min(ω_max, √(2 α θ))·ê`` (full acceleration, coast at ω_max,
+    full deceleration; corrected for the torque being held over a control step), tracked by a
+    deadbeat loop that saturates the thrusters far from the curve; within
+    ``capture_deg`` it hands over to :class:`QuaternionPD` so the final approach does not
+    chatter. ``α`` is a fraction ``margin`` of the smallest per-axis angular acceleration the
+    thrusters can give (torque authority / inertia).
+    """
+
+    max_rate: float | None = None  # rad/s; default 0.6 × the scene's rate limit
+    margin: float = 0.85
+    capture_deg: float = 3.0
+    pd: QuaternionPD = field(init=False, repr=False)
+    alpha: float = field(init=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        from rbenv.allocation import max_torque_along
+
+        B = self.config.scene.thrusters.torque_matrix_B
+        axes = np.eye(3)
+        authority = np.array([min(max_torque_along(B, e), max_torque_along(B, -e)) for e in axes])
+        I_axes = np.diag(self.inertia)
+        object.__setattr__(self, "alpha", self.margin * float(np.min(authority / I_axes)))
+        object.__setattr__(self, "pd", QuaternionPD(self.config, self.allocator_name,
+                                                    self.hysteresis))
+
+    def torque(self, q_err, omega_B):
+        max_rate = self.max_rate or 0.6 * self.config.scene.episode.rate_limit
+        s = np.linalg.norm(q_err[:, 1:], axis=1)
+        theta = 2.0 * np.arctan2(s, q_err[:, 0])
+        axis = q_err[:, 1:] / np.maximum(s, 1e-300)[:, None]
+        # Discrete switching curve: the fastest rate from which full deceleration, applied in
+        # steps of dt, still stops at the target: ω = −αdt/2 + √((αdt/2)² + 2αθ).
+        half = 0.5 * self.alpha * self.config.scene.physics.control_dt
+        speed = np.minimum(max_rate, np.sqrt(half * half + 2.0 * self.alpha * theta) - half)
+        omega_c = -speed[:, None] * axis
+        # Deadbeat tracking for a torque held over one control step: remove the rate error in
+        # one step (gain·dt = 1); gain·dt = 2 is the discrete stability limit and chatters.
+        gain = 1.0 / self.config.scene.physics.control_dt
+        tau = -gain * (omega_B - omega_c) @ self.inertia.T + self.gyroscopic(omega_B)
+        near = theta < math.radians(self.capture_deg)
+        if near.any():
+            tau[near] = self.pd.torque(q_err[near], omega_B[near])
+        return tau
+
+    @classmethod
+    def from_env(cls, env, **kwargs) -> EigenaxisBangBang:
+        """Controller for ``env`` (single, vector or wrapped), using its scene's parameters."""
+        return cls(task_config(env), **kwargs)
+
+
+@dataclass(frozen=True)
+class ZeroPolicy:
+    """Never fires: the uncontrolled baseline (action −1 = all thrusters off)."""
+
+    action_size: int
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation)
+        shape = (self.action_size,) if obs.ndim == 1 else (obs.shape[0], self.action_size)
+        return np.full(shape, -1.0, dtype=np.float32), state
+
+
+@dataclass
+class RandomPolicy:
+    """Uniform random actions from a seeded generator: the no-skill baseline."""
+
+    action_size: int
+    seed: int = 0
+    rng: np.random.Generator = field(init=False)
+
+    def __post_init__(self):
+        self.rng = np.random.default_rng(self.seed)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation)
+        shape = (self.action_size,) if obs.ndim == 1 else (obs.shape[0], self.action_size)
+        return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32), state

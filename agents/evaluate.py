@@ -1,0 +1,228 @@
+"""Seeded evaluation of any policy with SB3's ``predict``: scripted baselines or trained models.
+
+All episodes run side by side in one native vector env, episode i seeded with ``seed + i``, so
+every policy evaluated with the same seed meets exactly the same initial attitudes, targets,
+tumbles and disturbances. Reports success rate, settle time, fuel and final error, and
+records the first few episodes for plots.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import rbenv
+from agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
+from rbenv.task import throttle as to_throttle
+
+SCRIPTED = ("pd", "bangbang", "zero", "random")
+
+
+@dataclass
+class EvalResult:
+    """Per-episode outcomes (arrays of length ``episodes``) and recorded traces."""
+
+    policy: str
+    scene: str
+    seed: int
+    success: np.ndarray
+    settle_time_s: np.ndarray  # time the success hold began; NaN when not successful
+    fuel_kg: np.ndarray
+    final_error_deg: np.ndarray
+    episode_time_s: np.ndarray
+    traces: list[dict] = field(default_factory=list)
+
+    @property
+    def episodes(self) -> int:
+        return len(self.success)
+
+    def summary(self) -> dict:
+        """The JSON summary: policy, episodes, success_rate, settle_time_s, fuel, final error."""
+        settled = self.settle_time_s[np.isfinite(self.settle_time_s)]
+        def q(p):
+            return float(np.percentile(settled, p)) if len(settled) else None
+        return {
+            "policy": self.policy,
+            "scene": self.scene,
+            "seed": self.seed,
+            "episodes": self.episodes,
+            "success_rate": float(np.mean(self.success)),
+            "settle_time_s": {"median": q(50), "p90": q(90)},
+            "fuel": {"mean": float(np.mean(self.fuel_kg)), "unit": "kg"},
+            "final_error_deg": {"median": float(np.median(self.final_error_deg))},
+        }
+
+
+class SB3Policy:
+    """A saved SB3 model (+ its VecNormalize statistics) behind the ``predict`` interface."""
+
+    def __init__(self, model_path, vecnormalize_path=None):
+        from stable_baselines3 import PPO, SAC
+
+        path = Path(model_path)
+        model = None
+        for cls in (PPO, SAC):
+            try:
+                model = cls.load(path, device="cpu")
+                break
+            except (ValueError, KeyError, RuntimeError, TypeError):
+                continue
+        if model is None:
+            raise ValueError(f"model {str(path)!r} is not a PPO or SAC model saved by SB3")
+        self.model = model
+        self.obs_rms = None
+        stats = Path(vecnormalize_path) if vecnormalize_path else path.with_name("vecnormalize.pkl")
+        if stats.exists():
+            import pickle
+
+            with open(stats, "rb") as f:
+                vecnorm = pickle.load(f)
+            self.obs_rms, self.clip_obs, self.epsilon = vecnorm.obs_rms, vecnorm.clip_obs, \
+                vecnorm.epsilon
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        if self.obs_rms is None:
+            return obs
+        scaled = (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
+        return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return self.model.predict(self.normalize(np.asarray(observation)), state=state,
+                                  episode_start=episode_start, deterministic=deterministic)
+
+
+def make_policy(name: str, env, seed: int = 0):
+    """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``."""
+    if name == "pd":
+        return QuaternionPD.from_env(env)
+    if name == "bangbang":
+        return EigenaxisBangBang.from_env(env)
+    n_act = env.single_action_space.shape[0]
+    if name == "zero":
+        return ZeroPolicy(n_act)
+    if name == "random":
+        return RandomPolicy(n_act, seed)
+    if Path(name).exists():
+        return SB3Policy(name)
+    raise ValueError(f"policy must be one of {list(SCRIPTED)} or a path to a saved model "
+                     f"(.zip), got {name!r}")
+
+
+def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = None,
+             name: str | None = None, record: int = 3, env_kwargs: dict | None = None,
+             batch: int = 1000) -> EvalResult:
+    """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``)."""
+    env_kwargs = dict(env_kwargs or {})
+    if scene is not None:
+        env_kwargs["scene"] = scene
+    parts = []
+    for start in range(0, episodes, batch):
+        n = min(batch, episodes - start)
+        parts.append(_run_batch(policy, n, seed + start, env_kwargs, record if start == 0 else 0))
+    label = name or (policy if isinstance(policy, str) else type(policy).__name__)
+    cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
+           if k not in ("traces", "scene")}
+    return EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
+                      traces=parts[0]["traces"], **cat)
+
+
+def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int) -> dict:
+    envs = gym.make_vec(rbenv.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
+                        **env_kwargs)
+    cfg = envs.unwrapped.config if hasattr(envs, "unwrapped") else envs.config
+    if isinstance(policy, str):
+        policy = make_policy(policy, envs, seed)
+    dt, hold = cfg.scene.physics.control_dt, cfg.scene.episode.hold_time
+    obs, _ = envs.reset(seed=seed)
+    alive = np.ones(n, bool)
+    out = {k: np.full(n, np.nan) for k in ("settle_time_s", "fuel_kg", "final_error_deg",
+                                           "episode_time_s")}
+    success = np.zeros(n, bool)
+    traces = [{"time_s": [], "attitude_error_deg": [], "rate_dps": [], "throttle": []}
+              for _ in range(record)]
+    state, starts = None, np.ones(n, bool)
+    while alive.any():
+        action, state = policy.predict(obs, state=state, episode_start=starts, deterministic=True)
+        obs, _, term, trunc, info = envs.step(action)
+        starts = np.zeros(n, bool)
+        for i in range(min(record, n)):
+            if alive[i]:
+                tr = traces[i]
+                tr["time_s"].append(float(info["time_s"][i]))
+                tr["attitude_error_deg"].append(float(info["attitude_error_deg"][i]))
+                tr["rate_dps"].append(float(info["rate_dps"][i]))
+                tr["throttle"].append(to_throttle(cfg, np.asarray(action[i], float)).tolist())
+        done = (term | trunc) & alive
+        if done.any():
+            idx = np.flatnonzero(done)
+            success[idx] = np.asarray(info["is_success"])[idx]
+            out["episode_time_s"][idx] = np.asarray(info["time_s"])[idx]
+            out["fuel_kg"][idx] = np.asarray(info["fuel_kg"])[idx]
+            out["final_error_deg"][idx] = np.asarray(info["attitude_error_deg"])[idx]
+            ok = idx[success[idx]]
+            out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt
+            alive[idx] = False
+    envs.close()
+    return {"success": success, "traces": traces, "scene": cfg.scene.name, **out}
+
+
+def format_table(results: list[EvalResult]) -> str:
+    """A Markdown table of the summaries."""
+    lines = ["| policy | episodes | success rate | settle time median (s) | settle time p90 (s) "
+             "| fuel mean (g) | final error median (deg) |",
+             "|---|---|---|---|---|---|---|"]
+    for r in results:
+        s = r.summary()
+        def fmt(x, spec=".1f"):
+            return "—" if x is None else format(x, spec)
+        lines.append(
+            f"| {s['policy']} | {s['episodes']} | {100 * s['success_rate']:.1f}% "
+            f"| {fmt(s['settle_time_s']['median'])} | {fmt(s['settle_time_s']['p90'])} "
+            f"| {1000 * s['fuel']['mean']:.2f} | {s['final_error_deg']['median']:.3g} |")
+    return "\n".join(lines)
+
+
+def plot_episodes(results: list[EvalResult], path, episode: int = 0):
+    """PNG: attitude error, body rate and thruster activity against time, one row per policy."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in results if len(r.traces) > episode]
+    fig, axes = plt.subplots(len(rows), 3, figsize=(14, 2.6 * len(rows)), squeeze=False)
+    for ax_row, r in zip(axes, rows, strict=True):
+        tr = r.traces[episode]
+        t = np.array(tr["time_s"])
+        ax_row[0].semilogy(t, np.maximum(tr["attitude_error_deg"], 1e-3))
+        ax_row[0].axhline(1.0, color="k", ls=":", lw=0.8)
+        ax_row[0].set_ylabel(f"{r.policy}\nerror (deg)")
+        ax_row[1].plot(t, tr["rate_dps"])
+        ax_row[1].axhline(np.degrees(0.01), color="k", ls=":", lw=0.8)
+        ax_row[1].set_ylabel("|ω| (deg/s)")
+        u = np.array(tr["throttle"])
+        ax_row[2].imshow(u.T, aspect="auto", origin="lower", cmap="Oranges", vmin=0, vmax=1,
+                         extent=(t[0] - 0.5 * (t[1] - t[0]) if len(t) > 1 else 0, t[-1],
+                                 -0.5, u.shape[1] - 0.5), interpolation="nearest")
+        ax_row[2].set_ylabel("thruster")
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    axes[0][0].set_title("attitude error (dotted: 1° success)")
+    axes[0][1].set_title("body rate (dotted: 0.01 rad/s)")
+    axes[0][2].set_title("thruster throttle (0–1)")
+    fig.suptitle(f"Episode {episode} of scene {rows[0].scene} (seed {rows[0].seed + episode})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
+
+
+def write_json(results: list[EvalResult], path) -> Path:
+    """One summary per policy (a list), or a single object for one policy."""
+    data = [r.summary() for r in results]
+    Path(path).write_text(json.dumps(data[0] if len(data) == 1 else data, indent=2) + "\n")
+    return Path(path)
