@@ -1,7 +1,7 @@
 """The ``rbenv`` command: train, evaluate and benchmark.
 
     rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
-                [--out DIR] [--resume]
+                [--out DIR] [--resume] [--checkpoint-every N] [--eval-every N] [--no-report]
     rbenv evaluate --policy pd|bangbang|zero|random|PATH/TO/model.zip --episodes N --seed S
                    [--scene NAME] [--json OUT] [--plot OUT.png]
     rbenv bench accuracy|stability|speed|specialize|inertia
@@ -26,7 +26,10 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--scene", default="cubesat-12u")
     t.add_argument("--out", default=None, help="run directory (default runs/ALGO-SCENE-seedS)")
-    t.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    t.add_argument("--resume", action="store_true",
+                   help="continue from the last checkpoint (--timesteps then sets a new total)")
+    t.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps")
+    t.add_argument("--eval-every", type=int, default=200_000, help="timesteps")
     t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy")
     e.add_argument("--policy", required=True, help="pd, bangbang, zero, random or model.zip")
@@ -44,7 +47,8 @@ def _train(args) -> int:
     from agents.train import TrainConfig, train
 
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
-                      seed=args.seed, scene=args.scene, out=args.out)
+                      seed=args.seed, scene=args.scene, out=args.out,
+                      checkpoint_every=args.checkpoint_every, eval_every=args.eval_every)
     train(cfg, resume=args.resume, report=not args.no_report)
     return 0
 

@@ -50,8 +50,8 @@ class SB3VecEnv(VecEnv):
         if mode != AutoresetMode.SAME_STEP:
             raise ValueError(
                 f"SB3VecEnv needs a vector env with autoreset_mode=SAME_STEP, got {mode!r}; "
-                "create it with gym.make_vec(..., vector_kwargs={'autoreset_mode': "
-                "AutoresetMode.SAME_STEP}) or the env's autoreset_mode argument"
+                "create it with gym.make_vec('rbenv/SatelliteReorient-v0', num_envs=N, "
+                "autoreset_mode=AutoresetMode.SAME_STEP)"
             )
         self.venv = venv
         self.render_mode = getattr(venv, "render_mode", None)

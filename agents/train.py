@@ -78,8 +78,8 @@ class TrainConfig:
 def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> VecMonitor:
     """SB3 view of the native vector env (same-step autoreset), monitored."""
     venv = gym.make_vec(rbenv.ENV_ID, num_envs=n_envs, vectorization_mode="vector_entry_point",
-                        vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP},
-                        scene=cfg.scene, **cfg.env_kwargs)
+                        autoreset_mode=AutoresetMode.SAME_STEP, scene=cfg.scene,
+                        **cfg.env_kwargs)
     env = VecMonitor(SB3VecEnv(venv), info_keywords=("is_success",))
     env.seed(seed)
     return env
@@ -152,9 +152,12 @@ def train(cfg: TrainConfig, *, resume: bool = False, progress_bar: bool = True,
     """Train (or resume) and save the run; returns the run directory."""
     out = Path(cfg.out) if cfg.out else None
     if resume and out is not None and (out / "config.json").exists():
+        # The saved run defines the experiment; only a new total of timesteps may be given.
         saved = json.loads((out / "config.json").read_text())
         known = TrainConfig.__dataclass_fields__
+        new_total = cfg.timesteps
         cfg = TrainConfig(**{k: v for k, v in saved.items() if k in known})
+        cfg.timesteps = new_total or cfg.timesteps
     cfg.resolve()
     out = Path(cfg.out)
     (out / "checkpoints").mkdir(parents=True, exist_ok=True)

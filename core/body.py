@@ -76,7 +76,9 @@ class RigidBody:
         if self.kind == "diagonal":
             d0, d1, d2 = self._diag
             return (d0 * v[0], d1 * v[1], d2 * v[2])
-        return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in self._rows)
+        (a, b, c), (d, e, f), (g, h, i) = self._rows
+        x, y, z = v
+        return (a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z)
 
     def inverse_times(self, v: tuple) -> tuple:
         """``I⁻¹ v`` on components (floats or (N,) arrays), body axes."""
@@ -86,7 +88,9 @@ class RigidBody:
         if self.kind == "diagonal":
             d0, d1, d2 = self._diag_inv
             return (d0 * v[0], d1 * v[1], d2 * v[2])
-        return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in self._inv_rows)
+        (a, b, c), (d, e, f), (g, h, i) = self._inv_rows
+        x, y, z = v
+        return (a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z)
 
     def apply_inertia(self, v_B: np.ndarray) -> np.ndarray:
         """``I v`` in body axes. v_B: (..., 3) rad/s. Returns (..., 3) (kg·m²/s for ω)."""
