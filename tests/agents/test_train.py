@@ -1,0 +1,110 @@
+"""Training: smoke run, save/load round trip, and resume after a real kill."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import VecNormalize
+
+from agents.cli import main as cli_main
+from agents.evaluate import SB3Policy
+from agents.train import TrainConfig, latest_checkpoint, make_vec_env, train
+
+SMALL = {"n_steps": 32, "batch_size": 128, "n_epochs": 2}
+
+
+def small_config(out, **kw):
+    base = dict(timesteps=2048, n_envs=8, out=str(out), hyperparams=SMALL,
+                checkpoint_every=1024, eval_every=1024, eval_episodes=4, report_episodes=8)
+    return TrainConfig(**{**base, **kw})
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    train(small_config(out), progress_bar=False, report=True)
+    return out
+
+
+def test_run_directory_has_everything(run_dir):
+    for name in ("config.json", "model.zip", "vecnormalize.pkl", "training.json", "report.md",
+                 "episode.png", "evaluation.json", "eval/evaluations.npz"):
+        assert (run_dir / name).exists(), name
+    config = json.loads((run_dir / "config.json").read_text())
+    assert config["algo"] == "ppo" and config["hyperparams"]["n_steps"] == 32
+    assert "torch" in config["versions"]
+    summary = json.loads((run_dir / "training.json").read_text())
+    assert summary["timesteps"] >= 2048
+    evaluations = json.loads((run_dir / "evaluation.json").read_text())
+    assert [e["policy"] for e in evaluations] == ["ppo (trained)", "pd", "bangbang"]
+    assert evaluations[1]["success_rate"] == 1.0  # the PD baseline on the same episodes
+    assert "| pd |" in (run_dir / "report.md").read_text()
+    assert latest_checkpoint(run_dir / "checkpoints")["timesteps"] >= 1024
+
+
+def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
+    model = PPO.load(run_dir / "model.zip", device="cpu")
+    stats = VecNormalize.load(str(run_dir / "vecnormalize.pkl"),
+                              make_vec_env(small_config(run_dir), 4, 0))
+    obs = stats.venv.reset()
+    expected, _ = model.predict(stats.normalize_obs(obs), deterministic=True)
+    loaded = SB3Policy(run_dir / "model.zip")  # picks up vecnormalize.pkl beside the model
+    actions, _ = loaded.predict(obs, deterministic=True)
+    assert np.array_equal(actions, expected)
+    again, _ = SB3Policy(run_dir / "model.zip").predict(obs)
+    assert np.array_equal(again, actions)
+
+
+def test_resume_after_a_real_kill(tmp_path):
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "10000000",
+           "--n-envs", "8", "--out", str(out), "--checkpoint-every", "1024",
+           "--eval-every", "100000000", "--hyperparams", json.dumps(SMALL), "--no-report"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.time() + 180
+        while time.time() < deadline and latest_checkpoint(out / "checkpoints") is None:
+            if proc.poll() is not None:
+                pytest.fail(f"training exited early: {proc.stderr.read().decode()[-2000:]}")
+            time.sleep(0.2)
+        time.sleep(1.0)  # let it run on, so the kill may land mid-save
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == -signal.SIGKILL
+    ckpt = latest_checkpoint(out / "checkpoints")
+    assert ckpt is not None and ckpt["timesteps"] >= 1024
+    assert not (out / "model.zip").exists()  # the kill came before the end of training
+    done = ckpt["timesteps"]
+    # Resume with a new total; the saved config (hyperparameters, seed, scene) is reused.
+    cfg = TrainConfig(out=str(out), timesteps=done + 2048)
+    train(cfg, resume=True, progress_bar=False, report=False)
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["resumed_from"] == done
+    assert summary["timesteps"] >= done + 2048
+    model = PPO.load(out / "model.zip", device="cpu")
+    assert model.n_steps == SMALL["n_steps"]  # hyperparameters came from config.json
+
+
+def test_evaluate_cli_writes_json_and_plot(tmp_path):
+    out_json, out_png = tmp_path / "pd.json", tmp_path / "pd.png"
+    assert cli_main(["evaluate", "--policy", "pd", "--episodes", "6", "--seed", "3",
+                     "--json", str(out_json), "--plot", str(out_png)]) == 0
+    data = json.loads(out_json.read_text())
+    assert set(data) >= {"policy", "episodes", "success_rate", "settle_time_s", "fuel",
+                         "final_error_deg"}
+    assert data["episodes"] == 6 and data["success_rate"] == 1.0
+    assert set(data["settle_time_s"]) == {"median", "p90"} and "mean" in data["fuel"]
+    assert out_png.stat().st_size > 1000
+
+
+def test_evaluate_rejects_unknown_policy():
+    with pytest.raises(ValueError, match="policy must be one of"):
+        cli_main(["evaluate", "--policy", "nope", "--episodes", "1"])
