@@ -126,12 +126,11 @@ def mujoco_compare(core: dict) -> dict | None:
     return out
 
 
-def env_compare() -> dict | None:
-    try:
-        from benchmarks import env_speed
-    except ImportError:
-        return None
-    return env_speed.measure()
+def env_compare() -> dict:
+    """Single env vs Pendulum-v1 and native vector env vs SyncVectorEnv (same run)."""
+    from benchmarks import env_speed
+
+    return {"single_env": env_speed.single_env(), "vector_env": env_speed.vector_env()}
 
 
 def plot(core: dict, mj: dict | None):
@@ -169,8 +168,8 @@ def main() -> dict:
     if mj:
         print(table(mj["rows"], ["mujoco", "ours", "N", "mujoco_body_steps_per_s",
                                  "ours_body_steps_per_s", "ours_over_mujoco"]))
-    if env:
-        print(table(env.get("rows", []), list(env.get("rows", [{}])[0].keys())))
+    print(table(env["single_env"], ["env", "us_per_step", "ratio_to_pendulum"]))
+    print(table(env["vector_env"], ["env", "env_steps_per_s", "us_per_env_step", "ratio_to_sync"]))
     data = {"core": core, "ufunc": ufunc, "limits": lim, "mujoco": mj, "env": env}
     write_json("speed", data)
     save_figure(plot(core, mj), "speed")
