@@ -4,7 +4,7 @@
                 [--out DIR] [--resume] [--checkpoint-every N] [--eval-every N]
                 [--hyperparams JSON] [--no-report]
     rbenv evaluate --policy pd|bangbang|zero|random|PATH/TO/model.zip --episodes N --seed S
-                   [--scene NAME] [--json OUT] [--plot OUT.png]
+                   [--scene NAME] [--json OUT] [--plot OUT.png] [--video OUT.gif]
     rbenv bench accuracy|stability|speed|specialize|inertia
 """
 
@@ -42,6 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--scene", default=None)
     e.add_argument("--json", default=None, help="write the summary as JSON here")
     e.add_argument("--plot", default="episodes.png", help="PNG of the first episode")
+    e.add_argument("--video", default=None, help="render the first episode to a .gif/.mp4")
     b = sub.add_parser("bench", help="run a benchmark (writes benchmarks/results/NAME.*)")
     b.add_argument("name", choices=BENCHMARKS)
     return p
@@ -59,7 +60,7 @@ def _train(args) -> int:
 
 
 def _evaluate(args) -> int:
-    from agents.evaluate import evaluate, format_table, plot_episodes, write_json
+    from agents.evaluate import evaluate, format_table, plot_episodes, record_video, write_json
 
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene)
     print(format_table([result]))
@@ -67,6 +68,8 @@ def _evaluate(args) -> int:
         write_json([result], args.json)
     if args.plot:
         plot_episodes([result], args.plot)
+    if args.video:
+        print(f"video: {record_video(args.policy, args.video, seed=args.seed, scene=args.scene)}")
     return 0
 
 

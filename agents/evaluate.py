@@ -226,3 +226,25 @@ def write_json(results: list[EvalResult], path) -> Path:
     data = [r.summary() for r in results]
     Path(path).write_text(json.dumps(data[0] if len(data) == 1 else data, indent=2) + "\n")
     return Path(path)
+
+
+def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: float = 8.0,
+                 env_kwargs: dict | None = None) -> Path:
+    """Render one seeded episode of ``policy`` to a GIF or MP4 (needs the render extra)."""
+    from rbenv.rendering import save_video
+
+    kwargs = dict(env_kwargs or {})
+    if scene is not None:
+        kwargs["scene"] = scene
+    env = gym.make(rbenv.ENV_ID, render_mode="rgb_array", **kwargs)
+    if isinstance(policy, str):
+        policy = make_policy(policy, gym.make_vec(rbenv.ENV_ID, num_envs=1, **kwargs), seed)
+    obs, _ = env.reset(seed=seed)
+    frames, state, done = [env.render()], None, False
+    while not done:
+        action, state = policy.predict(obs, state=state, deterministic=True)
+        obs, _, term, trunc, _ = env.step(action)
+        frames.append(env.render())
+        done = term or trunc
+    env.close()
+    return save_video(frames, path, fps=fps)

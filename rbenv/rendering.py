@@ -18,7 +18,6 @@ opposite to its force whose length and opacity scale with throttle, and a text o
 from __future__ import annotations
 
 import itertools
-import math
 import os
 from pathlib import Path
 
@@ -26,7 +25,7 @@ import numpy as np
 
 from core import inertia as _inertia
 from core import quaternion as _quaternion
-from core.errors import InvalidParameterError, describe
+from core.errors import InvalidParameterError, describe, require_positive
 
 __all__ = ["VIEW_DIRECTION_W", "Renderer", "equivalent_box", "save_video"]
 
@@ -74,7 +73,7 @@ def equivalent_box(inertia, mass: float) -> tuple[np.ndarray, np.ndarray]:
     principal axis i (moments ascending), R's columns the principal axes in body coordinates.
     """
     arr = _inertia.validate(inertia, name="inertia")
-    m = _positive("mass", mass)
+    m = require_positive("mass", mass)
     moments, R = _inertia.principal_axes(arr)
     twice = moments.sum() - 2.0 * moments  # I_j + I_k - I_i, >= 0 by the triangle inequality
     half = np.sqrt(np.maximum(twice, 0.0) * 3.0 / (2.0 * m))
@@ -533,7 +532,7 @@ def save_video(frames, path, fps: float = 10) -> Path:
     suffix = path.suffix.lower()
     if suffix not in (".gif", ".mp4"):
         raise InvalidParameterError(f"path must end in .gif or .mp4, got {str(path)!r}")
-    fps = _positive("fps", fps)
+    fps = require_positive("fps", fps)
     try:
         frames = list(frames)
     except TypeError as exc:
@@ -636,16 +635,6 @@ def _scalar(name: str, value, fmt: str) -> str:
     except (TypeError, ValueError) as exc:
         raise InvalidParameterError(f"{name} must be a number or None, got {value!r}") from exc
     return fmt.format(x)
-
-
-def _positive(name: str, value) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}") from exc
-    if not math.isfinite(x) or x <= 0.0:
-        raise InvalidParameterError(f"{name} must be finite and > 0, got {x!r}")
-    return x
 
 
 def _size(name: str, value) -> int:
