@@ -140,13 +140,16 @@ def plot(core: dict, mj: dict | None):
         ax.loglog([r["N"] for r in res["rows"]], [r["body_steps_per_s"] for r in res["rows"]],
                   "o-", color=f"C{k}", label=f"rbenv {name}")
     if mj:
-        for k, label in enumerate(sorted({r["mujoco"].split(" (")[1] for r in mj["rows"]})):
-            rows = [r for r in mj["rows"] if label in r["mujoco"]]
+        schemes = sorted({r["mujoco"].split("(")[1].split(",")[0].rstrip(")") for r in mj["rows"]})
+        for k, scheme in enumerate(schemes):
+            rows = sorted((r for r in mj["rows"] if f"({scheme}" in r["mujoco"]),
+                          key=lambda r: r["N"])
             ax.loglog([r["N"] for r in rows], [r["mujoco_body_steps_per_s"] for r in rows],
-                      "s--", color=f"C{k + 6}", label=f"MuJoCo {mj['version']} {label.rstrip(')')}")
+                      "s--", color=f"C{k + 5}", label=f"MuJoCo {mj['version']} {scheme}")
     ax.set_xlabel("bodies stepped per call (N)")
     ax.set_ylabel("body-steps per second (one core)")
-    ax.set_title("Core throughput (N = 1: float path; MuJoCo N = 1: mj_step loop)")
+    ax.set_title("Core throughput, one core (N = 1: our float path / MuJoCo's mj_step loop;\n"
+                 "N > 1: our batched kernels / MuJoCo's rollout with one thread)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return fig
