@@ -2,7 +2,7 @@
 
     rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
                 [--out DIR] [--resume] [--checkpoint-every N] [--eval-every N]
-                [--hyperparams JSON] [--no-report]
+                [--hyperparams JSON] [--env-kwargs JSON] [--no-report]
     rbenv evaluate --policy pd|bangbang|zero|random|PATH/TO/model.zip --episodes N --seed S
                    [--scene NAME] [--json OUT] [--plot OUT.png] [--video OUT.gif]
     rbenv bench accuracy|stability|speed|specialize|inertia
@@ -34,6 +34,8 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--eval-every", type=int, default=200_000, help="timesteps")
     t.add_argument("--hyperparams", type=json.loads, default={},
                    help='JSON overriding algorithm hyperparameters, e.g. \'{"n_steps": 128}\'')
+    t.add_argument("--env-kwargs", type=json.loads, default={},
+                   help='JSON of gym.make options, e.g. \'{"action_mode": "torque"}\'')
     t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy")
     e.add_argument("--policy", required=True, help="pd, bangbang, zero, random or model.zip")
@@ -54,7 +56,7 @@ def _train(args) -> int:
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
                       seed=args.seed, scene=args.scene, out=args.out,
                       checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
-                      hyperparams=args.hyperparams)
+                      hyperparams=args.hyperparams, env_kwargs=args.env_kwargs)
     train(cfg, resume=args.resume, report=not args.no_report)
     return 0
 

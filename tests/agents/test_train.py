@@ -108,3 +108,15 @@ def test_evaluate_cli_writes_json_and_plot(tmp_path):
 def test_evaluate_rejects_unknown_policy():
     with pytest.raises(ValueError, match="policy must be one of"):
         cli_main(["evaluate", "--policy", "nope", "--episodes", "1"])
+
+
+def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
+    out = tmp_path / "torque"
+    assert cli_main(["train", "--timesteps", "512", "--n-envs", "4", "--out", str(out),
+                     "--hyperparams", json.dumps(SMALL), "--checkpoint-every", "256",
+                     "--eval-every", "100000", "--env-kwargs", '{"action_mode": "torque"}',
+                     "--no-report"]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["env_kwargs"] == {"action_mode": "torque"}
+    model = PPO.load(out / "model.zip", device="cpu")
+    assert model.action_space.shape == (3,)  # torque mode: one action per body axis
