@@ -19,6 +19,7 @@ import json
 import os
 import platform
 import time
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -189,8 +190,11 @@ def train(cfg: TrainConfig, *, resume: bool = False, progress_bar: bool = True,
     start = time.time()
     remaining = max(cfg.timesteps - done, 0)
     if remaining:
-        model.learn(remaining, callback=callbacks, progress_bar=progress_bar,
-                    reset_num_timesteps=ckpt is None)
+        with warnings.catch_warnings():
+            # SB3's progress bar is tqdm.rich, which warns that it is experimental on every run.
+            warnings.filterwarnings("ignore", message="rich is experimental")
+            model.learn(remaining, callback=callbacks, progress_bar=progress_bar,
+                        reset_num_timesteps=ckpt is None)
     wall = time.time() - start
     _atomic(out / "model.zip", lambda p: _save_to(model, p))
     _atomic(out / "vecnormalize.pkl", env.save)
