@@ -182,10 +182,7 @@ class SatelliteReorientEnv(gym.Env):
             from rbenv.rendering import Renderer
 
             sc = cfg.scene
-            thr = sc.thrusters
-            self._renderer = Renderer(inertia=sc.body.inertia, mass=sc.body.mass,
-                                      thruster_positions_B=thr.positions_B - thr.com_B,
-                                      thruster_directions_B=thr.directions_B)
+            self._renderer = Renderer.for_scene(sc)
         w = st.w
         return self._renderer.frame(
             q=np.array(st.q), q_target=np.array(self._q_target), throttle=st.throttle,

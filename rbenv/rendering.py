@@ -90,6 +90,17 @@ class Renderer:
     supersample: render at this multiple of the size and downscale (antialiasing; 1 is fastest).
     """
 
+    @classmethod
+    def for_scene(cls, scene, **kwargs) -> Renderer:
+        """Renderer for an :class:`rbenv.Scene`: its mass properties and thruster layout.
+
+        Thruster positions are taken relative to the centre of mass, the origin of the drawing.
+        """
+        thr = scene.thrusters
+        return cls(inertia=scene.body.inertia, mass=scene.body.mass,
+                   thruster_positions_B=thr.positions_B - thr.com_B,
+                   thruster_directions_B=thr.directions_B, **kwargs)
+
     def __init__(
         self,
         inertia,

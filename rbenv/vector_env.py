@@ -286,10 +286,7 @@ class SatelliteReorientVectorEnv(VectorEnv):
 
         sc, st = self.config.scene, self._st
         if self._renderers is None:
-            thr = sc.thrusters
-            self._renderers = Renderer(inertia=sc.body.inertia, mass=sc.body.mass,
-                                       thruster_positions_B=thr.positions_B - thr.com_B,
-                                       thruster_directions_B=thr.directions_B)
+            self._renderers = Renderer.for_scene(sc)
         info = task.info(self.config, ARRAY_OPS, st, (0.0,) * 6, False)
         q = np.stack(st.q, axis=1)
         return tuple(
