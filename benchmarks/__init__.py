@@ -1,0 +1,4 @@
+"""Benchmarks: each module has a ``main()`` that writes JSON and PNG to ``benchmarks/results/``.
+
+Run one with ``rbenv bench NAME`` or ``python -m benchmarks.NAME``.
+"""
