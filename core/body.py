@@ -35,6 +35,7 @@ class RigidBody:
     _diag_inv: tuple = field(init=False, repr=False)
     _rows: tuple = field(init=False, repr=False)
     _inv_rows: tuple = field(init=False, repr=False)
+    inverse_columns: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         mass = require_positive("mass", self.mass)
@@ -62,6 +63,8 @@ class RigidBody:
         object.__setattr__(self, "_diag_inv", tuple((1.0 / d).tolist()))
         object.__setattr__(self, "_rows", tuple(tuple(r) for r in inertia.tolist()))
         object.__setattr__(self, "_inv_rows", tuple(tuple(r) for r in inv.tolist()))
+        # Columns of I⁻¹ as float triples: the implicit midpoint's Jacobian uses them.
+        object.__setattr__(self, "inverse_columns", tuple(tuple(c) for c in inv.T.tolist()))
 
     @property
     def is_isotropic(self) -> bool:

@@ -32,6 +32,7 @@ _NEWTON_MAXITER = 8
 _MAX_CONTINUATION = 1024
 _CONTINUATION_ABOVE = 1.5  # h·|ω| above which the first guess is not trusted
 _ZERO = (0.0, 0.0, 0.0)
+_E = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
 def body_torque(q, tau_B, tau_W):
@@ -134,19 +135,18 @@ def _newton(body, m, x, h):
     """Newton iterations for the midpoint momentum; returns (x, converged) (bool or array)."""
     tol2 = (_NEWTON_RTOL * _NEWTON_RTOL) * (k.dot(m, m) + 1e-300)
     s = 0.5 * h
-    e = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    inv_cols = tuple(body.inverse_times(ei) for ei in e)
+    inv_cols = body.inverse_columns
     for _ in range(_NEWTON_MAXITER):
         r, v = _residual(body, m, x, h)
-        if _all(k.dot(r, r) <= tol2):
-            break
+        ok = k.dot(r, r) <= tol2
+        if _all(ok):
+            return x, ok
         # Column j of the Jacobian: e_j − ½h (x × I⁻¹e_j − I⁻¹x × e_j).
-        cols = [k.add(e[j], k.add(k.cross(x, inv_cols[j]), k.cross(v, e[j]), -1.0), -s)
+        cols = [k.add(_E[j], k.add(k.cross(x, inv_cols[j]), k.cross(v, _E[j]), -1.0), -s)
                 for j in range(3)]
         x = k.add(x, k.solve3(*cols, r), -1.0)
     r, _ = _residual(body, m, x, h)
-    ok = k.dot(r, r) <= 256.0 * tol2
-    return x, ok
+    return x, k.dot(r, r) <= 256.0 * tol2
 
 
 def _continuation(body, m, h, hw):
