@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rbenv.allocation import make_allocator
+from core.vec import cross
+from rbenv.allocation import axis_authority, make_allocator
 from rbenv.task import TaskConfig
 
 
@@ -27,11 +28,6 @@ def task_config(env) -> TaskConfig:
         if isinstance(cfg, TaskConfig):
             return cfg
     raise TypeError(f"cannot find an rbenv TaskConfig on {type(env).__name__}")
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack((a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +88,7 @@ class _TorqueController:
 
     def gyroscopic(self, omega_B: np.ndarray) -> np.ndarray:
         """``ω × Iω`` (N, 3) N·m, the term the feedback cancels."""
-        return _cross(omega_B, omega_B @ self.inertia.T)
+        return cross(omega_B, omega_B @ self.inertia.T)
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,11 +142,7 @@ class EigenaxisBangBang(_TorqueController):
 
     def __post_init__(self):
         super().__post_init__()
-        from rbenv.allocation import max_torque_along
-
-        B = self.config.scene.thrusters.torque_matrix_B
-        axes = np.eye(3)
-        authority = np.array([min(max_torque_along(B, e), max_torque_along(B, -e)) for e in axes])
+        authority = axis_authority(self.config.scene.thrusters.torque_matrix_B)
         I_axes = np.diag(self.inertia)
         object.__setattr__(self, "alpha", self.margin * float(np.min(authority / I_axes)))
         object.__setattr__(self, "pd", QuaternionPD(self.config, self.allocator_name,

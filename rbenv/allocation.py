@@ -56,6 +56,7 @@ __all__ = [
     "MinFuelLPAllocator",
     "NNLSAllocator",
     "PseudoInverseAllocator",
+    "axis_authority",
     "make_allocator",
     "max_torque_along",
     "validate_torque_matrix",
@@ -209,6 +210,16 @@ def max_torque_along(torque_matrix, direction) -> float:
     scale = _scale(B)
     s, _ = _max_scale_lp(B / scale, d / norm, None)
     return s * scale
+
+
+def axis_authority(torque_matrix) -> np.ndarray:
+    """Symmetric torque authority about each body axis, (3,) N·m.
+
+    For each axis the weaker of the two directions ``±e_k`` (:func:`max_torque_along`), so a
+    demand of that size is achievable both ways. Three pairs of LPs: call at set-up.
+    """
+    return np.array([min(max_torque_along(torque_matrix, e), max_torque_along(torque_matrix, -e))
+                     for e in np.eye(3)])
 
 
 @dataclass(frozen=True, eq=False)

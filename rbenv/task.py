@@ -224,13 +224,10 @@ class TaskConfig:
         object.__setattr__(self, "advance", INTEGRATORS[sc.physics.integrator].advance)
         allocator, authority = None, None
         if self.action_mode == "torque":
-            from rbenv.allocation import make_allocator, max_torque_along
+            from rbenv.allocation import axis_authority, make_allocator
 
-            B = thr.torque_matrix_B
-            allocator = make_allocator(self.allocator_name, B)
-            # Symmetric per-axis authority: the weaker of the two directions about each axis.
-            authority = np.array([min(max_torque_along(B, e), max_torque_along(B, -e))
-                                  for e in np.eye(3)])
+            allocator = make_allocator(self.allocator_name, thr.torque_matrix_B)
+            authority = axis_authority(thr.torque_matrix_B)
         # Clipping against arrays is cheaper than against Python scalars (no conversion).
         n_act = 3 if self.action_mode == "torque" else thr.n
         low = np.full(n_act, -1.0 if self.action_mode == "torque" else 0.0)
