@@ -74,21 +74,17 @@ class SB3Policy:
         if model is None:
             raise ValueError(f"model {str(path)!r} is not a PPO or SAC model saved by SB3")
         self.model = model
-        self.obs_rms = None
+        self.vecnormalize = None  # the saved statistics; only its normalize_obs is used
         stats = Path(vecnormalize_path) if vecnormalize_path else path.with_name("vecnormalize.pkl")
         if stats.exists():
             import pickle
 
             with open(stats, "rb") as f:
-                vecnorm = pickle.load(f)
-            self.obs_rms, self.clip_obs, self.epsilon = vecnorm.obs_rms, vecnorm.clip_obs, \
-                vecnorm.epsilon
+                self.vecnormalize = pickle.load(f)
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
-        if self.obs_rms is None:
-            return obs
-        scaled = (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
-        return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
+        """Observations as the policy saw them in training (VecNormalize statistics)."""
+        return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         return self.model.predict(self.normalize(np.asarray(observation)), state=state,
@@ -96,12 +92,12 @@ class SB3Policy:
 
 
 def make_policy(name: str, env, seed: int = 0):
-    """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``."""
+    """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``; env single or vector."""
     if name == "pd":
         return QuaternionPD.from_env(env)
     if name == "bangbang":
         return EigenaxisBangBang.from_env(env)
-    n_act = env.single_action_space.shape[0]
+    n_act = getattr(env, "single_action_space", env.action_space).shape[0]
     if name == "zero":
         return ZeroPolicy(n_act)
     if name == "random":
@@ -238,7 +234,7 @@ def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: 
         kwargs["scene"] = scene
     env = gym.make(rbenv.ENV_ID, render_mode="rgb_array", **kwargs)
     if isinstance(policy, str):
-        policy = make_policy(policy, gym.make_vec(rbenv.ENV_ID, num_envs=1, **kwargs), seed)
+        policy = make_policy(policy, env, seed)
     obs, _ = env.reset(seed=seed)
     frames, state, done = [env.render()], None, False
     while not done:
