@@ -12,7 +12,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.common import best_time, fit_order, pyplot, save_figure, table, write_json
+from benchmarks.common import (
+    best_time,
+    components,
+    fit_order,
+    pyplot,
+    save_figure,
+    table,
+    write_json,
+)
 from core import INTEGRATORS, RigidBody, kernels, quaternion, reference
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
@@ -72,9 +80,9 @@ def run(body, scene: dict, integrator: str, dt: float):
 def step_costs(body) -> dict:
     """Seconds per step: one body (float path) and per body at N = BATCH, per integrator."""
     rng = np.random.default_rng(0)
-    qb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(quaternion.random(rng, (BATCH,))))
-    wb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(rng.normal(0, 1, (BATCH, 3))))
-    tb = tuple(np.ascontiguousarray(c) for c in kernels.unpack(rng.normal(0, 1, (BATCH, 3))))
+    qb = components(quaternion.random(rng, (BATCH,)))
+    wb = components(rng.normal(0, 1, (BATCH, 3)))
+    tb = components(rng.normal(0, 1, (BATCH, 3)))
     q1, w1, t1 = tuple(Q0.tolist()), (0.2, 0.3, 2.0), (0.1, 0.2, 0.3)
     out = {}
     for name, it in INTEGRATORS.items():

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from core import kernels
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
@@ -37,6 +39,15 @@ def best_time(fn: Callable[[], object], *, repeats: int = 5, min_time: float = 0
             fn()
         best = min(best, (time.perf_counter() - t0) / loops)
     return best
+
+
+def components(arr) -> tuple:
+    """Kernel components of an array: floats for a (k,) vector, contiguous (N,) arrays for (N, k).
+
+    The form :mod:`core.kernels` and the integrators take (one body runs on Python floats).
+    """
+    parts = kernels.unpack(np.asarray(arr, dtype=float))
+    return parts if isinstance(parts[0], float) else tuple(np.ascontiguousarray(p) for p in parts)
 
 
 def machine() -> dict:

@@ -13,8 +13,8 @@ from functools import partial
 
 import numpy as np
 
-from benchmarks.common import best_time, pyplot, save_figure, table, write_json
-from core import INTEGRATORS, BodyState, RigidBody, inertia, kernels, quaternion, simulate
+from benchmarks.common import best_time, components, pyplot, save_figure, table, write_json
+from core import INTEGRATORS, BodyState, RigidBody, inertia, quaternion, simulate
 
 STEPS = 200
 H = 0.05
@@ -28,15 +28,10 @@ def _states(n: int):
     return q, w, tau
 
 
-def _components(arr):
-    parts = kernels.unpack(arr)
-    return parts if isinstance(parts[0], float) else tuple(np.ascontiguousarray(p) for p in parts)
-
-
 def kernel_cost(body: RigidBody, integrator: str, n: int) -> float:
     """Seconds per body-step of one integrator kernel at batch size n (1 = float path)."""
     q, w, tau = _states(n)
-    qc, wc, tc = _components(q), _components(w), _components(tau)
+    qc, wc, tc = components(q), components(w), components(tau)
     advance = INTEGRATORS[integrator].advance
     return best_time(lambda: advance(body, qc, wc, H, tc, None)) / n
 

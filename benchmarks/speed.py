@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.common import best_time, pyplot, save_figure, table, write_json
+from benchmarks.common import best_time, components, pyplot, save_figure, table, write_json
 from core import INTEGRATORS, RigidBody, quaternion
 
 MOMENTS = (5.0, 10.0, 13.0)
@@ -28,10 +28,7 @@ def _batch(n: int):
     q = quaternion.random(rng, (n,))
     w = rng.normal(0.0, 1.0, (n, 3))
     tau = rng.normal(0.0, 0.1, (n, 3))
-    if n == 1:
-        return tuple(q[0].tolist()), tuple(w[0].tolist()), tuple(tau[0].tolist())
-    return tuple(tuple(np.ascontiguousarray(a[:, i]) for i in range(a.shape[1]))
-                 for a in (q, w, tau))
+    return tuple(components(a[0] if n == 1 else a) for a in (q, w, tau))
 
 
 def core_throughput(body: RigidBody) -> dict:
