@@ -199,13 +199,26 @@ class BodyState:
         return quaternion.rotate_inverse(self.orientation, self.angular_velocity)
 
 
+def invariants(body: RigidBody, q: tuple, w_B: tuple) -> tuple:
+    """Energy ``½ ω_B·Iω_B`` (J) and world momentum ``L_W = R I ω_B`` (N·m·s) on components.
+
+    q: body→world quaternion, w_B: body rates (rad/s), as :mod:`core.kernels` components
+    (floats for one body, (N,) arrays for a batch). Returns (energy, L_W components).
+    """
+    m = body.inertia_times(w_B)
+    return 0.5 * kernels.dot(w_B, m), kernels.rotate(q, m)
+
+
+def _state_invariants(body: RigidBody, state: BodyState):
+    q = kernels.unpack(state.orientation)
+    return invariants(body, q, kernels.rotate_inverse(q, kernels.unpack(state.angular_velocity)))
+
+
 def rotational_energy(body: RigidBody, state: BodyState) -> np.ndarray:
     """Rotational kinetic energy ``½ ω_B·Iω_B`` in J, shape = state.batch_shape."""
-    w_B = state.angular_velocity_B
-    return 0.5 * np.sum(w_B * body.apply_inertia(w_B), axis=-1)
+    return np.asarray(_state_invariants(body, state)[0], dtype=float)
 
 
 def angular_momentum_W(body: RigidBody, state: BodyState) -> np.ndarray:
     """Angular momentum about the centre of mass, world frame ``L_W = R I ω_B``, (..., 3)."""
-    w_B = state.angular_velocity_B
-    return quaternion.rotate(state.orientation, body.apply_inertia(w_B))
+    return kernels.pack(_state_invariants(body, state)[1])
