@@ -1,0 +1,114 @@
+"""The one seam between one body (Python floats) and many (arrays): array namespaces.
+
+Every formula in :mod:`core.kernels`, :mod:`rbenv.plant` and the tasks is written once on
+*components* (a vector is 3 values, a quaternion 4), and each component is either a Python float
+(one satellite: about 30 ns per operation, no NumPy call at all) or an (N,) array (a batch,
+structure of arrays). Arithmetic works on both as it is. The few operations that differ
+(``sqrt``, ``where``, ``clip``, ...) are taken from a namespace with array-API names, so the
+same expression runs on either:
+
+* :data:`FLOAT`, built on :mod:`math`, for Python floats;
+* :data:`NUMPY`, built on NumPy, for arrays.
+
+Code that holds a namespace (the envs pass theirs down) uses it directly; a kernel that only
+receives components asks :func:`namespace` once. A torch or JAX backend is one more class here
+with the same names, and nothing else changes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["FLOAT", "NUMPY", "namespace"]
+
+
+class FloatNamespace:
+    """Array-API names over Python floats (bools for comparisons)."""
+
+    name = "float"
+    sqrt = staticmethod(math.sqrt)
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    atan2 = staticmethod(math.atan2)
+    isfinite = staticmethod(math.isfinite)
+
+    @staticmethod
+    def where(cond, a, b):
+        """``a`` if cond else ``b`` (both are evaluated, as with arrays)."""
+        return a if cond else b
+
+    @staticmethod
+    def clip(x, low, high):
+        """``x`` limited to [low, high]."""
+        return low if x < low else (high if x > high else x)
+
+    @staticmethod
+    def minimum(a, b):
+        return a if a < b else b
+
+    @staticmethod
+    def maximum(a, b):
+        return a if a > b else b
+
+    @staticmethod
+    def sign_nonneg(x):
+        """−1 for x < 0, else +1 (zero counts as positive, unlike ``sign``)."""
+        return -1.0 if x < 0.0 else 1.0
+
+    @staticmethod
+    def all_finite(components) -> bool:
+        """True when every component is finite (one sum: any NaN or inf propagates)."""
+        return math.isfinite(sum(components))
+
+    @staticmethod
+    def any(x) -> bool:
+        return bool(x)
+
+    @staticmethod
+    def zeros(n):
+        """A zero component (``n`` is ignored: one body)."""
+        return 0.0
+
+
+class NumpyNamespace:
+    """Array-API names over NumPy (N,) arrays."""
+
+    name = "numpy"
+    sqrt = staticmethod(np.sqrt)
+    sin = staticmethod(np.sin)
+    cos = staticmethod(np.cos)
+    atan2 = staticmethod(np.arctan2)
+    isfinite = staticmethod(np.isfinite)
+    where = staticmethod(np.where)
+    clip = staticmethod(np.clip)
+    minimum = staticmethod(np.minimum)
+    maximum = staticmethod(np.maximum)
+
+    @staticmethod
+    def sign_nonneg(x):
+        """−1 where x < 0, else +1."""
+        return np.where(x < 0.0, -1.0, 1.0)
+
+    @staticmethod
+    def all_finite(components) -> bool:
+        """True when every entry of every component is finite."""
+        return bool(np.isfinite(sum(components)).all())
+
+    @staticmethod
+    def any(x) -> bool:
+        return bool(np.any(x))
+
+    @staticmethod
+    def zeros(n):
+        return np.zeros(n)
+
+
+FLOAT = FloatNamespace()
+NUMPY = NumpyNamespace()
+
+
+def namespace(x):
+    """The namespace for a component: :data:`FLOAT` for a Python float or int, else NUMPY."""
+    return FLOAT if isinstance(x, (float, int)) else NUMPY
