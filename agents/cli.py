@@ -1,11 +1,17 @@
-"""The ``rbenv`` command: train, evaluate and benchmark.
+"""The ``rbenv`` command: train, evaluate and benchmark (also ``python -m agents.cli``).
 
     rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
-                [--out DIR] [--resume] [--checkpoint-every N] [--eval-every N]
-                [--hyperparams JSON] [--env-kwargs JSON] [--no-report]
-    rbenv evaluate --policy pd|bangbang|zero|random|PATH/TO/model.zip --episodes N --seed S
-                   [--scene NAME] [--json OUT] [--plot OUT.png] [--video OUT.gif]
-    rbenv bench accuracy|stability|speed|specialize|inertia
+                [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
+                [--checkpoint-every N] [--eval-every N] [--hyperparams JSON]
+                [--env-kwargs JSON] [--no-report] [--no-progress]
+    rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|model.zip --episodes N --seed S
+                   [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
+                   [--video OUT.gif] [--out DIR]
+    rbenv bench NAME [--out DIR]
+
+Only what is asked for is written: evaluate prints its table and writes files only with
+--json, --plot, --video or --out. Torch, Stable-Baselines3 and matplotlib are imported only
+when a model is trained or loaded, or a plot is drawn.
 """
 
 from __future__ import annotations
@@ -13,9 +19,38 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import pkgutil
 import sys
+from pathlib import Path
 
-BENCHMARKS = ("accuracy", "stability", "speed", "specialize", "inertia")
+BENCH_OUT = "bench-results"
+
+
+def benchmarks() -> list[str]:
+    """Benchmark modules (each with a ``main()``) in the ``benchmarks`` package."""
+    try:
+        import benchmarks as package
+    except ImportError:
+        return []
+    return sorted(m.name for m in pkgutil.iter_modules(package.__path__)
+                  if not m.name.startswith("_") and m.name != "common")
+
+
+def _json_arg(text: str):
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {text!r}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"must be a JSON object, got {text!r}")
+    return value
+
+
+def _positive(text: str) -> int:
+    value = int(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -23,30 +58,56 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train", help="train PPO or SAC, then report against the baselines")
     t.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
-    t.add_argument("--timesteps", type=int, default=None, help="default: ppo 2M, sac 200k")
-    t.add_argument("--n-envs", type=int, default=None, help="default: ppo 64, sac 8")
+    t.add_argument("--timesteps", type=_positive, default=None,
+                   help="default: ppo 2M, sac 200k; with --resume, a new total")
+    t.add_argument("--n-envs", type=_positive, default=None, help="default: ppo 64, sac 8")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--scene", default="cubesat-12u")
-    t.add_argument("--out", default=None, help="run directory (default runs/ALGO-SCENE-seedS)")
-    t.add_argument("--resume", action="store_true",
-                   help="continue from the last checkpoint (--timesteps then sets a new total)")
-    t.add_argument("--checkpoint-every", type=int, default=200_000, help="timesteps")
-    t.add_argument("--eval-every", type=int, default=200_000, help="timesteps")
-    t.add_argument("--hyperparams", type=json.loads, default={},
+    t.add_argument("--out", default=None,
+                   help="run folder (default ./runs/ALGO-SCENE-seedS); must be empty or new "
+                        "unless --resume or --force")
+    mode = t.add_mutually_exclusive_group()
+    mode.add_argument("--resume", action="store_true",
+                      help="continue the run in --out from its last complete checkpoint, with "
+                           "its saved configuration (a finished run is left as it is)")
+    mode.add_argument("--force", action="store_true",
+                      help="start a new run in a non-empty --out, deleting the old run's files")
+    t.add_argument("--threads", type=_positive, default=None,
+                   help="torch threads (default 1: fastest for these small networks, and "
+                        "robust to other busy processes); part of what makes a run repeatable")
+    t.add_argument("--tensorboard", default=None, metavar="DIR",
+                   help="also log training to TensorBoard under DIR/RUN_NAME")
+    t.add_argument("--checkpoint-every", type=_positive, default=200_000, help="timesteps")
+    t.add_argument("--eval-every", type=_positive, default=200_000, help="timesteps")
+    t.add_argument("--hyperparams", type=_json_arg, default={},
                    help='JSON overriding algorithm hyperparameters, e.g. \'{"n_steps": 128}\'')
-    t.add_argument("--env-kwargs", type=json.loads, default={},
+    t.add_argument("--env-kwargs", type=_json_arg, default={},
                    help='JSON of gym.make options, e.g. \'{"action_mode": "torque"}\'')
     t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
-    e = sub.add_parser("evaluate", help="seeded evaluation of a policy")
-    e.add_argument("--policy", required=True, help="pd, bangbang, zero, random or model.zip")
-    e.add_argument("--episodes", type=int, default=100)
+    t.add_argument("--no-progress", action="store_true", help="no progress bar")
+    e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
+                       description="Seeded evaluation. Prints a table; writes files only when "
+                                   "asked (--json, --plot, --video, --out).")
+    e.add_argument("--policy", required=True,
+                   help="pd, bangbang, zero, random, a run folder, its model.zip or a "
+                        "checkpoint model_N.zip (a model is evaluated in its run's env options)")
+    e.add_argument("--episodes", type=_positive, default=100)
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--scene", default=None)
-    e.add_argument("--json", default=None, help="write the summary as JSON here")
-    e.add_argument("--plot", default="episodes.png", help="PNG of the first episode")
+    e.add_argument("--env-kwargs", type=_json_arg, default={}, help="JSON of gym.make options")
+    e.add_argument("--json", default=None, help="write the summary as JSON to this file")
+    e.add_argument("--plot", default=None, metavar="PATH",
+                   help="PNG of the first episode (no plot without it, or without --out)")
     e.add_argument("--video", default=None, help="render the first episode to a .gif/.mp4")
-    b = sub.add_parser("bench", help="run a benchmark (writes benchmarks/results/NAME.*)")
-    b.add_argument("name", choices=BENCHMARKS)
+    e.add_argument("--out", default=None, metavar="DIR",
+                   help="write evaluation.json and episodes.png into DIR (relative to the "
+                        "current directory)")
+    names = benchmarks()
+    b = sub.add_parser("bench", help="run a benchmark, writing NAME.json and NAME.png")
+    b.add_argument("name", choices=names or None, help=", ".join(names))
+    b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
+                   help=f"results folder (default ./{BENCH_OUT} in the current directory; "
+                        "pass benchmarks/results in a checkout to refresh the committed ones)")
     return p
 
 
@@ -56,33 +117,62 @@ def _train(args) -> int:
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
                       seed=args.seed, scene=args.scene, out=args.out,
                       checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
-                      hyperparams=args.hyperparams, env_kwargs=args.env_kwargs)
-    train(cfg, resume=args.resume, report=not args.no_report)
+                      hyperparams=args.hyperparams, env_kwargs=args.env_kwargs,
+                      threads=args.threads or (None if args.resume else 1))
+    train(cfg, resume=args.resume, force=args.force, tensorboard=args.tensorboard,
+          progress_bar=not args.no_progress, report=not args.no_report)
     return 0
 
 
 def _evaluate(args) -> int:
-    from agents.evaluate import evaluate, format_table, plot_episodes, record_video, write_json
+    from agents.evaluate import evaluate, format_table, record_video, write_json
 
-    result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene)
+    result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
+                      env_kwargs=args.env_kwargs)
     print(format_table([result]))
-    if args.json:
-        write_json([result], args.json)
-    if args.plot:
-        plot_episodes([result], args.plot)
+    json_path, plot_path = args.json, args.plot
+    if args.out:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        json_path = json_path or Path(args.out) / "evaluation.json"
+        plot_path = plot_path or Path(args.out) / "episodes.png"
+    if json_path:
+        print(f"summary: {write_json([result], json_path)}")
+    if plot_path:
+        from agents.evaluate import plot_episodes
+
+        print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
         print(f"video: {record_video(args.policy, args.video, seed=args.seed, scene=args.scene)}")
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    if args.command == "train":
-        return _train(args)
-    if args.command == "evaluate":
-        return _evaluate(args)
-    importlib.import_module(f"benchmarks.{args.name}").main()
+def _bench(args) -> int:
+    import benchmarks.common as common
+
+    module = importlib.import_module(f"benchmarks.{args.name}")
+    if not callable(getattr(module, "main", None)):
+        raise SystemExit(f"benchmarks.{args.name} has no main()")
+    common.RESULTS = Path(args.out).resolve()  # write_json/save_figure read it at call time
+    print(f"results go to {common.RESULTS}")
+    module.main()
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run a command. From the command line (``argv`` None) a documented error (a
+    ``ValueError`` subclass of :mod:`core.errors`, such as a corrupt run file) is printed as
+    ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
+    args = _parser().parse_args(argv)
+    command = {"train": _train, "evaluate": _evaluate, "bench": _bench}[args.command]
+    if argv is not None:
+        return command(args)
+    from core.errors import RbenvValueError
+
+    try:
+        return command(args)
+    except RbenvValueError as e:
+        print(f"rbenv: error: {e}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ import numpy as np
 
 import rbenv
 from agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
+from agents.runs import RunPolicy
 from rbenv.task import throttle as to_throttle
 
 SCRIPTED = ("pd", "bangbang", "zero", "random")
@@ -57,38 +58,29 @@ class EvalResult:
         }
 
 
-class SB3Policy:
-    """A saved SB3 model (+ its VecNormalize statistics) behind the ``predict`` interface."""
+class SB3Policy(RunPolicy):
+    """A saved SB3 model with its VecNormalize statistics, behind the ``predict`` interface.
+
+    ``model_path`` is a run folder, a final ``model.zip`` (statistics: ``vecnormalize.pkl``
+    beside it) or a checkpoint ``model_<N>.zip`` (statistics: its own ``vecnormalize_<N>.pkl``);
+    ``vecnormalize_path`` overrides the statistics. Same as :func:`agents.runs.load_policy`.
+    """
 
     def __init__(self, model_path, vecnormalize_path=None):
-        from stable_baselines3 import PPO, SAC
+        from agents import runs
 
-        path = Path(model_path)
-        model = None
-        for cls in (PPO, SAC):
-            try:
-                model = cls.load(path, device="cpu")
-                break
-            except (ValueError, KeyError, RuntimeError, TypeError):
-                continue
-        if model is None:
-            raise ValueError(f"model {str(path)!r} is not a PPO or SAC model saved by SB3")
-        self.model = model
-        self.vecnormalize = None  # the saved statistics; only its normalize_obs is used
-        stats = Path(vecnormalize_path) if vecnormalize_path else path.with_name("vecnormalize.pkl")
-        if stats.exists():
-            import pickle
+        files = runs.locate(model_path)
+        algo = (files.config or {}).get("algo")
+        stats = vecnormalize_path or files.stats
+        super().__init__(runs.load_model(files.model, algo if algo in ("ppo", "sac") else None),
+                         runs.load_stats(stats) if stats else None, files.config,
+                         source=str(files.model))
 
-            with open(stats, "rb") as f:
-                self.vecnormalize = pickle.load(f)
 
-    def normalize(self, obs: np.ndarray) -> np.ndarray:
-        """Observations as the policy saw them in training (VecNormalize statistics)."""
-        return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        return self.model.predict(self.normalize(np.asarray(observation)), state=state,
-                                  episode_start=episode_start, deterministic=deterministic)
+def _load_model_policy(name: str) -> tuple:
+    """(policy, the run's gym.make options) for a model path or run folder."""
+    policy = SB3Policy(name)
+    return policy, policy.env_kwargs
 
 
 def make_policy(name: str, env, seed: int = 0):
@@ -103,7 +95,7 @@ def make_policy(name: str, env, seed: int = 0):
     if name == "random":
         return RandomPolicy(n_act, seed)
     if Path(name).exists():
-        return SB3Policy(name)
+        return _load_model_policy(name)[0]
     raise ValueError(f"policy must be one of {list(SCRIPTED)} or a path to a saved model "
                      f"(.zip), got {name!r}")
 
@@ -113,13 +105,16 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
              batch: int = 1000) -> EvalResult:
     """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``)."""
     env_kwargs = dict(env_kwargs or {})
+    label = name or (policy if isinstance(policy, str) else type(policy).__name__)
+    if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
+        policy, run_kwargs = _load_model_policy(policy)  # with the run's scene and env options
+        env_kwargs = {**run_kwargs, **env_kwargs}
     if scene is not None:
         env_kwargs["scene"] = scene
     parts = []
     for start in range(0, episodes, batch):
         n = min(batch, episodes - start)
         parts.append(_run_batch(policy, n, seed + start, env_kwargs, record if start == 0 else 0))
-    label = name or (policy if isinstance(policy, str) else type(policy).__name__)
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
            if k not in ("traces", "scene")}
     return EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
@@ -230,6 +225,9 @@ def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: 
     from rbenv.rendering import save_video
 
     kwargs = dict(env_kwargs or {})
+    if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
+        policy, run_kwargs = _load_model_policy(policy)
+        kwargs = {**run_kwargs, **kwargs}
     if scene is not None:
         kwargs["scene"] = scene
     env = gym.make(rbenv.ENV_ID, render_mode="rgb_array", **kwargs)

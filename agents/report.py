@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from agents.evaluate import SB3Policy, evaluate, format_table, plot_episodes
+from agents.runs import atomic_write, write_json
 
 
 def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
@@ -15,12 +15,16 @@ def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
     log = run_dir / "eval" / "evaluations.npz"
     if not log.exists():
         return None
+    try:
+        data = dict(np.load(log))
+    except Exception as e:  # a torn file must not lose the report
+        print(f"skipping the training curve: {str(log)!r} is unreadable ({e})")
+        return None
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    data = np.load(log)
     steps = data["timesteps"]
     fig, ax = plt.subplots(figsize=(7, 3.5))
     if "successes" in data and data["successes"].size:
@@ -45,14 +49,16 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
     trained = SB3Policy(run_dir / "model.zip", run_dir / "vecnormalize.pkl")
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs}
-    results = [evaluate(trained, name=f"{cfg.algo} (trained)", **kwargs),
+    label = "trained" if summary.get("trained", True) else "UNTRAINED: no gradient step"
+    results = [evaluate(trained, name=f"{cfg.algo} ({label})", **kwargs),
                evaluate("pd", **kwargs), evaluate("bangbang", **kwargs)]
     table = format_table(results)
     plot_episodes(results, run_dir / "episode.png")
     curve = plot_training_curve(run_dir, run_dir / "training_curve.png")
-    (run_dir / "evaluation.json").write_text(
-        json.dumps([r.summary() for r in results], indent=2) + "\n")
+    write_json(run_dir / "evaluation.json", [r.summary() for r in results])
     minutes = summary["wall_time_s"] / 60
+    if not summary.get("trained", True):
+        print(f"WARNING: {cfg.algo} took no gradient step; the report shows an untrained policy")
     lines = [
         f"# Training report: {cfg.algo.upper()} on `{cfg.scene}`",
         "",
@@ -62,6 +68,8 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
         "for the scene's hold time",
+        f"- load the policy with `agents.runs.load_policy({str(run_dir)!r})`: it applies the "
+        "observation normalisation (`vecnormalize.pkl`) that a bare `PPO.load` lacks",
         "",
         table,
         "",
@@ -70,7 +78,7 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
     if curve:
         lines += ["", "![training curve](training_curve.png)"]
     path = run_dir / "report.md"
-    path.write_text("\n".join(lines) + "\n")
+    atomic_write(path, lambda p: p.write_text("\n".join(lines) + "\n"))
     print(table)
     print(f"report: {path}")
     return path

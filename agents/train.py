@@ -1,22 +1,23 @@
 """``rbenv train``: PPO or SAC on the native vector env, with checkpoints, resume and a report.
 
-Layout of a run directory::
+The run folder layout, its lock and the loader are in :mod:`agents.runs`. A run is safe to
+kill, corrupt and share:
 
-    config.json             resolved configuration (written first; --resume reads it)
-    checkpoints/            model_<steps>.zip + vecnormalize_<steps>.pkl, latest.json
-    eval/evaluations.npz    EvalCallback log: mean reward and success rate over training
-    model.zip, vecnormalize.pkl    the final policy and its observation/reward statistics
-    report.md, *.png        trained policy beside the PD and bang-bang baselines
+- every file is written to a unique temporary name and renamed, and ``latest.json`` moves
+  only after both files of a checkpoint exist, so ``kill -9`` at any moment leaves the last
+  complete checkpoint;
+- ``--resume DIR`` continues DIR (never the folder recorded in its config.json), falling
+  back past a corrupt or missing checkpoint to the newest complete one, and says which;
+- an exclusive lock refuses a second live run on the folder; a lock left by a killed run is
+  recognised as stale;
+- a new run into a non-empty folder needs ``force``; a finished run resumes as a no-op.
 
-Checkpoints are written to a temporary file and renamed, and ``latest.json`` is updated only
-after both files of a checkpoint exist, so a run killed at any moment resumes from the last
-complete checkpoint.
+Training is reproducible given the seed, the torch thread count (``threads``, default 1, which
+is also the fastest for these small MLPs) and the CPU kind.
 """
 
 from __future__ import annotations
 
-import json
-import os
 import platform
 import time
 import warnings
@@ -26,11 +27,15 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, EvalCallback
-from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
 
 import rbenv
+from agents import runs
+from agents.runs import RunFolderError, atomic_write, write_json
 from agents.sb3 import SB3VecEnv
+from core.errors import InvalidParameterError
 
 DEFAULT_HYPERPARAMS = {
     "ppo": {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
@@ -61,18 +66,26 @@ class TrainConfig:
     eval_episodes: int = 100
     report_episodes: int = 500
     report_seed: int = 1_000_000
+    threads: int = 1  # torch intra-op threads; part of what makes a run reproducible
 
     def resolve(self) -> TrainConfig:
-        """Fill defaults that depend on the algorithm; validate names."""
+        """Fill defaults that depend on the algorithm; validate names and counts."""
         if self.algo not in DEFAULT_HYPERPARAMS:
-            raise ValueError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
+            raise InvalidParameterError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
         self.timesteps = int(self.timesteps or DEFAULT_TIMESTEPS[self.algo])
         self.n_envs = int(self.n_envs or DEFAULT_N_ENVS[self.algo])
-        if self.timesteps <= 0 or self.n_envs <= 0:
-            raise ValueError(f"timesteps and n_envs must be > 0, got {self.timesteps}, "
-                             f"{self.n_envs}")
+        for name in ("timesteps", "n_envs", "threads", "checkpoint_every", "eval_every"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+                raise InvalidParameterError(f"{name} must be a positive integer, got {value!r}")
         self.hyperparams = {**DEFAULT_HYPERPARAMS[self.algo], **self.hyperparams}
         self.out = self.out or f"runs/{self.algo}-{self.scene}-seed{self.seed}"
+        starts = self.hyperparams.get("learning_starts", 0)
+        if self.algo == "sac" and self.timesteps <= starts:
+            raise InvalidParameterError(
+                f"timesteps must exceed sac's learning_starts ({starts}) or no gradient step "
+                f"is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
+                "--hyperparams '{\"learning_starts\": N}'")
         return self
 
 
@@ -86,51 +99,175 @@ def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> VecMonitor:
     return env
 
 
-class AtomicCheckpoint(BaseCallback):
-    """Every ``every`` timesteps save model + VecNormalize atomically and update latest.json."""
+# --- callbacks --------------------------------------------------------------------------------
 
-    def __init__(self, directory: Path, every: int):
+class _Every(BaseCallback):
+    """Base: fire ``_fire()`` each time num_timesteps passes a multiple of ``every``."""
+
+    def __init__(self, every: int):
         super().__init__()
-        self.directory, self.every, self._next = Path(directory), every, None
+        self.every, self._next = int(every), None
 
     def _on_training_start(self) -> None:
-        self.directory.mkdir(parents=True, exist_ok=True)
         self._next = (self.num_timesteps // self.every + 1) * self.every
 
     def _on_step(self) -> bool:
         if self.num_timesteps >= self._next:
-            save_checkpoint(self.model, self.directory, self.num_timesteps)
-            self._next += self.every
+            self._fire()
+            self._next = (self.num_timesteps // self.every + 1) * self.every
         return True
 
-
-def _atomic(path: Path, write) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    write(tmp)
-    os.replace(tmp, path)
+    def _fire(self) -> None:
+        raise NotImplementedError
 
 
-def save_checkpoint(model, directory: Path, steps: int) -> None:
+class AtomicCheckpoint(_Every):
+    """Every ``every`` timesteps save model + VecNormalize atomically and update latest.json."""
+
+    def __init__(self, directory: Path, every: int, clock: WallClock):
+        super().__init__(every)
+        self.directory, self.clock = Path(directory), clock
+
+    def _fire(self) -> None:
+        save_checkpoint(self.model, self.directory, self.num_timesteps, self.clock.total())
+
+
+class PeriodicEval(_Every):
+    """Deterministic evaluation every ``every`` timesteps, logged to ``eval/evaluations.npz``.
+
+    The history is loaded from the file on resume (entries after the resumed checkpoint are
+    dropped, since those steps are trained again) and rewritten atomically after each
+    evaluation, in the format of SB3's ``EvalCallback``.
+    """
+
+    def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int):
+        super().__init__(every)
+        self.eval_env, self.log, self.episodes = eval_env, Path(log), episodes
+        self.history = load_eval_history(self.log, resumed_at)
+
+    def _fire(self) -> None:
+        sync_envs_normalization(self.training_env, self.eval_env)
+        successes: list[bool] = []
+
+        def record(locals_, _globals):
+            if locals_["done"] and "is_success" in locals_["info"]:
+                successes.append(bool(locals_["info"]["is_success"]))
+
+        rewards, lengths = evaluate_policy(self.model, self.eval_env, self.episodes,
+                                           deterministic=True, return_episode_rewards=True,
+                                           warn=False, callback=record)
+        h = self.history
+        h["timesteps"].append(self.num_timesteps)
+        h["results"].append(rewards[:self.episodes])
+        h["ep_lengths"].append(lengths[:self.episodes])
+        h["successes"].append(successes[:self.episodes])
+        self.log.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(self.log, lambda p: _savez(p, h))
+        self.logger.record("eval/mean_reward", float(np.mean(rewards)))
+        self.logger.record("eval/success_rate", float(np.mean(successes)) if successes else 0.0)
+
+
+def _savez(path: Path, history: dict) -> None:
+    with open(path, "wb") as f:  # np.savez on a name would append ".npz"
+        np.savez(f, **{k: np.asarray(v) for k, v in history.items()})
+
+
+def load_eval_history(log: Path, upto: int) -> dict:
+    """Evaluations at timesteps <= ``upto`` from ``log`` (empty if absent; warns if corrupt)."""
+    keys = ("timesteps", "results", "ep_lengths", "successes")
+    history = {k: [] for k in keys}
+    if upto <= 0 or not log.exists():
+        return history
+    try:
+        with np.load(log) as data:
+            loaded = {k: data[k].tolist() for k in keys}
+    except Exception as e:  # a torn or foreign file: keep training, say what was lost
+        warnings.warn(f"evaluation history {str(log)!r} is unreadable ({type(e).__name__}: "
+                      f"{e}); starting a new one", stacklevel=2)
+        return history
+    keep = [i for i, t in enumerate(loaded["timesteps"]) if t <= upto]
+    return {k: [loaded[k][i] for i in keep] for k in keys}
+
+
+class RateProgress(BaseCallback):
+    """A tqdm bar over the timesteps of this session showing the true average rate.
+
+    SB3's own bar shows tqdm's smoothed instantaneous rate, which reads the fast rollout phase
+    and misses the gradient updates; here the rate is steps done / wall time since the start.
+    """
+
+    def _on_training_start(self) -> None:
+        from tqdm import tqdm
+
+        total = self.locals["total_timesteps"] - self.model.num_timesteps
+        self.pbar = tqdm(total=total, unit="step", unit_scale=True, smoothing=0.0,
+                         dynamic_ncols=True)
+
+    def _on_step(self) -> bool:
+        self.pbar.update(self.training_env.num_envs)
+        return True
+
+    def _on_training_end(self) -> None:
+        self.pbar.close()
+
+
+class WallClock:
+    """Training wall time accumulated over every session of a run (kept in checkpoints)."""
+
+    def __init__(self, before: float = 0.0):
+        self.before, self.start = float(before), time.perf_counter()
+
+    def session(self) -> float:
+        return time.perf_counter() - self.start
+
+    def total(self) -> float:
+        return self.before + self.session()
+
+
+# --- checkpoints ------------------------------------------------------------------------------
+
+def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None) -> None:
     """Write model_<steps>.zip and vecnormalize_<steps>.pkl, then point latest.json at them."""
     directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
     model_path = directory / f"model_{steps}.zip"
     stats_path = directory / f"vecnormalize_{steps}.pkl"
-    _atomic(model_path, lambda p: _save_to(model, p))
-    _atomic(stats_path, model.get_vec_normalize_env().save)
-    _atomic(directory / "latest.json",
-            lambda p: p.write_text(json.dumps({"timesteps": steps, "model": model_path.name,
-                                               "vecnormalize": stats_path.name})))
+    atomic_write(model_path, lambda p: _save_to(model, p))
+    atomic_write(stats_path, model.get_vec_normalize_env().save)
+    write_json(directory / runs.LATEST, {"timesteps": steps, "model": model_path.name,
+                                         "vecnormalize": stats_path.name,
+                                         "wall_time_s": wall_time_s})
 
 
 def latest_checkpoint(directory: Path) -> dict | None:
-    """The last complete checkpoint recorded in latest.json, or None."""
-    pointer = Path(directory) / "latest.json"
-    if not pointer.exists():
-        return None
-    info = json.loads(pointer.read_text())
-    if not (Path(directory) / info["model"]).exists():
-        return None
-    return info
+    """The checkpoint latest.json records, if both its files exist; else None."""
+    return runs.latest_checkpoint(directory)
+
+
+def load_checkpoint(cfg: TrainConfig, directory: Path, base) -> tuple:
+    """(model, env, checkpoint) from the newest checkpoint that loads, or None if none exists.
+
+    A checkpoint that fails (missing or corrupt file) is reported, naming the file, and the next
+    older one is tried. Raises :class:`RunFolderError` if checkpoints exist but none loads.
+    """
+    tried = []
+    for ckpt in runs.checkpoints(directory):
+        try:
+            runs.check_model_file(ckpt.model)
+            env = runs.load_stats(ckpt.stats, base)
+            model = runs.load_model(ckpt.model, cfg.algo, env=env)
+        except RunFolderError as e:
+            print(f"checkpoint at {ckpt.steps} timesteps is unusable: {e}")
+            tried.append(ckpt.model.name)
+            continue
+        if tried:
+            print(f"falling back to the last complete checkpoint: {ckpt.model} "
+                  f"({ckpt.steps} timesteps)")
+        return model, env, ckpt
+    if tried:
+        raise RunFolderError(f"no usable checkpoint in {str(directory)!r} (tried "
+                             f"{', '.join(tried)}); pass --force without --resume to start over")
+    return None
 
 
 def _algo_class(name: str):
@@ -145,69 +282,136 @@ def _versions() -> dict:
 
     return {"python": platform.python_version(), "numpy": np.__version__,
             "gymnasium": gym.__version__, "stable_baselines3": stable_baselines3.__version__,
-            "torch": torch.__version__}
+            "torch": torch.__version__, "cpu": _cpu_kind()}
 
 
-def train(cfg: TrainConfig, *, resume: bool = False, progress_bar: bool = True,
-          report: bool = True, verbose: int = 0) -> Path:
-    """Train (or resume) and save the run; returns the run directory."""
-    out = Path(cfg.out) if cfg.out else None
-    if resume and out is not None and (out / "config.json").exists():
-        # The saved run defines the experiment; only a new total of timesteps may be given.
-        saved = json.loads((out / "config.json").read_text())
-        known = TrainConfig.__dataclass_fields__
-        new_total = cfg.timesteps
+def _cpu_kind() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def set_threads(n: int) -> None:
+    """torch intra-op threads for training (1 is fastest for small MLPs on a busy machine)."""
+    import torch
+
+    torch.set_num_threads(int(n))
+
+
+# --- the run ----------------------------------------------------------------------------------
+
+def resumed_config(out: Path, timesteps: int | None = None,
+                   threads: int | None = None) -> TrainConfig:
+    """The saved configuration of the run in ``out``, for that folder; new total and threads."""
+    saved = runs.read_config(out)
+    known = TrainConfig.__dataclass_fields__
+    try:
         cfg = TrainConfig(**{k: v for k, v in saved.items() if k in known})
-        cfg.timesteps = new_total or cfg.timesteps
-    cfg.resolve()
-    out = Path(cfg.out)
-    (out / "checkpoints").mkdir(parents=True, exist_ok=True)
-    if not (resume and (out / "config.json").exists()):
-        (out / "config.json").write_text(json.dumps({**asdict(cfg), "versions": _versions()},
-                                                    indent=2) + "\n")
-    algo = _algo_class(cfg.algo)
-    base = make_vec_env(cfg, cfg.n_envs, cfg.seed)
-    ckpt = latest_checkpoint(out / "checkpoints") if resume else None
-    if ckpt is not None:
-        env = VecNormalize.load(str(out / "checkpoints" / ckpt["vecnormalize"]), base)
-        model = algo.load(out / "checkpoints" / ckpt["model"], env=env, device="cpu")
-        done = int(ckpt["timesteps"])
-        print(f"resuming {cfg.algo} from {done} timesteps ({out / 'checkpoints'})")
+    except TypeError as e:
+        raise RunFolderError(f"run configuration {str(out / runs.CONFIG)!r} is invalid: {e}"
+                             ) from None
+    cfg.out = str(out)  # the folder given, not the one recorded when the run started
+    cfg.timesteps = timesteps or cfg.timesteps
+    cfg.threads = threads or cfg.threads
+    try:
+        return cfg.resolve()
+    except (TypeError, ValueError) as e:
+        raise RunFolderError(f"run configuration {str(out / runs.CONFIG)!r}: {e}") from None
+
+
+def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
+          tensorboard: str | None = None, progress_bar: bool = True, report: bool = True,
+          verbose: int = 0) -> Path:
+    """Train (or resume) and save the run; returns the run directory.
+
+    With ``resume``, the run in ``cfg.out`` defines the experiment; only ``cfg.timesteps`` (a
+    new total) and ``cfg.threads`` are taken from ``cfg``.
+    """
+    out = Path(cfg.out or TrainConfig(algo=cfg.algo, scene=cfg.scene, seed=cfg.seed)
+               .resolve().out)
+    if resume:
+        cfg = resumed_config(out, cfg.timesteps, cfg.threads)
     else:
-        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99))
-        model = algo("MlpPolicy", env, seed=cfg.seed, device="cpu", verbose=verbose,
-                     **cfg.hyperparams)
-        done = 0
-    eval_env = VecNormalize(make_vec_env(cfg, min(cfg.eval_episodes, 50), cfg.seed + 10_000),
-                            training=False, norm_reward=False)
-    per_call = cfg.n_envs
-    callbacks = CallbackList([
-        AtomicCheckpoint(out / "checkpoints", cfg.checkpoint_every),
-        EvalCallback(eval_env, n_eval_episodes=cfg.eval_episodes,
-                     eval_freq=max(cfg.eval_every // per_call, 1), log_path=str(out / "eval"),
-                     deterministic=True, verbose=verbose, warn=False),
-    ])
-    start = time.time()
-    remaining = max(cfg.timesteps - done, 0)
-    if remaining:
-        with warnings.catch_warnings():
-            # SB3's progress bar is tqdm.rich, which warns that it is experimental on every run.
-            warnings.filterwarnings("ignore", message="rich is experimental")
-            model.learn(remaining, callback=callbacks, progress_bar=progress_bar,
-                        reset_num_timesteps=ckpt is None)
-    wall = time.time() - start
-    _atomic(out / "model.zip", lambda p: _save_to(model, p))
-    _atomic(out / "vecnormalize.pkl", env.save)
-    summary = {"timesteps": int(model.num_timesteps), "wall_time_s": wall,
-               "resumed_from": done if ckpt else None}
-    (out / "training.json").write_text(json.dumps(summary, indent=2) + "\n")
-    env.close()
-    eval_env.close()
+        cfg.out = str(out)
+        cfg.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    with runs.RunLock(out):
+        if resume:
+            finished = runs.is_finished(out)
+            if finished and int(finished.get("timesteps", 0)) >= cfg.timesteps:
+                print(f"run {str(out)!r} is already finished ({finished['timesteps']} timesteps)"
+                      f"; nothing to do (pass --timesteps N > {finished['timesteps']} "
+                      "to train further)")
+                return out
+        else:
+            runs.prepare_new_run(out, force)
+            write_json(out / runs.CONFIG, {**asdict(cfg), "versions": _versions()})
+        summary = _train_locked(cfg, out, resume, tensorboard, progress_bar, verbose)
     if report:
         from agents.report import write_report
 
         write_report(out, cfg, summary)
+    print(f"run saved in {out}; {runs.LOAD_HINT.replace('PATH', repr(str(out)))}")
     return out
+
+
+def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progress_bar,
+                  verbose) -> dict:
+    set_threads(cfg.threads)
+    ckpt_dir = out / runs.CHECKPOINTS
+    base = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    loaded = load_checkpoint(cfg, ckpt_dir, base) if resume else None
+    if loaded is not None:
+        model, env, ckpt = loaded
+        done, clock = ckpt.steps, WallClock(ckpt.wall_time_s or 0.0)
+        print(f"resuming {cfg.algo} in {str(out)!r} from {done} timesteps ({ckpt.model.name})")
+    else:
+        if resume:
+            print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 "
+                  "timesteps")
+        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99))
+        model = _algo_class(cfg.algo)("MlpPolicy", env, seed=cfg.seed, device="cpu",
+                                      verbose=verbose, **cfg.hyperparams)
+        done, clock = 0, WallClock()
+    if tensorboard:
+        from stable_baselines3.common.logger import configure
+
+        model.set_logger(configure(str(Path(tensorboard) / out.name),
+                                   ["stdout", "tensorboard"] if verbose else ["tensorboard"]))
+    eval_env = VecNormalize(make_vec_env(cfg, min(cfg.eval_episodes, 50), cfg.seed + 10_000),
+                            training=False, norm_reward=False)
+    callbacks = [AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock),
+                 PeriodicEval(eval_env, out / runs.EVAL_LOG, cfg.eval_every, cfg.eval_episodes,
+                              done)]
+    if progress_bar:
+        callbacks.append(RateProgress())
+    remaining = max(cfg.timesteps - done, 0)
+    if remaining:
+        model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=done == 0)
+    steps = int(model.num_timesteps)
+    latest = latest_checkpoint(ckpt_dir)
+    if latest is None or latest["timesteps"] != steps:
+        save_checkpoint(model, ckpt_dir, steps, clock.total())  # a longer resume continues here
+    atomic_write(out / runs.FINAL_MODEL, lambda p: _save_to(model, p))
+    atomic_write(out / runs.FINAL_STATS, env.save)
+    updates = int(getattr(model, "_n_updates", 0))
+    summary = {"timesteps": steps, "wall_time_s": clock.total(),
+               "session_wall_time_s": clock.session(),
+               "session_steps_per_s": (steps - done) / max(clock.session(), 1e-9),
+               "resumed_from": done or None, "threads": cfg.threads,
+               "gradient_updates": updates, "trained": updates > 0}
+    if not summary["trained"]:
+        warnings.warn(f"{cfg.algo} took no gradient step in {steps} timesteps: the saved "
+                      "policy is untrained", stacklevel=3)
+    write_json(out / runs.SUMMARY, summary)
+    env.close()
+    eval_env.close()
+    return summary
 
 
 def _save_to(model, path: Path) -> None:

@@ -1,0 +1,465 @@
+"""Training run folders: what makes a folder a run, its lock, atomic writes, checkpoints, loading.
+
+A run folder (written by ``rbenv train``)::
+
+    config.json             resolved TrainConfig (scene, env_kwargs, hyperparameters, threads)
+    run.lock                held (fcntl) by the live training process; pid and start time inside
+    checkpoints/            model_<steps>.zip + vecnormalize_<steps>.pkl, latest.json
+    eval/evaluations.npz    periodic evaluations over the whole run (kept across resumes)
+    model.zip, vecnormalize.pkl, training.json, report.md, *.png    the finished run
+
+Loading a trained policy for plain ``gym.make`` code::
+
+    from agents.runs import load_policy
+    policy = load_policy("runs/ppo-cubesat-12u-seed0")       # or .../checkpoints/model_N.zip
+    env = policy.make_env()                                   # the run's scene and env kwargs
+    obs, _ = env.reset(seed=0)
+    action, _ = policy.predict(obs)                           # observations normalised inside
+
+``PPO.load("model.zip")`` alone gives a policy that expects normalised observations: it fails
+silently on raw ones. Use :func:`load_policy`, or apply ``vecnormalize.pkl`` yourself.
+
+This module imports neither torch nor Stable-Baselines3 until a model is loaded.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import RbenvValueError
+
+CONFIG = "config.json"
+LOCK = "run.lock"
+CHECKPOINTS = "checkpoints"
+LATEST = "latest.json"
+FINAL_MODEL, FINAL_STATS, SUMMARY = "model.zip", "vecnormalize.pkl", "training.json"
+EVAL_LOG = Path("eval") / "evaluations.npz"
+# Everything `rbenv train` writes into a run folder; `--force` removes exactly these.
+RUN_FILES = (CONFIG, FINAL_MODEL, FINAL_STATS, SUMMARY, "report.md", "evaluation.json",
+             "episode.png", "training_curve.png")
+RUN_DIRS = (CHECKPOINTS, "eval")
+_MODEL_RE = re.compile(r"model_(\d+)\.zip")
+LOAD_HINT = ("load it with agents.runs.load_policy(PATH), which applies the run's observation "
+             "normalisation (vecnormalize.pkl); a bare PPO.load/SAC.load model expects "
+             "normalised observations and fails silently on raw ones")
+
+
+class RunFolderError(RbenvValueError):
+    """A run folder, or a file in it, is missing, corrupt, locked or not what was asked for."""
+
+
+class RunLockedError(RunFolderError):
+    """Another live process is training into the same run folder."""
+
+
+# --- files ------------------------------------------------------------------------------------
+
+def atomic_write(path: Path, write: Callable[[Path], object]) -> Path:
+    """Call ``write(tmp)`` on a unique temporary file beside ``path``, fsync, then rename.
+
+    Readers see the old file or the complete new one, never a partial one; concurrent writers
+    never share a temporary name.
+    """
+    path = Path(path)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path: Path, data) -> Path:
+    """Atomically write ``data`` as indented JSON."""
+    text = json.dumps(data, indent=2) + "\n"
+    return atomic_write(path, lambda p: p.write_text(text))
+
+
+def read_json(path: Path, what: str) -> dict:
+    """A JSON object from ``path``; :class:`RunFolderError` naming the file if it is not one."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise RunFolderError(f"{what} {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise RunFolderError(f"{what} {str(path)!r} is unreadable or not valid JSON: {e}") from None
+    if not isinstance(data, dict):
+        raise RunFolderError(f"{what} {str(path)!r} must hold a JSON object, got "
+                             f"{type(data).__name__}")
+    return data
+
+
+def read_config(run_dir: Path) -> dict:
+    """The run's config.json; :class:`RunFolderError` if ``run_dir`` is not a run folder."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise RunFolderError(f"run folder {str(run_dir)!r} does not exist or is not a folder")
+    if not (run_dir / CONFIG).is_file():
+        raise RunFolderError(f"{str(run_dir)!r} is not a training run: it has no {CONFIG} "
+                             "(start a new run there without --resume)")
+    return read_json(run_dir / CONFIG, "run configuration")
+
+
+def is_finished(run_dir: Path) -> dict | None:
+    """training.json of a run that completed (and wrote its final model), else None."""
+    run_dir = Path(run_dir)
+    if not ((run_dir / SUMMARY).is_file() and (run_dir / FINAL_MODEL).is_file()):
+        return None
+    return read_json(run_dir / SUMMARY, "training summary")
+
+
+def prepare_new_run(run_dir: Path, force: bool) -> None:
+    """Refuse a non-empty folder unless ``force``; with ``force`` remove the old run's files."""
+    run_dir = Path(run_dir)
+    present = sorted(p.name for p in run_dir.iterdir() if p.name != LOCK)
+    if not present:
+        return
+    if not force:
+        shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
+        raise RunFolderError(
+            f"out folder {str(run_dir)!r} is not empty (it holds {shown}); pass --resume to "
+            "continue the run in it, --force to replace it, or choose another --out")
+    import shutil
+
+    for name in RUN_FILES:
+        (run_dir / name).unlink(missing_ok=True)
+    for name in RUN_DIRS:
+        if (run_dir / name).is_dir():
+            shutil.rmtree(run_dir / name)
+
+
+# --- lock -------------------------------------------------------------------------------------
+
+class RunLock:
+    """An exclusive ``fcntl.flock`` on ``run_dir/run.lock`` for the life of a training process.
+
+    The kernel drops the lock when its process dies, however it dies, so a lock file left by a
+    ``kill -9`` is recognised as stale (and reported) and taken over; a live holder makes
+    :meth:`acquire` raise :class:`RunLockedError` naming its pid.
+    """
+
+    def __init__(self, run_dir: Path):
+        self.path = Path(run_dir) / LOCK
+        self._fd: int | None = None
+        self.stale: dict | None = None  # the record left by a dead holder, if any
+
+    def acquire(self) -> RunLock:
+        import fcntl
+
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = _lock_record(fd)
+            os.close(fd)
+            who = (f"pid {holder.get('pid')} on {holder.get('host')}, started "
+                   f"{holder.get('started')}") if holder else "another process"
+            raise RunLockedError(f"run folder {str(self.path.parent)!r} is in use by {who} "
+                                 f"(lock {str(self.path)!r}); wait for it or use another --out"
+                                 ) from None
+        self.stale = _lock_record(fd) or None
+        if self.stale:
+            print(f"found a stale lock {str(self.path)!r} from pid {self.stale.get('pid')} "
+                  f"(started {self.stale.get('started')}), which no longer holds it "
+                  "(killed?); taking it over")
+        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, record.encode(), 0)
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        import fcntl
+
+        os.ftruncate(self._fd, 0)  # a clean exit leaves no record, so nothing looks stale
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+        os.close(self._fd)
+        self._fd = None
+
+    def __enter__(self) -> RunLock:
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def _lock_record(fd: int) -> dict:
+    try:
+        data = json.loads(os.pread(fd, 4096, 0).decode() or "{}")
+    except (ValueError, UnicodeDecodeError):
+        return {"pid": "?", "started": "?", "host": "?"}
+    return data if isinstance(data, dict) else {}
+
+
+# --- checkpoints ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """One checkpoint: the model and its own observation statistics, both inside the run."""
+
+    steps: int
+    model: Path
+    stats: Path
+    wall_time_s: float | None = None  # cumulative training wall time when it was written
+
+
+def confined(directory: Path, name, what: str) -> Path:
+    """``directory/name`` for a bare file name that stays inside ``directory``; else an error."""
+    directory = Path(directory)
+    if not isinstance(name, str) or not name or Path(name).name != name or name in (".", ".."):
+        raise RunFolderError(f"{what} must be a bare file name inside {str(directory)!r}, "
+                             f"got {name!r}")
+    path = directory / name
+    if not path.resolve().is_relative_to(directory.resolve()):
+        raise RunFolderError(f"{what} {str(path)!r} resolves outside {str(directory)!r} "
+                             f"(to {str(path.resolve())!r})")
+    return path
+
+
+def checkpoint_pointer(directory: Path) -> Checkpoint:
+    """The checkpoint latest.json names; :class:`RunFolderError` naming the file if unusable."""
+    directory = Path(directory)
+    pointer = directory / LATEST
+    info = read_json(pointer, "checkpoint pointer")
+    try:
+        steps = int(info["timesteps"])
+        model = confined(directory, info["model"], f"{pointer}: 'model'")
+        stats = confined(directory, info["vecnormalize"], f"{pointer}: 'vecnormalize'")
+    except KeyError as e:
+        raise RunFolderError(f"checkpoint pointer {str(pointer)!r} lacks the key {e}") from None
+    except (TypeError, ValueError) as e:
+        if isinstance(e, RunFolderError):
+            raise
+        raise RunFolderError(f"checkpoint pointer {str(pointer)!r}: 'timesteps' must be an "
+                             f"integer, got {info.get('timesteps')!r}") from None
+    wall = info.get("wall_time_s")
+    return Checkpoint(steps, model, stats, float(wall) if isinstance(wall, int | float) else None)
+
+
+def checkpoints(directory: Path, report: Callable[[str], object] = print) -> list[Checkpoint]:
+    """Checkpoints to try, best first: latest.json's, then every model_<N>.zip by N descending.
+
+    Problems with latest.json are passed to ``report`` (naming the file) and skipped.
+    """
+    directory = Path(directory)
+    found: list[Checkpoint] = []
+    if (directory / LATEST).exists():
+        try:
+            found.append(checkpoint_pointer(directory))
+        except RunFolderError as e:
+            report(f"ignoring {e}")
+    on_disk = []
+    for path in directory.glob("model_*.zip") if directory.is_dir() else ():
+        m = _MODEL_RE.fullmatch(path.name)
+        if m:
+            steps = int(m.group(1))
+            on_disk.append(Checkpoint(steps, path, directory / f"vecnormalize_{steps}.pkl"))
+    for ckpt in sorted(on_disk, key=lambda c: -c.steps):
+        if all(c.model != ckpt.model for c in found):
+            found.append(ckpt)
+    return found
+
+
+def latest_checkpoint(directory: Path) -> dict | None:
+    """latest.json's record if its two files exist (a quick look; no file is opened)."""
+    try:
+        ckpt = checkpoint_pointer(directory)
+    except RunFolderError:
+        return None
+    if not (ckpt.model.is_file() and ckpt.stats.is_file()):
+        return None
+    return {"timesteps": ckpt.steps, "model": ckpt.model.name, "vecnormalize": ckpt.stats.name,
+            "wall_time_s": ckpt.wall_time_s}
+
+
+def check_model_file(path: Path) -> None:
+    """Cheap integrity check of an SB3 ``.zip`` (CRCs of every member); raises naming it."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            bad = z.testzip()
+            names = set(z.namelist())
+    except (OSError, zipfile.BadZipFile, EOFError, ValueError) as e:
+        raise RunFolderError(f"model file {str(path)!r} is missing or not a valid zip: {e}"
+                             ) from None
+    if bad is not None or not {"data", "policy.pth"} <= names:
+        raise RunFolderError(f"model file {str(path)!r} is corrupt "
+                             f"({'bad member ' + bad if bad else 'members missing'})")
+
+
+def load_stats(path: Path, venv=None):
+    """VecNormalize statistics from ``path``; :class:`RunFolderError` naming it if corrupt."""
+    import pickle
+
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    path = Path(path)
+    if not path.is_file():
+        raise RunFolderError(f"normalisation statistics {str(path)!r} do not exist")
+    try:
+        with open(path, "rb") as f:
+            stats = pickle.load(f)
+    except Exception as e:  # a corrupt pickle can raise almost anything
+        raise RunFolderError(f"normalisation statistics {str(path)!r} are corrupt: "
+                             f"{type(e).__name__}: {e}") from None
+    if not isinstance(stats, VecNormalize):
+        raise RunFolderError(f"{str(path)!r} holds a {type(stats).__name__}, not VecNormalize "
+                             "statistics")
+    if venv is not None:
+        stats.set_venv(venv)
+    return stats
+
+
+def load_model(path: Path, algo: str | None = None, **kwargs):
+    """An SB3 model from ``path`` (PPO or SAC; ``algo`` if known); raises naming the file."""
+    from stable_baselines3 import PPO, SAC
+
+    check_model_file(path)
+    classes = {"ppo": (PPO,), "sac": (SAC,)}.get(algo, (PPO, SAC))
+    errors = []
+    for cls in classes:
+        try:
+            return cls.load(path, device="cpu", **kwargs)
+        except Exception as e:  # wrong algorithm or a corrupt member
+            errors.append(f"{cls.__name__}: {type(e).__name__}: {e}")
+    raise RunFolderError(f"model file {str(path)!r} could not be loaded as "
+                         f"{' or '.join(c.__name__ for c in classes)}: {'; '.join(errors)}")
+
+
+# --- loading a trained policy -----------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RunFiles:
+    """Where a policy's files are: the model, its own statistics, and the run's config."""
+
+    model: Path
+    stats: Path | None
+    config: dict | None
+    run_dir: Path | None
+
+
+def locate(path) -> RunFiles:
+    """Resolve a run folder, a final ``model.zip`` or a checkpoint ``model_<N>.zip``.
+
+    A checkpoint is paired with its own ``vecnormalize_<N>.pkl``, a final model with
+    ``vecnormalize.pkl``; the run's ``config.json`` is found beside the model or one level up.
+    """
+    path = Path(path)
+    if path.is_dir():
+        config = read_config(path)
+        if (path / FINAL_MODEL).is_file():
+            model, stats = path / FINAL_MODEL, path / FINAL_STATS
+        else:
+            ckpt = next(iter(checkpoints(path / CHECKPOINTS)), None)
+            if ckpt is None:
+                raise RunFolderError(f"run folder {str(path)!r} has no {FINAL_MODEL} and no "
+                                     "checkpoint yet")
+            model, stats = ckpt.model, ckpt.stats
+        return RunFiles(model, stats, config, path)
+    if not path.is_file():
+        raise RunFolderError(f"policy {str(path)!r} is neither a run folder nor a model file")
+    m = _MODEL_RE.fullmatch(path.name)
+    stats = path.with_name(f"vecnormalize_{m.group(1)}.pkl" if m else FINAL_STATS)
+    if m and not stats.is_file():
+        raise RunFolderError(f"checkpoint {str(path)!r} has no statistics file {str(stats)!r}; "
+                             "without them the policy sees unnormalised observations")
+    for run_dir in (path.parent, path.parent.parent):
+        if (run_dir / CONFIG).is_file():
+            return RunFiles(path, stats if stats.is_file() else None, read_config(run_dir),
+                            run_dir)
+    return RunFiles(path, stats if stats.is_file() else None, None, None)
+
+
+def env_kwargs_of(config: dict | None) -> dict:
+    """gym.make options of a run: its scene and env_kwargs (empty for an unknown run)."""
+    if not config:
+        return {}
+    kwargs = config.get("env_kwargs") or {}
+    if not isinstance(kwargs, dict):
+        raise RunFolderError(f"run configuration: 'env_kwargs' must be an object, got {kwargs!r}")
+    return {"scene": config.get("scene", "cubesat-12u"), **kwargs}
+
+
+class RunPolicy:
+    """A trained model with its observation statistics, behind SB3's ``predict`` interface.
+
+    Works on one observation ``(obs_dim,)`` or a batch ``(n, obs_dim)``; observations are the
+    raw ones a ``gym.make``/``gym.make_vec`` env returns.
+    """
+
+    def __init__(self, model, vecnormalize=None, config: dict | None = None,
+                 source: str = "model"):
+        self.model, self.vecnormalize = model, vecnormalize
+        self.config, self.source = config, source
+
+    @property
+    def env_kwargs(self) -> dict:
+        """The ``gym.make`` options the policy was trained with (scene, action mode, ...)."""
+        return env_kwargs_of(self.config)
+
+    def make_env(self, **overrides):
+        """``gym.make`` of the env this policy was trained on (``overrides`` win)."""
+        import gymnasium as gym
+
+        import rbenv
+
+        return gym.make(rbenv.ENV_ID, **{**self.env_kwargs, **overrides})
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        """Observations as the policy saw them in training."""
+        obs = np.asarray(obs)
+        expected = self.model.observation_space.shape
+        if obs.shape[-len(expected):] != expected:
+            raise ValueError(f"observation shape {obs.shape} does not match the policy's "
+                             f"{expected} ({self.source}); evaluate it in the env it was "
+                             f"trained on: {self.env_kwargs or 'see its config.json'}")
+        return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return self.model.predict(self.normalize(observation), state=state,
+                                  episode_start=episode_start, deterministic=deterministic)
+
+
+def load_policy(path) -> RunPolicy:
+    """A ready policy from a run folder, its ``model.zip`` or a checkpoint ``model_<N>.zip``.
+
+    The model comes with its own VecNormalize statistics and the run's configuration
+    (``policy.make_env()`` builds the env it was trained on). A final model without
+    ``vecnormalize.pkl`` beside it (a model trained without VecNormalize) is used as is, with a
+    warning; a checkpoint without its own statistics is an error.
+    """
+    files = locate(path)
+    algo = (files.config or {}).get("algo")
+    model = load_model(files.model, algo if algo in ("ppo", "sac") else None)
+    if files.stats is None:
+        import warnings
+
+        warnings.warn(f"no {FINAL_STATS} beside {str(files.model)!r}: observations are passed "
+                      "unnormalised, which is right only for a model trained without "
+                      "VecNormalize", stacklevel=2)
+    stats = load_stats(files.stats) if files.stats is not None else None
+    return RunPolicy(model, stats, files.config, source=str(files.model))
