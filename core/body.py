@@ -7,12 +7,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core import kernels, quaternion
-from core.errors import InvalidParameterError, NonFiniteError, describe, require_positive
+from core import validation as check
+from core.errors import InvalidInertiaError
 from core.inertia import validate
 
 # A tensor whose principal moments agree to this relative tolerance is treated as isotropic.
 _ISOTROPIC_RTOL = 1e-12
-_UNIT_TOL = 1e-6
+# Smallest accepted mass (kg): the smallest normal float, so that 1/mass is finite.
+MIN_MASS = float(np.finfo(float).tiny)
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,11 +40,19 @@ class RigidBody:
     inverse_columns: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
-        mass = require_positive("mass", self.mass)
+        mass = check.number("mass", self.mass, low=MIN_MASS)
+        check.flag("specialize", self.specialize)
         inertia = validate(self.inertia)
         inertia.setflags(write=False)
-        inv = np.linalg.inv(inertia)
-        inv = 0.5 * (inv + inv.T)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            inv = np.linalg.inv(inertia)
+            inv = 0.5 * (inv + inv.T)
+            d_inv = 1.0 / np.diag(inertia)
+        if not (np.isfinite(inv).all() and np.isfinite(d_inv).all()):
+            raise InvalidInertiaError(
+                f"inertia {check.show(inertia)} is too small: its inverse overflows; scale the "
+                "units (every principal moment must be a normal float, >= ~1e-300 kg·m²)"
+            )
         inv.setflags(write=False)
         d = np.diag(inertia).copy()
         off = np.abs(inertia - np.diag(d)).max()
@@ -122,15 +132,6 @@ class RigidBody:
         return R @ self.inertia @ np.swapaxes(R, -1, -2)
 
 
-def _vector_field(name: str, value, width: int) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0 or arr.shape[-1] != width:
-        raise InvalidParameterError(f"{name} must have shape (..., {width}), got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise NonFiniteError(f"{name} must be finite, got {describe(arr)}")
-    return arr
-
-
 @dataclass(frozen=True, eq=False)
 class BodyState:
     """State of one or many rigid bodies, world frame, SI units; leading batch dims broadcast.
@@ -154,21 +155,10 @@ class BodyState:
             "orientation": (self.orientation, 4),
             "angular_velocity": (self.angular_velocity, 3),
         }
-        arrays = {k: _vector_field(k, v, w) for k, (v, w) in given.items() if v is not None}
-        shapes = [a.shape[:-1] for a in arrays.values()]
-        try:
-            batch = np.broadcast_shapes(*shapes) if shapes else ()
-        except ValueError as exc:
-            raise InvalidParameterError(
-                f"BodyState fields have incompatible batch shapes {shapes}"
-            ) from exc
+        arrays = {k: check.vectors(k, v, w) for k, (v, w) in given.items() if v is not None}
+        batch = check.batch_shape({k: (a, 1) for k, a in arrays.items()})
         if "orientation" in arrays:
-            norm = np.linalg.norm(arrays["orientation"], axis=-1)
-            if np.abs(norm - 1.0).max() > _UNIT_TOL:
-                raise InvalidParameterError(
-                    f"orientation must be a unit quaternion (|q| = 1 within {_UNIT_TOL}), got |q| "
-                    f"= {describe(norm)}; use core.quaternion.normalize"
-                )
+            check.unit_quaternion("orientation", arrays["orientation"])
         for name, (_, width) in given.items():
             if name in arrays:
                 full = np.array(np.broadcast_to(arrays[name], (*batch, width)))

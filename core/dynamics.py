@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from core import integrators, kernels, quaternion
+from core import validation as check
+from core.backend import namespace
 from core.body import BodyState, RigidBody
-from core.errors import InvalidParameterError, NonFiniteError, require_finite, require_positive
+from core.errors import InvalidParameterError, NonFiniteError
+
+# Largest n_steps that simulate() accepts (10x the longest run in the stability benchmark).
+MAX_STEPS = 10_000_000
 
 
 def _optional_vector(name: str, value):
-    if value is None:
-        return None
-    arr = require_finite(name, value)
-    if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise InvalidParameterError(f"{name} must have shape (..., 3), got shape {arr.shape}")
-    return arr
+    return None if value is None else check.vectors(name, value, 3)
 
 
 def _parts(arr):
@@ -45,15 +45,25 @@ def translate(name: str, body: RigidBody, x, v, h: float, force_W):
     return x + h * v + (0.5 * h * h) * a, v_new
 
 
-def check_finite_state(q, w_B, integrator: str, h: float):
-    """Raise :class:`NonFiniteError` if a simulated attitude state (components) is not finite."""
-    if all(np.isfinite(c).all() for c in (*q, *w_B)):
+def check_finite_state(q, w_B, integrator: str, h: float, *extra) -> None:
+    """Raise :class:`NonFiniteError` unless a simulated state (components) is finite and unit.
+
+    q: quaternion components, w_B: body-rate components, ``extra``: further arrays (position,
+    velocity) that must be finite too. An orientation whose |q| has left 1 (a zero quaternion
+    after ``h·|ω|`` overflowed, say) counts as non-finite: it is overflow, not an attitude.
+    Cost: one sum and a norm on components (floats for one body, (N,) arrays for a batch).
+    """
+    n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    xp = namespace(n2)
+    if xp.all_finite((*w_B, n2)) and not xp.any(abs(n2 - 1.0) > check.UNIT_TOL) and all(
+        np.isfinite(a).all() for a in extra
+    ):
         return
     raise NonFiniteError(
-        f"simulation diverged: the state became non-finite after a step with integrator="
-        f"{integrator!r}, dt={h!r}. Explicit integrators ('euler', 'semi_implicit', 'rk4') are "
-        "unstable once dt·|ω| is large (≳ 0.5 for the Euler schemes); use 'midpoint' or a "
-        "smaller dt"
+        f"simulation diverged: the state became non-finite (or overflowed) after a step with "
+        f"integrator={integrator!r}, dt={h!r}. Explicit integrators ('euler', 'semi_implicit', "
+        "'rk4') are unstable once dt·|ω| is large (≳ 0.5 for the Euler schemes); use "
+        "'midpoint' or a smaller dt, and keep dt·|ω| and the torques far from overflow"
     )
 
 
@@ -62,10 +72,20 @@ def _prepare(body, state, dt, force, torque, integrator, torque_B):
         raise InvalidParameterError(f"body must be a core.RigidBody, got {type(body).__name__}")
     if not isinstance(state, BodyState):
         raise InvalidParameterError(f"state must be a core.BodyState, got {type(state).__name__}")
-    h = require_positive("dt", dt)
+    h = check.positive("dt", dt)
     kernel = integrators.get(integrator)
-    return (h, kernel, _optional_vector("force", force), _optional_vector("torque", torque),
-            _optional_vector("torque_B", torque_B))
+    loads = {"force": force, "torque": torque, "torque_B": torque_B}
+    loads = {k: _optional_vector(k, v) for k, v in loads.items()}
+    given = {k: (v, 1) for k, v in loads.items() if v is not None}
+    if given:
+        batch = check.batch_shape({"state": (state.orientation, 1), **given})
+        if batch != state.batch_shape:
+            listed = ", ".join(f"{k} {v.shape[:-1]}" for k, (v, _) in given.items())
+            raise InvalidParameterError(
+                f"batch shapes of {listed} must broadcast to the state's batch shape "
+                f"{state.batch_shape}; a load cannot add batch dimensions"
+            )
+    return h, kernel, loads["force"], loads["torque"], loads["torque_B"]
 
 
 def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
@@ -84,10 +104,12 @@ def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
     q = kernels.unpack(state.orientation)
     w_B = kernels.rotate_inverse(q, kernels.unpack(state.angular_velocity))
     q_new, w_new = kernel.advance(body, q, w_B, h, _parts(torque_B), _parts(torque))
-    check_finite_state(q_new, w_new, integrator, h)
     x, v = state.position, state.velocity
     if translation:
         x, v = translate(integrator, body, x, v, h, force)
+        check_finite_state(q_new, w_new, integrator, h, x, v)
+    else:
+        check_finite_state(q_new, w_new, integrator, h)
     shape = state.batch_shape
     w_W = kernels.rotate(q_new, w_new)
     return BodyState.from_arrays(x, v, _pack(q_new, shape), _pack(w_W, shape))
@@ -98,26 +120,30 @@ def simulate(body: RigidBody, state: BodyState, dt: float, n_steps: int, force=N
              trajectory: bool = False):
     """Take ``n_steps`` steps of :func:`step` with constant force/torque (same units and frames).
 
-    Returns the final BodyState, or with ``trajectory=True`` a BodyState whose fields carry a
-    leading time axis of length n_steps + 1 (the initial state first).
+    n_steps: integer in [0, MAX_STEPS]. The state is checked after every step, so a divergence
+    raises :class:`NonFiniteError` at the step where it happens. Returns the final BodyState,
+    or with ``trajectory=True`` a BodyState whose fields carry a leading time axis of length
+    n_steps + 1 (the initial state first).
     """
     h, kernel, force, torque, torque_B = _prepare(body, state, dt, force, torque, integrator,
                                                   torque_B)
-    if int(n_steps) != n_steps or n_steps < 0:
-        raise InvalidParameterError(f"n_steps must be a non-negative integer, got {n_steps!r}")
+    n_steps = check.integer("n_steps", n_steps, low=0, high=MAX_STEPS,
+                            allow_integral_float=True)
     shape = state.batch_shape
     q = kernels.unpack(state.orientation)
     w_B = kernels.rotate_inverse(q, kernels.unpack(state.angular_velocity))
     tau_B, tau_W = _parts(torque_B), _parts(torque)
     x, v = state.position, state.velocity
     history = [(x, v, _pack(q, shape), _pack(w_B, shape))]
-    for _ in range(int(n_steps)):
+    for _ in range(n_steps):
         q, w_B = kernel.advance(body, q, w_B, h, tau_B, tau_W)
         if translation:
             x, v = translate(integrator, body, x, v, h, force)
+            check_finite_state(q, w_B, integrator, h, x, v)
+        else:
+            check_finite_state(q, w_B, integrator, h)
         if trajectory:
             history.append((x, v, _pack(q, shape), _pack(w_B, shape)))
-    check_finite_state(q, w_B, integrator, h)
     if trajectory:
         xs, vs, qs, ws = (np.stack(f) for f in zip(*history, strict=True))
         return BodyState.from_arrays(xs, vs, qs, quaternion.rotate(qs, ws))

@@ -21,38 +21,30 @@ class InvalidParameterError(RbenvValueError):
     """A scalar or array parameter (mass, dt, size, ...) is outside its allowed range."""
 
 
-class NonFiniteError(RbenvValueError):
-    """An input or a simulated state contains NaN or infinity."""
+class NonFiniteError(InvalidParameterError):
+    """An input or a simulated state contains NaN or infinity (or overflowed).
+
+    A subclass of :class:`InvalidParameterError`, since a non-finite input is a bad parameter;
+    catch ``NonFiniteError`` alone to tell a diverged simulation apart.
+    """
 
 
 def describe(value) -> str:
-    """Short, readable rendering of a value for error messages."""
-    arr = np.asarray(value)
-    if arr.ndim == 0:
-        return repr(arr.item())
-    if arr.size <= 9:
-        return np.array2string(arr, precision=6, separator=", ")
-    return f"array of shape {arr.shape}"
+    """Short, readable rendering of a value for error messages; see :func:`core.validation.show`."""
+    from core.validation import show
+
+    return show(value)
 
 
 def require_finite(name: str, value) -> np.ndarray:
-    """``value`` as a float array; raises :class:`NonFiniteError` if any entry is not finite."""
-    arr = np.asarray(value, dtype=float)
-    if not np.isfinite(arr).all():
-        bad = np.argwhere(~np.isfinite(arr))
-        where = "" if arr.ndim == 0 else f" at index {tuple(int(i) for i in bad[0])}"
-        raise NonFiniteError(
-            f"{name} must be finite, got {describe(value)} (non-finite entry{where})"
-        )
-    return arr
+    """``value`` as a finite float array; see :func:`core.validation.finite_array`."""
+    from core.validation import finite_array
+
+    return finite_array(name, value)
 
 
 def require_positive(name: str, value) -> float:
-    """Return ``value`` as a float, raising unless it is finite and strictly positive."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a positive number, got {value!r}") from exc
-    if not np.isfinite(x) or x <= 0.0:
-        raise InvalidParameterError(f"{name} must be finite and > 0, got {x!r}")
-    return x
+    """``value`` as a finite float > 0; see :func:`core.validation.positive`."""
+    from core.validation import positive
+
+    return positive(name, value)

@@ -6,8 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.errors import InvalidParameterError, describe, require_finite
+from core import validation as check
+from core.errors import InvalidParameterError, describe
 from core.vec import cross
+
+# Most thrusters a layout may have (allocation and per-step cost grow with the count).
+MAX_THRUSTERS = 256
 
 
 def wrench_at_points(force_W, point_W, com_W) -> tuple[np.ndarray, np.ndarray]:
@@ -17,9 +21,16 @@ def wrench_at_points(force_W, point_W, com_W) -> tuple[np.ndarray, np.ndarray]:
     ``(F, τ)`` each (..., 3): ``F = Σ F_i`` (the full force accelerates the centre of mass,
     whatever the lever arm) and ``τ = Σ (x_i − c) × F_i`` in N·m.
     """
-    force_W = require_finite("force_W", force_W)
-    point_W = require_finite("point_W", point_W)
-    com_W = require_finite("com_W", com_W)
+    force_W = check.vectors("force_W", force_W, 3)
+    point_W = check.vectors("point_W", point_W, 3)
+    com_W = check.vectors("com_W", com_W, 3)
+    for name, arr in (("force_W", force_W), ("point_W", point_W)):
+        if arr.ndim < 2:
+            raise InvalidParameterError(
+                f"{name} must have shape (..., k, 3) (k forces), got shape {arr.shape}"
+            )
+    check.batch_shape({"force_W": (force_W, 2), "point_W": (point_W, 2), "com_W": (com_W, 1)})
+    check.batch_shape({"force_W": (force_W, 1), "point_W": (point_W, 1)})
     r = point_W - com_W[..., None, :]
     return force_W.sum(axis=-2), cross(r, force_W).sum(axis=-2)
 
@@ -41,32 +52,35 @@ class ThrusterLayout:
     torque_matrix_B: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
-        pos = require_finite("positions_B", self.positions_B)
-        dirs = require_finite("directions_B", self.directions_B)
-        fmax = require_finite("max_force", self.max_force)
-        com = require_finite("com_B", self.com_B)
-        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] == 0:
-            raise InvalidParameterError(f"positions_B must have shape (n, 3), got {pos.shape}")
+        pos = check.array("positions_B", self.positions_B, (None, 3))
         n = pos.shape[0]
-        if dirs.shape != (n, 3):
-            raise InvalidParameterError(f"directions_B must have shape ({n}, 3), got {dirs.shape}")
+        if not 1 <= n <= MAX_THRUSTERS:
+            raise InvalidParameterError(
+                f"positions_B must list between 1 and {MAX_THRUSTERS} thrusters, got {n}"
+            )
+        dirs = check.array("directions_B", self.directions_B, (n, 3))
+        fmax = check.finite_array("max_force", self.max_force)
         fmax = np.broadcast_to(fmax, (n,)).astype(float) if fmax.ndim == 0 else fmax
-        if fmax.shape != (n,):
-            raise InvalidParameterError(f"max_force must have shape ({n},), got {fmax.shape}")
+        fmax = check.array("max_force", fmax, (n,))
+        com = check.array("com_B", self.com_B, (3,))
         if (fmax <= 0).any():
             i = int(np.argmax(fmax <= 0))
             raise InvalidParameterError(f"max_force[{i}] must be > 0 N, got {fmax[i]!r}")
         lengths = np.linalg.norm(dirs, axis=1)
-        if (lengths < 1e-12).any():
-            i = int(np.argmax(lengths < 1e-12))
+        if (lengths < 1e-12).any() or not np.isfinite(lengths).all():
+            i = int(np.argmax((lengths < 1e-12) | ~np.isfinite(lengths)))
             raise InvalidParameterError(
-                f"directions_B[{i}] must be a non-zero vector, got {describe(dirs[i])}"
+                f"directions_B[{i}] must be a non-zero vector of finite length, got "
+                f"{describe(dirs[i])}"
             )
-        if com.shape != (3,):
-            raise InvalidParameterError(f"com_B must have shape (3,), got {com.shape}")
         dirs = dirs / lengths[:, None]
         forces = dirs * fmax[:, None]
         torque_matrix = cross(pos - com, forces).T
+        if not np.isfinite(torque_matrix).all():
+            raise InvalidParameterError(
+                "thruster layout overflows: r × F is not finite for these positions_B and "
+                "max_force; rescale the units"
+            )
         for name, arr in (("positions_B", pos), ("directions_B", dirs), ("max_force", fmax),
                           ("com_B", com), ("force_matrix_B", forces.T.copy()),
                           ("torque_matrix_B", np.ascontiguousarray(torque_matrix))):

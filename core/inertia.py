@@ -10,17 +10,13 @@ result converge to the closed form, which exposes the lecture's hollow-box formu
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
-from core.errors import (
-    InvalidInertiaError,
-    InvalidParameterError,
-    describe,
-    require_finite,
-    require_positive,
-)
+from core import validation as check
+from core.errors import InvalidInertiaError, InvalidParameterError, NonFiniteError, describe
 from core.mesh import MeshError, check_closed_oriented, check_mesh_arrays, load_mesh
 
 __all__ = [
@@ -31,6 +27,7 @@ __all__ = [
     "from_mesh",
     "from_particles",
     "hollow_box",
+    "hollow_cylinder",
     "hollow_sphere",
     "lecture_hollow_box",
     "load_mesh",
@@ -49,6 +46,8 @@ __all__ = [
 _RTOL = 1e-9
 # A mesh whose |volume| is below this fraction of its bounding-box volume counts as flat.
 _FLAT_RTOL = 1e-12
+# Largest particle resolution n of the samplers (a solid box is n³ = 8e6 particles at the cap).
+MAX_PARTICLE_N = 200
 
 
 @dataclass(frozen=True)
@@ -58,6 +57,23 @@ class MassProperties:
     mass: float
     com: np.ndarray
     inertia: np.ndarray
+
+
+def _finite_result(func):
+    """Raise :class:`NonFiniteError` when finite inputs overflow to a non-finite result."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        out = func(*args, **kwargs)
+        parts = (out.mass, out.com, out.inertia) if isinstance(out, MassProperties) else (out,)
+        if not all(np.isfinite(p).all() for p in parts):
+            raise NonFiniteError(
+                f"{func.__name__} overflowed: the inputs are finite but the result is not "
+                f"({describe(parts[-1])}); rescale the units"
+            )
+        return out
+
+    return wrapper
 
 
 # --------------------------------------------------------------------------- checks and transforms
@@ -71,11 +87,12 @@ def validate(inertia, *, name: str = "inertia") -> np.ndarray:
     is accepted). Returns the tensor as a float array (symmetrised to round-off). Raises
     :class:`InvalidInertiaError` naming the rule.
     """
-    arr = np.asarray(inertia, dtype=float)
+    try:
+        arr = check.finite_array(name, inertia)
+    except InvalidParameterError as exc:
+        raise InvalidInertiaError(str(exc)) from None
     if arr.shape != (3, 3):
         raise InvalidInertiaError(f"{name} must have shape (3, 3), got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise InvalidInertiaError(f"{name} must be finite, got {describe(arr)}")
     scale = float(np.abs(arr).max())
     if scale == 0.0:
         raise InvalidInertiaError(f"{name} is all zeros; a rigid body needs positive moments")
@@ -85,7 +102,8 @@ def validate(inertia, *, name: str = "inertia") -> np.ndarray:
             f"{name} must be symmetric, got {describe(arr)} (max |I - Iᵀ| = {asym:.3g})"
         )
     arr = 0.5 * (arr + arr.T)
-    moments = np.linalg.eigvalsh(arr)
+    # Eigenvalues of the tensor divided by its largest entry: no overflow near 1e308.
+    moments = np.linalg.eigvalsh(arr / scale) * scale
     if moments[0] <= _RTOL * scale:
         raise InvalidInertiaError(
             f"{name} is not positive definite: principal moments {describe(moments)}, and every "
@@ -107,47 +125,54 @@ def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     Returns ``(moments, R)``: moments (3,) ascending; R (3, 3) a proper rotation (det +1) whose
     columns are the principal axes in body coordinates, so ``inertia == R @ diag(moments) @ R.T``.
     """
-    arr = require_finite("inertia", inertia)
-    if arr.shape != (3, 3):
-        raise InvalidInertiaError(f"inertia must have shape (3, 3), got shape {arr.shape}")
-    moments, R = np.linalg.eigh(0.5 * (arr + arr.T))
+    arr = check.array("inertia", inertia, (3, 3))
+    scale = float(np.abs(arr).max()) or 1.0
+    moments, R = np.linalg.eigh(0.5 * (arr + arr.T) / scale)
+    moments = moments * scale
     if np.linalg.det(R) < 0:
         R[:, 2] = -R[:, 2]
     return moments, R
 
 
+@_finite_result
 def parallel_axis(inertia_com, mass: float, offset) -> np.ndarray:
     """Inertia about a point displaced by ``offset`` (m, (3,)) from the centre of mass.
 
     ``I_P = I_C + m (|d|² E − d dᵀ)``. inertia_com: (3, 3) about the centre of mass; mass in kg.
     To move between two points neither of which is the centre of mass, go through it.
     """
-    d = np.asarray(offset, dtype=float)
-    return np.asarray(inertia_com, dtype=float) + mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    d = check.array("offset", offset, (3,))
+    J = check.array("inertia_com", inertia_com, (3, 3))
+    m = check.number("mass", mass, low=0.0)
+    return J + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
 
 
 # --------------------------------------------------------------------------- closed forms
 
 
+@_finite_result
 def solid_sphere(mass: float, radius: float) -> np.ndarray:
     """Uniform solid sphere: ``(2/5) m r² E``. mass in kg, radius in m."""
-    m, r = require_positive("mass", mass), require_positive("radius", radius)
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
     return 0.4 * m * r * r * np.eye(3)
 
 
+@_finite_result
 def hollow_sphere(mass: float, radius: float) -> np.ndarray:
     """Thin spherical shell: ``(2/3) m r² E``. mass in kg, radius in m."""
-    m, r = require_positive("mass", mass), require_positive("radius", radius)
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
     return (2.0 / 3.0) * m * r * r * np.eye(3)
 
 
+@_finite_result
 def solid_box(mass: float, size) -> np.ndarray:
     """Uniform solid box: ``I_xx = m (h² + d²) / 12``, cyclic. size = (w, h, d) FULL extents, m."""
-    m = require_positive("mass", mass)
+    m = check.positive("mass", mass)
     w2, h2, d2 = _size3(size) ** 2
     return (m / 12.0) * np.diag([h2 + d2, w2 + d2, w2 + h2])
 
 
+@_finite_result
 def hollow_box(mass: float, size) -> np.ndarray:
     """Closed thin-walled box (six plates, uniform areal density): the correct tensor.
 
@@ -156,7 +181,7 @@ def hollow_box(mass: float, size) -> np.ndarray:
     ``(5/18) m a²``. Each plate adds its own in-plane moment and the parallel-axis term of its
     offset ``±extent/2``; plates share the mass in proportion to their area.
     """
-    m = require_positive("mass", mass)
+    m = check.positive("mass", mass)
     w, h, d = _size3(size)
     area = w * h + w * d + h * d
     moments = [_hollow_box_sum(w, h, d), _hollow_box_sum(h, d, w), _hollow_box_sum(d, w, h)]
@@ -170,6 +195,7 @@ def _hollow_box_sum(along: float, b: float, c: float) -> float:
     return end_plates + side_plates
 
 
+@_finite_result
 def lecture_hollow_box(mass: float, size) -> np.ndarray:
     """The lecture's hollow box ``(5/3) m (h² + d²)``, cyclic. WRONG: do not use for physics.
 
@@ -178,19 +204,39 @@ def lecture_hollow_box(mass: float, size) -> np.ndarray:
     the lecture's own particle Challenge (:func:`box_particles` with ``surface=True``) converges
     to :func:`hollow_box`, not to this.
     """
-    m = require_positive("mass", mass)
+    m = check.positive("mass", mass)
     w2, h2, d2 = _size3(size) ** 2
     return (5.0 / 3.0) * m * np.diag([h2 + d2, w2 + d2, w2 + h2])
 
 
+@_finite_result
 def solid_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
     """Uniform solid cylinder, symmetry axis body z: ``m(3r² + h²)/12``, ``m r²/2``. Units kg, m."""
-    m, r = require_positive("mass", mass), require_positive("radius", radius)
-    h = require_positive("height", height)
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
+    h = check.positive("height", height)
     transverse = m * (3.0 * r * r + h * h) / 12.0
     return np.diag([transverse, transverse, 0.5 * m * r * r])
 
 
+@_finite_result
+def hollow_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
+    """Closed thin-walled cylinder (tube + two end discs, uniform areal density), axis body z.
+
+    mass kg, radius and height m. Returns (3, 3) kg·m² about the centre. The tube (area 2πrh)
+    contributes ``m_t r²`` axially and ``m_t (r²/2 + h²/12)`` transversally; each disc (area
+    πr²) ``m_d r²/2`` and ``m_d (r²/4 + h²/4)``; mass is shared in proportion to area.
+    """
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
+    h = check.positive("height", height)
+    tube_area, disc_area = 2.0 * np.pi * r * h, np.pi * r * r
+    m_t = m * tube_area / (tube_area + 2.0 * disc_area)
+    m_d = 0.5 * (m - m_t)
+    axial = m_t * r**2 + 2.0 * m_d * 0.5 * r**2
+    transverse = m_t * (0.5 * r**2 + h**2 / 12.0) + 2.0 * m_d * (0.25 * r**2 + 0.25 * h**2)
+    return np.diag([transverse, transverse, axial])
+
+
+@_finite_result
 def solid_cone(mass: float, radius: float, height: float, about: str = "apex") -> np.ndarray:
     """Uniform solid cone, axis body z, base radius ``radius`` (m), height ``height`` (m).
 
@@ -198,13 +244,15 @@ def solid_cone(mass: float, radius: float, height: float, about: str = "apex") -
     ``about="com"``: ``I_xx = (3/80) m h² + (3/20) m r²``; the centre of mass lies on the axis
     ``3h/4`` from the apex. ``I_zz = (3/10) m r²`` for both.
     """
-    m, r = require_positive("mass", mass), require_positive("radius", radius)
-    h = require_positive("height", height)
-    axial_factor = {"apex": 3.0 / 5.0, "com": 3.0 / 80.0}[_choice("about", about, ("apex", "com"))]
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
+    h = check.positive("height", height)
+    about = check.choice("about", about, ("apex", "com"))
+    axial_factor = {"apex": 3.0 / 5.0, "com": 3.0 / 80.0}[about]
     transverse = axial_factor * m * h * h + 0.15 * m * r * r
     return np.diag([transverse, transverse, 0.3 * m * r * r])
 
 
+@_finite_result
 def rod(mass: float, length: float, about: str = "center") -> np.ndarray:
     """Thin rod along body z: ``m L²/12`` (``about="center"``) or ``m L²/3`` (``"end"``); I_zz = 0.
 
@@ -212,34 +260,27 @@ def rod(mass: float, length: float, about: str = "center") -> np.ndarray:
     returned for composition with other parts, but :func:`validate` rejects it because a body
     with a zero moment has no ``I⁻¹``.
     """
-    m, length = require_positive("mass", mass), require_positive("length", length)
-    factor = {"center": 1.0 / 12.0, "end": 1.0 / 3.0}[_choice("about", about, ("center", "end"))]
+    m, length = check.positive("mass", mass), check.positive("length", length)
+    about = check.choice("about", about, ("center", "end"))
+    factor = {"center": 1.0 / 12.0, "end": 1.0 / 3.0}[about]
     moment = factor * m * length * length
     return np.diag([moment, moment, 0.0])
 
 
 def _size3(size) -> np.ndarray:
     """Full extents (w, h, d) as a (3,) array of finite, strictly positive floats."""
-    try:
-        a = np.asarray(size, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"size must be 3 numbers (w, h, d) in m, got {size!r}") from exc
-    if a.shape != (3,) or not np.isfinite(a).all() or (a <= 0).any():
+    a = check.array("size", size, (3,))
+    if (a <= 0).any():
         raise InvalidParameterError(
             f"size must be 3 finite full extents (w, h, d) > 0 in m, got {describe(a)}"
         )
     return a
 
 
-def _choice(name: str, value, options: tuple[str, ...]) -> str:
-    if value not in options:
-        raise InvalidParameterError(f"{name} must be one of {options}, got {value!r}")
-    return value
-
-
 # --------------------------------------------------------------------------- particles
 
 
+@_finite_result
 def from_particles(masses, positions) -> MassProperties:
     """Mass, centre of mass and inertia about it of a rigid set of point masses.
 
@@ -247,10 +288,10 @@ def from_particles(masses, positions) -> MassProperties:
     One vectorised pass accumulates Σm, Σm x and Σm x xᵀ (the lecture's "minimise loops"), then
     shifts the second moment to the centre of mass and forms ``I = tr(C) E − C``.
     """
-    x = require_finite("positions", positions)
+    x = check.finite_array("positions", positions)
     if x.ndim != 2 or x.shape[1] != 3 or len(x) == 0:
         raise InvalidParameterError(f"positions must have shape (n >= 1, 3), got shape {x.shape}")
-    m = require_finite("masses", masses)
+    m = check.finite_array("masses", masses)
     if m.ndim > 1 or (m.ndim == 1 and len(m) != len(x)):
         raise InvalidParameterError(
             f"masses must be a scalar or have shape ({len(x)},) to match positions, got {m.shape}"
@@ -289,7 +330,7 @@ def box_particles(
     tends to :func:`hollow_box`. Returns ``(masses (N,) kg, positions (N, 3) m)``; the masses sum
     to ``mass``. The midpoint rule makes the error in every moment exactly ∝ 1/n².
     """
-    m, a = require_positive("mass", mass), _size3(size)
+    m, a = check.positive("mass", mass), _size3(size)
     n = _count("n", n)
     ticks = [(np.arange(n) + 0.5) / n * ai - 0.5 * ai for ai in a]
     if not surface:
@@ -320,7 +361,7 @@ def sphere_particles(
     (with ~π(i + ½) bands, so spacing stays ≈ r/n) at its mid-radius, weighted by the shell's exact
     mass. Returns ``(masses (N,) kg, positions (N, 3) m)``; masses sum to ``mass``; errors ∝ 1/n².
     """
-    m, r = require_positive("mass", mass), require_positive("radius", radius)
+    m, r = check.positive("mass", mass), check.positive("radius", radius)
     n = _count("n", n)
     if surface:
         w, u = _sphere_lattice(n)
@@ -353,14 +394,13 @@ def _sphere_lattice(n_bands: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _count(name: str, value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InvalidParameterError(f"{name} must be an integer >= 1, got {value!r}")
-    return int(value)
+    return check.count(name, value, low=1, high=MAX_PARTICLE_N)
 
 
 # --------------------------------------------------------------------------- meshes
 
 
+@_finite_result
 def from_mesh(vertices, faces, *, mass=None, density=None, shell: bool = False) -> MassProperties:
     """Exact mass properties of a uniform solid (or thin shell) bounded by a triangle mesh.
 
@@ -378,6 +418,9 @@ def from_mesh(vertices, faces, *, mass=None, density=None, shell: bool = False) 
         )
     # Integrate about the vertex centroid rather than the origin: exact either way for a closed
     # surface, and far better conditioned for a mesh placed far from the origin.
+    used = np.unique(f)
+    if len(used) < len(v):  # vertices no face uses carry no mass: leave them out entirely
+        v, f = v[used], np.searchsorted(used, f)
     ref = v.mean(axis=0)
     a, b, c = (v[f[:, k]] - ref for k in range(3))
     if shell:
@@ -389,9 +432,9 @@ def from_mesh(vertices, faces, *, mass=None, density=None, shell: bool = False) 
     if measure <= 0.0:
         raise MeshError(f"mesh surface area must be > 0, got {measure!r} m²")
     if density is None:
-        total = require_positive("mass", mass)
+        total = check.positive("mass", mass)
     else:
-        total = require_positive("density", density) * measure
+        total = check.positive("density", density) * measure
     d = first / measure
     second_com = (total / measure) * second - total * np.outer(d, d)
     return _mass_properties(total, ref + d, second_com)

@@ -12,12 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
-from core.errors import InvalidParameterError, describe, require_finite
+from core import validation as check
+from core.errors import InvalidParameterError, describe
 
 __all__ = ["MeshError", "check_closed_oriented", "check_mesh_arrays", "load_mesh", "weld"]
 
 # Vertices closer than this fraction of the mesh's coordinate scale are merged by `weld`.
 _WELD_RTOL = 1e-9
+# Documented caps: a mesh file is read only up to this size, and may hold this many triangles.
+MAX_MESH_BYTES = 256 * 1024 * 1024
+MAX_MESH_FACES = 2_000_000
 
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
 _STL_VERTEX = re.compile(rb"vertex\s+(\S+)\s+(\S+)\s+(\S+)", re.IGNORECASE)
@@ -32,13 +36,18 @@ def load_mesh(path) -> tuple[np.ndarray, np.ndarray]:
 
     Returns ``(vertices (V, 3) float, faces (F, 3) int)``. STL stores each triangle's corners
     separately, so coincident corners are welded (see :func:`weld`); OBJ polygons are
-    fan-triangulated. Units are whatever the file uses (rbenv assumes metres).
+    fan-triangulated. Units are whatever the file uses (rbenv assumes metres). Only regular
+    files of at most :data:`MAX_MESH_BYTES` bytes with at most :data:`MAX_MESH_FACES` triangles
+    are read; anything else (a FIFO, ``/dev/zero``, a directory) raises :class:`MeshError`.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".stl", ".obj"):
         raise MeshError(f"mesh file {str(path)!r} must end in .stl or .obj, got {suffix!r}")
-    data = path.read_bytes()
+    try:
+        data = check.read_regular_file("mesh file", path, max_bytes=MAX_MESH_BYTES)
+    except InvalidParameterError as exc:
+        raise MeshError(str(exc)) from None
     if suffix == ".stl":
         return weld(_read_stl(data, path))
     return _read_obj(data.decode("utf-8", errors="replace"), path)
@@ -66,14 +75,20 @@ def check_mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     vertices: (V, 3) in m; faces: (F, 3) integer indices into vertices. Raises
     :class:`MeshError` (NonFiniteError for NaN/inf vertices) naming the face and the rule.
     """
-    v = require_finite("vertices", vertices)
+    v = check.finite_array("vertices", vertices)
     if v.ndim != 2 or v.shape[1] != 3 or len(v) < 3:
         raise MeshError(f"vertices must have shape (V >= 3, 3), got shape {v.shape}")
-    f = np.asarray(faces)
+    try:
+        f = np.asarray(faces)
+    except (ValueError, TypeError, OverflowError):
+        raise MeshError(f"faces must be an (F, 3) array of integer vertex indices, got "
+                        f"{describe(faces)}") from None
     if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
         raise MeshError(f"faces must have shape (F >= 1, 3) (triangles), got shape {f.shape}")
     if not np.issubdtype(f.dtype, np.integer):
         raise MeshError(f"faces must hold integer vertex indices, got dtype {f.dtype}")
+    if len(f) > MAX_MESH_FACES:
+        raise MeshError(f"mesh has {len(f)} faces; the limit is {MAX_MESH_FACES}")
     f = f.astype(np.int64)
     bad = np.flatnonzero(((f < 0) | (f >= len(v))).any(axis=1))
     if bad.size:
@@ -131,6 +146,9 @@ def _read_stl(data: bytes, path: Path) -> np.ndarray:
     if len(data) >= 84:
         n = int(np.frombuffer(data, "<u4", count=1, offset=80)[0])
         if len(data) == 84 + 50 * n:
+            if n > MAX_MESH_FACES:
+                raise MeshError(f"STL {str(path)!r} has {n} triangles; the limit is "
+                                f"{MAX_MESH_FACES}")
             records = np.frombuffer(data, _STL_RECORD, count=n, offset=84)
             return _finite_corners(records["v"].astype(float), path)
     if not data.lstrip().lower().startswith(b"solid"):
@@ -139,6 +157,8 @@ def _read_stl(data: bytes, path: Path) -> np.ndarray:
             f"{len(data)} is not 84 + 50 × (triangle count in the header)"
         )
     found = _STL_VERTEX.findall(data)
+    if len(found) > 3 * MAX_MESH_FACES:
+        raise MeshError(f"ASCII STL {str(path)!r} has more than {MAX_MESH_FACES} triangles")
     if not found or len(found) % 3:
         raise MeshError(
             f"ASCII STL {str(path)!r} has {len(found)} 'vertex x y z' lines; need a positive "
@@ -174,6 +194,8 @@ def _read_obj(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
             if len(idx) < 3:
                 raise MeshError(f"{where}: a face needs at least 3 vertices, got {len(idx)}")
             faces.extend((idx[0], idx[k], idx[k + 1]) for k in range(1, len(idx) - 1))
+            if len(faces) > MAX_MESH_FACES:
+                raise MeshError(f"OBJ {str(path)!r} has more than {MAX_MESH_FACES} triangles")
     if not faces:
         raise MeshError(f"OBJ {str(path)!r} has no 'f' (face) records")
     return np.array(vertices, dtype=float).reshape(-1, 3), np.array(faces, dtype=np.int64)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from core import kernels
+from core import validation as check
 from core.errors import InvalidParameterError, describe
 from core.vec import dot
 
@@ -48,13 +49,12 @@ def conjugate(q: np.ndarray) -> np.ndarray:
 
 def normalize(q: np.ndarray) -> np.ndarray:
     """Scale ``q`` (..., 4) to unit length; a zero quaternion raises ``InvalidParameterError``."""
-    q = np.asarray(q, dtype=float)
+    q = check.vectors("quaternion", q, 4)
     n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
-    if not np.all(n > 0.0):
-        raise InvalidParameterError(
-            f"quaternion must have non-zero length to be normalised, got {describe(q)}"
-        )
-    return q / n
+    if np.all((n > 0.0) & (n < np.inf)):
+        return q / n
+    # |q|² overflowed or underflowed somewhere: divide by the largest entry first.
+    return check.unit_quaternion("quaternion", q, normalize=True)
 
 
 def canonical(q: np.ndarray) -> np.ndarray:
@@ -122,11 +122,13 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
 
 def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rotation by ``angle`` (rad, (...)) about ``axis`` ((..., 3), any non-zero length)."""
-    axis = np.asarray(axis, dtype=float)
+    axis = check.vectors("axis", axis, 3)
     n = np.sqrt(dot(axis, axis))
-    if not np.all(n > 0.0):
-        raise InvalidParameterError(f"axis must be a non-zero 3-vector, got {describe(axis)}")
-    half = 0.5 * np.asarray(angle, dtype=float)
+    if not np.all((n > 0.0) & (n < np.inf)):
+        raise InvalidParameterError(
+            f"axis must be a non-zero 3-vector of finite length, got {describe(axis)}"
+        )
+    half = 0.5 * check.finite_array("angle", angle)
     s = (np.sin(half) / n)[..., None]
     return np.concatenate((np.cos(half)[..., None] * np.ones_like(s), s * axis), axis=-1)
 
