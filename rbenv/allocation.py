@@ -48,7 +48,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import linprog, lsq_linear, nnls
 
-from core.errors import InvalidParameterError, describe, require_finite
+from core import validation as check
+from core.errors import InvalidParameterError, describe
 
 __all__ = [
     "ALLOCATORS",
@@ -93,47 +94,55 @@ class Allocator(Protocol):
     def __call__(self, tau_B) -> np.ndarray: ...
 
 
-def _as_torque_matrix(torque_matrix) -> np.ndarray:
+def _as_torque_matrix(torque_matrix, name: str = "torque_matrix") -> np.ndarray:
     """Finite float copy of a (3, n) torque matrix with n ≥ 1, else ``InvalidParameterError``."""
-    B = require_finite("torque_matrix", torque_matrix)
+    B = check.finite_array(name, torque_matrix)
     if B.ndim != 2 or B.shape[0] != 3 or B.shape[1] == 0:
         raise InvalidParameterError(
-            f"torque_matrix must have shape (3, n) with n >= 1 thrusters, got {B.shape}"
+            f"{name} must have shape (3, n) with n >= 1 thrusters, got {B.shape}"
         )
     return np.array(B, dtype=float)
 
 
-def _scale(B: np.ndarray) -> float:
+def _scale(B: np.ndarray, name: str = "torque_matrix") -> float:
     """Largest column norm of ``B`` in N·m, used to make the LPs and NNLS dimensionless."""
     s = float(np.linalg.norm(B, axis=0).max())
     if s == 0.0:
-        raise InvalidParameterError("torque_matrix must have a non-zero column, got all zeros")
+        raise InvalidParameterError(
+            f"{name} must have a non-zero column, got all zeros: the layout produces no torque "
+            "at all (every lever arm is parallel to its thrust)"
+        )
+    if not np.isfinite(s):
+        raise InvalidParameterError(f"{name} column norms overflow: rescale the units")
     return s
 
 
-def validate_torque_matrix(torque_matrix) -> np.ndarray:
+def validate_torque_matrix(torque_matrix, name: str = "torque_matrix") -> np.ndarray:
     """Check a layout can produce torque in every direction; return it as a read-only array.
 
-    torque_matrix: (3, n) N·m per unit throttle. Raises ``InvalidParameterError`` (a
-    ``ValueError``) naming each of ±x, ±y, ±z that no non-negative throttle vector reaches.
+    torque_matrix: (3, n) N·m per unit throttle; ``name`` labels it in messages. For each of
+    ±x, ±y, ±z, NNLS solves ``min ‖B u − e‖, u ≥ 0`` on B scaled by its largest column; a
+    residual above 1e-9 means that direction is unreachable. Raises ``InvalidParameterError``
+    (a ``ValueError``) naming each unreachable direction and its best residual. The only
+    torque-reach check in rbenv: scenes and allocators both call it.
     """
-    B = _as_torque_matrix(torque_matrix)
-    Bn = B / _scale(B)
-    missing, worst = [], 0.0
-    for name, axis, sign in _AXES:
+    B = _as_torque_matrix(torque_matrix, name)
+    Bn = B / _scale(B, name)
+    missing, residuals = [], []
+    for axis_name, axis, sign in _AXES:
         e = np.zeros(3)
         e[axis] = sign
         _, residual = nnls(Bn, e, maxiter=50 * B.shape[1])
         if residual > _CONE_TOL:
-            missing.append(name)
-            worst = max(worst, residual)
+            missing.append(axis_name)
+            residuals.append(f"{axis_name} {residual:.3g}")
     if missing:
         rank = int(np.linalg.matrix_rank(Bn))
         raise InvalidParameterError(
             f"thruster layout cannot produce torque along {', '.join(missing)}: no non-negative "
-            f"throttles on torque_matrix of shape {B.shape} (rank {rank}) give that torque "
-            f"(relative NNLS residual up to {worst:.3g}); every body axis needs thrusters that "
-            f"torque it both ways"
+            f"throttles on {name} of shape {B.shape} (rank {rank}) give that torque (best "
+            f"relative NNLS residual: {'; '.join(residuals)}); every body axis needs thrusters "
+            "whose torque r × F points along it, both ways"
         )
     B.setflags(write=False)
     return B
@@ -141,7 +150,7 @@ def validate_torque_matrix(torque_matrix) -> np.ndarray:
 
 def _as_demand(tau_B) -> tuple[np.ndarray, tuple[int, ...]]:
     """Validate a demand; return it as (N, 3) float plus the batch shape to restore."""
-    tau = require_finite("tau_B", tau_B)
+    tau = check.finite_array("tau_B", tau_B)
     if tau.ndim == 0 or tau.shape[-1] != 3:
         raise InvalidParameterError(
             f"tau_B must have shape (3,) or (..., 3) in N·m, got shape {tau.shape}"
@@ -201,7 +210,7 @@ def max_torque_along(torque_matrix, direction) -> float:
     saturates. One LP, ≈ 1.5 ms: call it at set-up, not per step.
     """
     B = _as_torque_matrix(torque_matrix)
-    d = require_finite("direction", direction)
+    d = check.finite_array("direction", direction)
     if d.shape != (3,):
         raise InvalidParameterError(f"direction must have shape (3,), got {d.shape}")
     norm = float(np.linalg.norm(d))

@@ -25,7 +25,8 @@ import numpy as np
 
 from core import inertia as _inertia
 from core import quaternion as _quaternion
-from core.errors import InvalidParameterError, describe, require_positive
+from core import validation as check
+from core.errors import InvalidParameterError, describe
 
 __all__ = ["VIEW_DIRECTION_W", "Renderer", "equivalent_box", "save_video"]
 
@@ -73,7 +74,7 @@ def equivalent_box(inertia, mass: float) -> tuple[np.ndarray, np.ndarray]:
     principal axis i (moments ascending), R's columns the principal axes in body coordinates.
     """
     arr = _inertia.validate(inertia, name="inertia")
-    m = require_positive("mass", mass)
+    m = check.positive("mass", mass)
     moments, R = _inertia.principal_axes(arr)
     twice = moments.sum() - 2.0 * moments  # I_j + I_k - I_i, >= 0 by the triangle inequality
     half = np.sqrt(np.maximum(twice, 0.0) * 3.0 / (2.0 * m))
@@ -112,13 +113,13 @@ class Renderer:
         *,
         supersample: int = 2,
     ):
-        self.width = _size("width", width)
-        self.height = _size("height", height)
-        ss = _count("supersample", supersample, low=1, high=4)
+        self.width = check.count("width", width, low=8, high=8192)
+        self.height = check.count("height", height, low=8, high=8192)
+        ss = check.count("supersample", supersample, low=1, high=4)
         half, R_p = equivalent_box(inertia, mass)
-        pos = _array("thruster_positions_B", thruster_positions_B, (None, 3))
+        pos = check.array("thruster_positions_B", thruster_positions_B, (None, 3))
         n = len(pos)
-        dirs = _array("thruster_directions_B", thruster_directions_B, (n, 3))
+        dirs = check.array("thruster_directions_B", thruster_directions_B, (n, 3))
         norms = np.linalg.norm(dirs, axis=1)
         if n and not (norms > 0).all():
             i = int(np.argmin(norms))
@@ -212,10 +213,11 @@ class Renderer:
         None for all off; error_deg (deg), rate_dps (deg/s), time_s (s): overlay text, a line is
         left out when its value is None.
         """
-        R = _quaternion.to_matrix(_unit_quaternion("q", q))
+        R = _quaternion.to_matrix(check.unit_quaternion("q", q, normalize=True, single=True))
         R_t = None
         if q_target is not None:
-            R_t = _quaternion.to_matrix(_unit_quaternion("q_target", q_target))
+            q_t = check.unit_quaternion("q_target", q_target, normalize=True, single=True)
+            R_t = _quaternion.to_matrix(q_t)
         thr = self._throttle(throttle)
         labels = [
             ("error", error_deg, "{:.2f}°"),
@@ -523,7 +525,7 @@ class Renderer:
         n = self.n_thrusters
         if throttle is None:
             return np.zeros(n)
-        thr = _array("throttle", throttle, (n,))
+        thr = check.array("throttle", throttle, (n,))
         if ((thr < -_THROTTLE_TOL) | (thr > 1.0 + _THROTTLE_TOL)).any():
             raise InvalidParameterError(f"throttle must lie in [0, 1], got {describe(thr)}")
         return np.clip(thr, 0.0, 1.0)
@@ -543,7 +545,7 @@ def save_video(frames, path, fps: float = 10) -> Path:
     suffix = path.suffix.lower()
     if suffix not in (".gif", ".mp4"):
         raise InvalidParameterError(f"path must end in .gif or .mp4, got {str(path)!r}")
-    fps = require_positive("fps", fps)
+    fps = check.positive("fps", fps)
     try:
         frames = list(frames)
     except TypeError as exc:
@@ -613,48 +615,5 @@ def _convex_hull(pts: np.ndarray) -> list[tuple[float, float]]:
     return hull if len(hull) >= 3 else [*p[:1], *p[-1:], *p[:1]]
 
 
-def _unit_quaternion(name: str, q) -> np.ndarray:
-    arr = _array(name, q, (4,))
-    n = float(np.linalg.norm(arr))
-    if n == 0.0:
-        raise InvalidParameterError(
-            f"{name} must be a non-zero quaternion (w, x, y, z), got {describe(arr)}"
-        )
-    return arr / n
-
-
-def _array(name: str, value, shape: tuple) -> np.ndarray:
-    """``value`` as a finite float array of ``shape`` (None: any length); ValueError naming it."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a numeric array, got {value!r}") from exc
-    want = ", ".join("n" if s is None else str(s) for s in shape)
-    want = f"({want},)" if len(shape) == 1 else f"({want})"
-    if arr.ndim != len(shape) or any(
-        s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)
-    ):
-        raise InvalidParameterError(f"{name} must have shape {want}, got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise InvalidParameterError(f"{name} must be finite, got {describe(arr)}")
-    return arr
-
-
 def _scalar(name: str, value, fmt: str) -> str:
-    try:
-        x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a number or None, got {value!r}") from exc
-    return fmt.format(x)
-
-
-def _size(name: str, value) -> int:
-    return _count(name, value, low=8, high=8192)
-
-
-def _count(name: str, value, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InvalidParameterError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    if not low <= value <= high:
-        raise InvalidParameterError(f"{name} must be in [{low}, {high}], got {value!r}")
-    return int(value)
+    return fmt.format(check.number(name, value))

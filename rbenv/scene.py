@@ -62,7 +62,29 @@ defaults as in the dataclasses below; unknown keys are errors, so typos do not p
 
 Every bad field raises :class:`core.InvalidParameterError` (a ``ValueError``) naming the field,
 the value and the rule; a thruster layout that cannot torque the body both ways about every axis
-names the missing direction.
+names the missing direction. Numbers are real ints or floats (``true`` is not 1, ``"1"`` is not
+a number); flags are ``true``/``false``.
+
+Documented bounds, so that every accepted scene steps to finite observations and rewards (the
+checks live in :mod:`core.validation`; the numbers are the module constants below):
+
+===============================  ===================================================
+field                            rule
+===============================  ===================================================
+scene file                       a regular UTF-8 file of at most 1 MiB (``MAX_SCENE_BYTES``)
+body mass, part masses           1e-6 … 1e7 kg
+sizes, radii, heights            > 0 and <= 1e3 m; positions and com within ±1e3 m
+explicit inertia                 principal moments 1e-12 … 1e12 kg·m²
+thrusters                        1 … 256 (``MAX_THRUSTERS``); max_force > 0 and <= 1e4 N
+thrusters.isp                    1 … 1e5 s
+physics.substeps                 1 … 1000 (``MAX_SUBSTEPS``)
+physics.control_dt               > 0 and <= 3600 s
+episode.duration                 > 0 and <= 1e6 s, and at most 1e6 control steps
+episode.rate_limit               1e-6 … 100 rad/s
+episode.hold_time                0 … duration
+disturbance torque and sigmas    within ±1e6 N·m
+sensor_noise                     attitude 0 … π rad; rate 0 … 100 rad/s
+===============================  ===================================================
 """
 
 from __future__ import annotations
@@ -77,7 +99,10 @@ import numpy as np
 
 from core import INTEGRATORS, RigidBody, ThrusterLayout
 from core import inertia as inertia_lib
+from core import validation as check
 from core.errors import InvalidParameterError, RbenvValueError, describe
+from core.forces import MAX_THRUSTERS
+from rbenv.allocation import validate_torque_matrix
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -94,56 +119,43 @@ __all__ = [
 
 DEFAULT_SCENE = "cubesat-12u"
 G0 = 9.80665  # m/s², standard gravity (defines specific impulse)
-_DIRECTIONS = (("+x", 0, 1.0), ("-x", 0, -1.0), ("+y", 1, 1.0), ("-y", 1, -1.0),
-               ("+z", 2, 1.0), ("-z", 2, -1.0))
-# Relative NNLS residual above which a unit torque direction counts as unreachable.
-_REACH_TOL = 1e-9
+# Documented caps (see the table in the module docstring).
+MAX_SCENE_BYTES = 1 << 20
+MAX_SUBSTEPS = 1000
+MAX_EPISODE_STEPS = 1_000_000
+_MASS = {"low": 1e-6, "high": 1e7}  # kg
+_LENGTH = {"low": 0.0, "low_open": True, "high": 1e3}  # m, sizes
+_COORD = 1e3  # m, |position| and |com| components
+_MOMENT = (1e-12, 1e12)  # kg·m², explicit principal moments
+_TORQUE = 1e6  # N·m, disturbance torques and sigmas
 
 
 # --------------------------------------------------------------------------- field checks
 
 
-def _number(path: str, value, *, low=None, high=None, low_open=False, integer=False) -> float:
+def _number(path: str, value, *, low=None, high=None, low_open=False, integer=False):
     """``value`` as a float (or int) within bounds, else an error naming ``path``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InvalidParameterError(f"{path} must be a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise InvalidParameterError(f"{path} must be finite, got {x!r}")
-    if integer and x != int(x):
-        raise InvalidParameterError(f"{path} must be an integer, got {value!r}")
-    if low is not None and (x <= low if low_open else x < low):
-        rule = ">" if low_open else ">="
-        raise InvalidParameterError(f"{path} must be {rule} {low}, got {value!r}")
-    if high is not None and x > high:
-        raise InvalidParameterError(f"{path} must be <= {high}, got {value!r}")
-    return int(x) if integer else x
+    if integer:
+        return check.integer(path, value, low=low, high=high, allow_integral_float=True)
+    return check.number(path, value, low=low, high=high, low_open=low_open)
 
 
 def _choice(path: str, value, options) -> str:
-    if value not in options:
-        raise InvalidParameterError(f"{path} must be one of {list(options)}, got {value!r}")
-    return value
+    return check.choice(path, value, options)
 
 
-def _array(path: str, value, shape) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{path} must be numbers of shape {shape}, got {value!r}") \
-            from exc
-    if arr.shape != shape:
-        raise InvalidParameterError(f"{path} must have shape {shape}, got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise InvalidParameterError(f"{path} must be finite, got {describe(arr)}")
-    arr.setflags(write=False)
+def _array(path: str, value, shape, *, bound=None) -> np.ndarray:
+    """A read-only finite float array of ``shape``; entries within ±``bound`` if given."""
+    arr = check.array(path, value, shape, readonly=True)
+    if bound is not None and arr.size and np.abs(arr).max() > bound:
+        raise InvalidParameterError(
+            f"{path} entries must lie within ±{bound:g}, got {describe(arr)}"
+        )
     return arr
 
 
 def _flag(path: str, value) -> bool:
-    if not isinstance(value, bool):
-        raise InvalidParameterError(f"{path} must be true or false, got {value!r}")
-    return value
+    return check.flag(path, value)
 
 
 # --------------------------------------------------------------------------- parameter groups
@@ -161,9 +173,9 @@ class Physics:
     def __post_init__(self):
         _choice("physics.integrator", self.integrator, sorted(INTEGRATORS))
         object.__setattr__(self, "substeps", _number("physics.substeps", self.substeps, low=1,
-                                                      integer=True))
+                                                      high=MAX_SUBSTEPS, integer=True))
         object.__setattr__(self, "control_dt", _number("physics.control_dt", self.control_dt,
-                                                        low=0.0, low_open=True))
+                                                        low=0.0, low_open=True, high=3600.0))
         _flag("physics.translation", self.translation)
 
     @property
@@ -188,9 +200,9 @@ class Disturbance:
 
     def __post_init__(self):
         _choice("disturbance.model", self.model, ("none", "constant", "random"))
-        torque = _array("disturbance.torque", self.torque, (3,))
-        bias = _number("disturbance.bias_sigma", self.bias_sigma, low=0.0)
-        noise = _number("disturbance.noise_sigma", self.noise_sigma, low=0.0)
+        torque = _array("disturbance.torque", self.torque, (3,), bound=_TORQUE)
+        bias = _number("disturbance.bias_sigma", self.bias_sigma, low=0.0, high=_TORQUE)
+        noise = _number("disturbance.noise_sigma", self.noise_sigma, low=0.0, high=_TORQUE)
         _unused(self.model, "constant", "disturbance.torque", np.any(torque != 0.0))
         _unused(self.model, "random", "disturbance.bias_sigma", bias != 0.0)
         _unused(self.model, "random", "disturbance.noise_sigma", noise != 0.0)
@@ -225,8 +237,8 @@ class SensorNoise:
 
     def __post_init__(self):
         _choice("sensor_noise.model", self.model, ("none", "gaussian"))
-        for name in ("attitude", "rate"):
-            s = _number(f"sensor_noise.{name}", getattr(self, name), low=0.0)
+        for name, high in (("attitude", math.pi), ("rate", 100.0)):
+            s = _number(f"sensor_noise.{name}", getattr(self, name), low=0.0, high=high)
             _unused(self.model, "gaussian", f"sensor_noise.{name}", s != 0.0)
             object.__setattr__(self, name, s)
 
@@ -245,8 +257,8 @@ class Episode:
 
     def __post_init__(self):
         checks = {
-            "duration": {"low": 0.0, "low_open": True},
-            "rate_limit": {"low": 0.0, "low_open": True},
+            "duration": {"low": 0.0, "low_open": True, "high": 1e6},
+            "rate_limit": {"low": 1e-6, "high": 100.0},
             "success_angle_deg": {"low": 0.0, "low_open": True, "high": 180.0},
             "success_rate": {"low": 0.0, "low_open": True},
             "hold_time": {"low": 0.0},
@@ -255,6 +267,11 @@ class Episode:
         }
         for name, rule in checks.items():
             object.__setattr__(self, name, _number(f"episode.{name}", getattr(self, name), **rule))
+        if self.hold_time > self.duration:
+            raise InvalidParameterError(
+                f"episode.hold_time must be <= episode.duration ({self.duration!r} s), got "
+                f"{self.hold_time!r}"
+            )
         if self.success_rate >= self.rate_limit:
             raise InvalidParameterError(
                 f"episode.success_rate must be < episode.rate_limit ({self.rate_limit!r}), got "
@@ -309,15 +326,19 @@ class Scene:
                 raise InvalidParameterError(
                     f"{attr} must be a {cls.__name__}, got {type(getattr(self, attr)).__name__}"
                 )
-        object.__setattr__(self, "isp", _number("thrusters.isp", self.isp, low=0.0,
-                                                low_open=True))
-        object.__setattr__(self, "sources", tuple(str(s) for s in self.sources))
-        check_torque_reach(self.thrusters.torque_matrix_B)
-        steps = self.episode.duration / self.physics.control_dt
-        if round(steps) < 1:
+        object.__setattr__(self, "isp", _number("thrusters.isp", self.isp, low=1.0, high=1e5))
+        object.__setattr__(self, "sources", _sources(self.sources))
+        if not isinstance(self.description, str):
             raise InvalidParameterError(
-                f"episode.duration ({self.episode.duration!r} s) must span at least one control "
-                f"step of physics.control_dt = {self.physics.control_dt!r} s"
+                f"description must be a string, got {describe(self.description)}"
+            )
+        validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
+        steps = self.episode.duration / self.physics.control_dt
+        if round(steps) < 1 or steps > MAX_EPISODE_STEPS:
+            raise InvalidParameterError(
+                f"episode.duration ({self.episode.duration!r} s) must span between 1 and "
+                f"{MAX_EPISODE_STEPS} control steps of physics.control_dt = "
+                f"{self.physics.control_dt!r} s, got {steps:.6g}"
             )
 
     @property
@@ -365,8 +386,8 @@ class Scene:
                 _check_keys(key, table, {f.name for f in dataclasses.fields(group)})
                 groups[key] = group(**table)
             return cls(name=scene_name or "unnamed", body=body, thrusters=thrusters, isp=isp,
-                       description=str(data.get("description", "")),
-                       sources=tuple(data.get("sources", ())), **groups)
+                       description=data.get("description", ""),
+                       sources=data.get("sources", ()), **groups)
         except RbenvValueError as exc:
             raise type(exc)(f"scene {scene_name!r}: {exc}") from None
 
@@ -374,8 +395,24 @@ class Scene:
     def from_toml(cls, path) -> Scene:
         """Read a scene from a TOML file (``name`` defaults to the file stem)."""
         path = Path(path)
-        with path.open("rb") as f:
-            data = _tomllib().load(f)
+        toml = _tomllib()
+        raw = check.read_regular_file("scene file", path, max_bytes=MAX_SCENE_BYTES)
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise InvalidParameterError(
+                f"scene file {str(path)!r} must be UTF-8 text; byte {exc.start} is not "
+                f"({exc.reason})"
+            ) from None
+        try:
+            data = toml.loads(text)
+        except toml.TOMLDecodeError as exc:
+            raise InvalidParameterError(f"scene file {str(path)!r} is not valid TOML: {exc}") \
+                from None
+        except RecursionError:
+            raise InvalidParameterError(
+                f"scene file {str(path)!r} nests arrays or tables too deeply to parse"
+            ) from None
         return cls.from_dict(data, name=path.stem)
 
 
@@ -403,6 +440,14 @@ def _table(data: dict, key: str, required: bool = False) -> dict:
     if not isinstance(value, dict):
         raise InvalidParameterError(f"{key} must be a table, got {value!r}")
     return dict(value)
+
+
+def _sources(sources) -> tuple:
+    if isinstance(sources, str) or not isinstance(sources, (list, tuple)) or not all(
+        isinstance(x, str) for x in sources
+    ):
+        raise InvalidParameterError(f"sources must be a list of strings, got {describe(sources)}")
+    return tuple(sources)
 
 
 def _check_keys(path: str, table: dict, allowed: set) -> None:
@@ -435,10 +480,16 @@ def mass_properties(body: dict) -> tuple[float, np.ndarray, np.ndarray]:
         _check_keys("body", body, {"parts"})
         return _compose(body["parts"])
     _check_keys("body", body, {"mass", "inertia", "com"})
-    mass = _number("body.mass", body.get("mass"), low=0.0, low_open=True)
-    raw = np.asarray(body["inertia"], dtype=float)
+    mass = _number("body.mass", body.get("mass"), **_MASS)
+    raw = check.finite_array("body.inertia", body["inertia"])
     inertia = np.diag(raw) if raw.shape == (3,) else _array("body.inertia", raw, (3, 3))
-    com = _array("body.com", body.get("com", [0.0, 0.0, 0.0]), (3,))
+    moments = np.linalg.eigvalsh(inertia_lib.validate(inertia, name="body.inertia"))
+    if moments[0] < _MOMENT[0] or moments[-1] > _MOMENT[1]:
+        raise InvalidParameterError(
+            f"body.inertia principal moments must lie in [{_MOMENT[0]:g}, {_MOMENT[1]:g}] kg·m², "
+            f"got {describe(moments)}"
+        )
+    com = _array("body.com", body.get("com", [0.0, 0.0, 0.0]), (3,), bound=_COORD)
     return mass, np.array(com), np.array(inertia, dtype=float)
 
 
@@ -449,36 +500,20 @@ def _part_inertia(path: str, part: dict, allow_point: bool) -> tuple[float, np.n
     keys = {"box": {"size", "hollow"}, "cylinder": {"radius", "height", "hollow"}, "point": set()}
     _check_keys(path, part, {"shape", "mass"} | keys[shape] | ({"position"} if allow_point
                                                                   else set()))
-    mass = _number(f"{path}.mass", part.get("mass"), low=0.0, low_open=True)
+    mass = _number(f"{path}.mass", part.get("mass"), **_MASS)
     hollow = _flag(f"{path}.hollow", part.get("hollow", False))
     if shape == "point":
         return mass, np.zeros((3, 3))
     if shape == "box":
-        size = _array(f"{path}.size", part.get("size"), (3,))
+        size = _array(f"{path}.size", part.get("size"), (3,), bound=_LENGTH["high"])
         if (size <= 0).any():
             raise InvalidParameterError(f"{path}.size must be > 0 m, got {describe(size)}")
         return mass, (inertia_lib.hollow_box if hollow else inertia_lib.solid_box)(mass, size)
-    radius = _number(f"{path}.radius", part.get("radius"), low=0.0, low_open=True)
-    height = _number(f"{path}.height", part.get("height"), low=0.0, low_open=True)
+    radius = _number(f"{path}.radius", part.get("radius"), **_LENGTH)
+    height = _number(f"{path}.height", part.get("height"), **_LENGTH)
     if hollow:
-        return mass, hollow_cylinder(mass, radius, height)
+        return mass, inertia_lib.hollow_cylinder(mass, radius, height)
     return mass, inertia_lib.solid_cylinder(mass, radius, height)
-
-
-def hollow_cylinder(mass: float, radius: float, height: float) -> np.ndarray:
-    """Closed thin-walled cylinder (tube + two end discs, uniform areal density), axis body z.
-
-    mass kg, radius and height m. Returns (3, 3) kg·m² about the centre. The tube (area 2πrh)
-    contributes ``m_t r²`` axially and ``m_t (r²/2 + h²/12)`` transversally; each disc (area
-    πr²) ``m_d r²/2`` and ``m_d (r²/4 + h²/4)``.
-    """
-    tube_area, disc_area = 2.0 * math.pi * radius * height, math.pi * radius * radius
-    m_t = mass * tube_area / (tube_area + 2.0 * disc_area)
-    m_d = 0.5 * (mass - m_t)
-    axial = m_t * radius**2 + 2.0 * m_d * 0.5 * radius**2
-    transverse = (m_t * (0.5 * radius**2 + height**2 / 12.0)
-                  + 2.0 * m_d * (0.25 * radius**2 + 0.25 * height**2))
-    return np.diag([transverse, transverse, axial])
 
 
 def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
@@ -491,7 +526,7 @@ def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
             raise InvalidParameterError(f"{path} must be a table, got {part!r}")
         m, inertia = _part_inertia(path, part, allow_point=True)
         masses.append(m)
-        positions.append(_array(f"{path}.position", part.get("position"), (3,)))
+        positions.append(_array(f"{path}.position", part.get("position"), (3,), bound=_COORD))
         inertias.append(inertia)
     total = float(sum(masses))
     com = sum(m * p for m, p in zip(masses, positions, strict=True)) / total
@@ -505,17 +540,21 @@ def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
 
 def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
     _check_keys("thrusters", table, {"positions", "directions", "max_force", "isp"})
-    pos = np.asarray(table.get("positions"), dtype=float)
+    pos = check.finite_array("thrusters.positions", table.get("positions"))
     if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) == 0:
         raise InvalidParameterError(
             f"thrusters.positions must be a list of [x, y, z] (m), got shape {pos.shape}"
         )
     n = len(pos)
-    pos = _array("thrusters.positions", pos, (n, 3))
+    if n > MAX_THRUSTERS:
+        raise InvalidParameterError(
+            f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
+        )
+    pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
     dirs = _array("thrusters.directions", table.get("directions"), (n, 3))
-    fmax = np.asarray(table.get("max_force"), dtype=float)
+    fmax = check.finite_array("thrusters.max_force", table.get("max_force"))
     fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
-                  (n,))
+                  (n,), bound=1e4)
     if (fmax <= 0).any():
         i = int(np.argmax(fmax <= 0))
         raise InvalidParameterError(f"thrusters.max_force[{i}] must be > 0 N, got {fmax[i]!r}")
@@ -524,38 +563,8 @@ def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
         i = int(np.argmax(lengths == 0))
         raise InvalidParameterError(f"thrusters.directions[{i}] must be non-zero, got "
                                     f"{describe(dirs[i])}")
-    isp = _number("thrusters.isp", table.get("isp"), low=0.0, low_open=True)
+    isp = _number("thrusters.isp", table.get("isp"), low=1.0, high=1e5)
     return ThrusterLayout(positions_B=pos, directions_B=dirs, max_force=fmax, com_B=com_B), isp
-
-
-def check_torque_reach(torque_matrix_B) -> None:
-    """Raise unless non-negative throttles reach torque along each of ±x, ±y, ±z.
-
-    torque_matrix_B: (3, n) N·m per unit throttle. For each unit direction e, NNLS solves
-    ``min ‖B u − e‖, u ≥ 0`` on B scaled by its largest column; a residual above 1e-9 means
-    the direction is unreachable, and the error names it with the best residual.
-    """
-    from scipy.optimize import nnls  # scipy only at scene construction
-
-    B = np.asarray(torque_matrix_B, dtype=float)
-    scale = float(np.linalg.norm(B, axis=0).max())
-    if scale == 0.0:
-        raise InvalidParameterError("thruster layout produces no torque at all (every lever arm "
-                                    "is parallel to its thrust)")
-    Bn = B / scale
-    missing = []
-    for name, axis, sign in _DIRECTIONS:
-        e = np.zeros(3)
-        e[axis] = sign
-        _, residual = nnls(Bn, e, maxiter=50 * B.shape[1])
-        if residual > _REACH_TOL:
-            missing.append(f"{name} (best achievable residual {residual:.3g})")
-    if missing:
-        raise InvalidParameterError(
-            f"thruster layout cannot produce torque along {'; '.join(missing)} with non-negative "
-            "throttles (residual relative to a unit torque in units of the strongest thruster's "
-            "torque); add thrusters whose torque r × F has a component along that direction"
-        )
 
 
 # --------------------------------------------------------------------------- registry
@@ -580,7 +589,7 @@ def load_scene(scene=DEFAULT_SCENE) -> Scene:
             with resources.as_file(_scene_dir() / f"{text}.toml") as path:
                 return Scene.from_toml(path)
         path = Path(scene)
-        if path.suffix == ".toml" and path.is_file():
+        if path.suffix == ".toml" and path.exists():
             return Scene.from_toml(path)
         raise InvalidParameterError(
             f"scene must be a shipped name {list_scenes()}, a path to an existing .toml file or "

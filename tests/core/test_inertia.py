@@ -594,3 +594,38 @@ def test_load_mesh_rejects_bad_files(tmp_path):
     not_stl.write_bytes(b"\x00\x01 definitely not a mesh")
     with pytest.raises(MeshError, match="not an STL"):
         inertia.load_mesh(not_stl)
+
+
+# ------------------------------------------------------------------ hollow cylinder
+
+
+def test_hollow_cylinder_matches_sampled_surface():
+    """Closed thin-walled cylinder vs. an area-weighted point sampling of tube and end discs."""
+    m, r, h, n = 2.0, 0.3, 1.0, 400
+    phi = (np.arange(n) + 0.5) / n * 2 * np.pi
+    z = (np.arange(n) + 0.5) / n * h - h / 2
+    P, Z = np.meshgrid(phi, z, indexing="ij")
+    tube = np.stack([r * np.cos(P).ravel(), r * np.sin(P).ravel(), Z.ravel()], 1)
+    rho = np.sqrt((np.arange(n) + 0.5) / n) * r  # equal-area rings
+    R, P2 = np.meshgrid(rho, phi, indexing="ij")
+    disc = np.stack([(R * np.cos(P2)).ravel(), (R * np.sin(P2)).ravel()], 1)
+    caps = [np.column_stack([disc, np.full(len(disc), s * h / 2)]) for s in (-1, 1)]
+    pts = np.concatenate([tube, *caps])
+    area = np.concatenate([np.full(len(tube), 2 * np.pi * r * h / len(tube)),
+                           np.full(2 * len(disc), np.pi * r * r / len(disc))])
+    ref = inertia.from_particles(m * area / area.sum(), pts).inertia
+    np.testing.assert_allclose(inertia.hollow_cylinder(m, r, h), ref, rtol=2e-3, atol=1e-9)
+
+
+def test_hollow_cylinder_limits_are_the_thin_tube_and_the_thin_disc():
+    """Independent limits: a long tube (h ≫ r) and a flat pillbox (h ≪ r), closed forms."""
+    m, r = 2.0, 0.3
+    # h → ∞: the discs' share of the mass vanishes; the tube has I_zz = m r², I_xx = m h²/12.
+    h = 1e6
+    J = inertia.hollow_cylinder(m, r, h)
+    np.testing.assert_allclose(J[2, 2], m * r * r, rtol=1e-6)
+    np.testing.assert_allclose(J[0, 0], m * h * h / 12.0, rtol=1e-6)
+    # h → 0: two coincident discs of mass m/2 each: I_zz = m r²/2, I_xx = m r²/4.
+    J = inertia.hollow_cylinder(m, r, 1e-9)
+    np.testing.assert_allclose(np.diag(J), [m * r * r / 4, m * r * r / 4, m * r * r / 2],
+                               rtol=1e-7)
