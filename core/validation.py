@@ -110,7 +110,12 @@ def _check_bounds(name, x, value, low, high, low_open, high_open) -> None:
 
 def number(name: str, value, *, low=None, high=None, low_open: bool = False,
            high_open: bool = False) -> float:
-    """``value`` as a finite float within the bounds (``*_open``: strict inequality)."""
+    """``value`` as a finite float within the bounds (``*_open``: strict inequality).
+
+    A 0-d NumPy array of a real dtype counts as its number.
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
     if not is_number(value):
         raise InvalidParameterError(
             f"{name} must be a real number (int or float), got {show(value)} "
@@ -263,14 +268,15 @@ def vectors(name: str, value, width: int) -> np.ndarray:
     return arr
 
 
-def unit_quaternion(name: str, value, *, normalize: bool = False) -> np.ndarray:
-    """Quaternion(s) (..., 4), scalar first, checked to be unit.
+def unit_quaternion(name: str, value, *, normalize: bool = False,
+                    single: bool = False) -> np.ndarray:
+    """Quaternion(s) (..., 4), scalar first, checked to be unit (``single``: exactly (4,)).
 
     ``normalize=False``: |q| must be 1 within :data:`UNIT_TOL` (normalise first with
     ``core.quaternion.normalize``). ``normalize=True``: any non-zero length is accepted and
     scaled to 1 (computed without overflow, so 1e200 entries are fine).
     """
-    q = vectors(name, value, 4)
+    q = array(name, value, (4,)) if single else vectors(name, value, 4)
     big = np.max(np.abs(q), axis=-1, keepdims=True)
     if (big == 0.0).any():
         raise InvalidParameterError(f"{name} must be a non-zero quaternion (w, x, y, z), "
