@@ -148,6 +148,16 @@ def prepare_new_run(run_dir: Path, force: bool) -> None:
             shutil.rmtree(run_dir / name)
 
 
+def remove_temporaries(run_dir: Path) -> list[Path]:
+    """Delete temporary files a killed writer left (call only while holding the run's lock)."""
+    run_dir = Path(run_dir)
+    stale = [p for d in (run_dir, run_dir / CHECKPOINTS, run_dir / EVAL_LOG.parent)
+             if d.is_dir() for p in d.glob(".*.tmp")]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    return stale
+
+
 # --- lock -------------------------------------------------------------------------------------
 
 class RunLock:

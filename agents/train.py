@@ -18,6 +18,7 @@ is also the fastest for these small MLPs) and the CPU kind.
 
 from __future__ import annotations
 
+import numbers
 import platform
 import time
 import warnings
@@ -72,12 +73,19 @@ class TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
         if self.algo not in DEFAULT_HYPERPARAMS:
             raise InvalidParameterError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
-        self.timesteps = int(self.timesteps or DEFAULT_TIMESTEPS[self.algo])
-        self.n_envs = int(self.n_envs or DEFAULT_N_ENVS[self.algo])
+        if self.timesteps is None:
+            self.timesteps = DEFAULT_TIMESTEPS[self.algo]
+        if self.n_envs is None:
+            self.n_envs = DEFAULT_N_ENVS[self.algo]
         for name in ("timesteps", "n_envs", "threads", "checkpoint_every", "eval_every"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
                 raise InvalidParameterError(f"{name} must be a positive integer, got {value!r}")
+            setattr(self, name, int(value))
+        for name in ("env_kwargs", "hyperparams"):
+            if not isinstance(getattr(self, name), dict):
+                raise InvalidParameterError(f"{name} must be a dict (a JSON object), got "
+                                            f"{getattr(self, name)!r}")
         self.hyperparams = {**DEFAULT_HYPERPARAMS[self.algo], **self.hyperparams}
         self.out = self.out or f"runs/{self.algo}-{self.scene}-seed{self.seed}"
         starts = self.hyperparams.get("learning_starts", 0)
@@ -342,6 +350,8 @@ def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
     out.mkdir(parents=True, exist_ok=True)
     with runs.RunLock(out):
         if resume:
+            for p in runs.remove_temporaries(out):
+                print(f"removed {str(p)!r}, left by a killed writer")
             finished = runs.is_finished(out)
             if finished and int(finished.get("timesteps", 0)) >= cfg.timesteps:
                 print(f"run {str(out)!r} is already finished ({finished['timesteps']} timesteps)"

@@ -60,11 +60,12 @@ def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
     assert np.array_equal(again, actions)
 
 
-def test_resume_after_a_real_kill(tmp_path):
+def test_resume_after_a_real_kill(tmp_path, capsys):
     out = tmp_path / "killed"
     cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "10000000",
            "--n-envs", "8", "--out", str(out), "--checkpoint-every", "1024",
-           "--eval-every", "100000000", "--hyperparams", json.dumps(SMALL), "--no-report"]
+           "--eval-every", "100000000", "--hyperparams", json.dumps(SMALL), "--no-report",
+           "--no-progress"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.time() + 180
@@ -86,8 +87,12 @@ def test_resume_after_a_real_kill(tmp_path):
     # Resume with a new total; the saved config (hyperparameters, seed, scene) is reused.
     cfg = TrainConfig(out=str(out), timesteps=done + 2048)
     train(cfg, resume=True, progress_bar=False, report=False)
+    printed = capsys.readouterr().out
+    assert f"stale lock {str(out / 'run.lock')!r} from pid {proc.pid}" in printed
+    assert f"from {done} timesteps" in printed
     summary = json.loads((out / "training.json").read_text())
-    assert summary["resumed_from"] == done
+    assert summary["resumed_from"] == done and summary["wall_time_s"] > 0
+    assert not list(out.rglob("*.tmp"))  # a temporary left by the kill is cleaned up
     assert summary["timesteps"] >= done + 2048
     model = PPO.load(out / "model.zip", device="cpu")
     assert model.n_steps == SMALL["n_steps"]  # hyperparameters came from config.json

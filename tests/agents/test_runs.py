@@ -1,0 +1,398 @@
+"""Run folders: resume, fall-back past corrupt checkpoints, confinement, locks, --force, loading.
+
+Every run here is tiny (4 envs, 32-step rollouts, a few hundred timesteps); a module fixture
+trains one run with checkpoints at 128, 256, 384 and 512 timesteps, and each test works on a
+copy of it.
+"""
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+import threading
+
+import numpy as np
+import pytest
+import torch
+
+from agents import runs
+from agents.runs import RunFolderError, RunLock, RunLockedError, load_policy
+from agents.train import TrainConfig, train
+from core.errors import InvalidParameterError, RbenvValueError
+
+SMALL = {"n_steps": 32, "batch_size": 64, "n_epochs": 1}
+SHORT = {"max_episode_steps": 30}  # short episodes keep evaluations cheap
+
+
+def tiny(out, **kw):
+    base = dict(timesteps=512, n_envs=4, out=str(out), hyperparams=SMALL, env_kwargs=SHORT,
+                checkpoint_every=128, eval_every=128, eval_episodes=2, report_episodes=4)
+    return TrainConfig(**{**base, **kw})
+
+
+def run(cfg, **kw):
+    return train(cfg, progress_bar=False, report=False, **kw)
+
+
+@pytest.fixture(scope="module")
+def base_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("base") / "run"
+    run(tiny(out))
+    return out
+
+
+@pytest.fixture
+def copy(base_run, tmp_path):
+    dst = tmp_path / "copy"
+    shutil.copytree(base_run, dst)
+    (dst / runs.LOCK).unlink(missing_ok=True)
+    return dst
+
+
+def summary(out):
+    return json.loads((out / "training.json").read_text())
+
+
+def params(out):
+    from stable_baselines3 import PPO
+
+    return PPO.load(out / "model.zip", device="cpu").policy.state_dict()
+
+
+# --- resume ------------------------------------------------------------------------------------
+
+def test_base_run_has_checkpoints_history_and_a_trained_summary(base_run):
+    names = sorted(p.name for p in (base_run / "checkpoints").glob("model_*.zip"))
+    assert names == ["model_128.zip", "model_256.zip", "model_384.zip", "model_512.zip"]
+    s = summary(base_run)
+    assert s["timesteps"] == 512 and s["trained"] and s["gradient_updates"] > 0
+    assert s["wall_time_s"] > 0 and s["threads"] == 1
+    assert np.load(base_run / "eval" / "evaluations.npz")["timesteps"].tolist() == [
+        128, 256, 384, 512]
+    assert not (base_run / runs.LOCK).read_text()  # released cleanly: no stale record
+
+
+def test_resume_continues_the_folder_given_not_the_one_in_config_json(copy, base_run):
+    assert json.loads((copy / "config.json").read_text())["out"] == str(base_run)
+    before = {p: p.stat().st_mtime_ns for p in base_run.rglob("*")}
+    run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    assert summary(copy)["timesteps"] == 640 and summary(copy)["resumed_from"] == 512
+    assert (copy / "checkpoints" / "model_640.zip").exists()
+    assert {p: p.stat().st_mtime_ns for p in base_run.rglob("*")} == before
+
+
+def test_resume_keeps_the_evaluation_history_and_accumulates_wall_time(copy):
+    wall = summary(copy)["wall_time_s"]
+    run(TrainConfig(out=str(copy), timesteps=768), resume=True)
+    log = np.load(copy / "eval" / "evaluations.npz")
+    assert log["timesteps"].tolist() == [128, 256, 384, 512, 640, 768]
+    assert log["successes"].shape == (6, 2) and log["results"].shape == (6, 2)
+    assert summary(copy)["wall_time_s"] > wall
+
+
+def test_resume_of_a_finished_run_is_a_no_op(copy, capsys):
+    files = {p: p.read_bytes() for p in copy.rglob("*") if p.is_file() and p.name != runs.LOCK}
+    run(TrainConfig(out=str(copy)), resume=True)
+    assert "already finished (512 timesteps); nothing to do" in capsys.readouterr().out
+    assert {p: p.read_bytes() for p in files} == files
+
+
+def test_resume_refuses_a_folder_that_is_not_a_run(tmp_path):
+    (tmp_path / "notes.txt").write_text("hello")
+    with pytest.raises(RunFolderError, match=f"{tmp_path}.*is not a training run.*config.json"):
+        run(TrainConfig(out=str(tmp_path)), resume=True)
+    with pytest.raises(RunFolderError, match="does not exist"):
+        run(TrainConfig(out=str(tmp_path / "missing")), resume=True)
+    assert not (tmp_path / "missing").exists()
+
+
+def test_resume_with_no_checkpoint_yet_starts_from_zero_and_says_so(copy, capsys):
+    for name in ("checkpoints", "eval"):
+        shutil.rmtree(copy / name)
+    for name in ("model.zip", "training.json"):
+        (copy / name).unlink()
+    run(TrainConfig(out=str(copy), timesteps=256), resume=True)
+    assert "no checkpoint in" in capsys.readouterr().out
+    assert summary(copy)["timesteps"] == 256 and summary(copy)["resumed_from"] is None
+
+
+# --- corrupt and hostile files ----------------------------------------------------------------
+
+def _truncate(path):
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+
+
+def _flip_bytes(path):
+    data = bytearray(path.read_bytes())
+    for i in range(len(data) // 3, len(data) // 3 + 64):
+        data[i] ^= 0xFF
+    path.write_bytes(bytes(data))
+
+
+CORRUPTIONS = {
+    "model truncated": lambda d: _truncate(d / "model_512.zip"),
+    "model bytes flipped": lambda d: _flip_bytes(d / "model_512.zip"),
+    "model missing": lambda d: (d / "model_512.zip").unlink(),
+    "model empty": lambda d: (d / "model_512.zip").write_bytes(b""),
+    "stats truncated": lambda d: _truncate(d / "vecnormalize_512.pkl"),
+    "stats garbage": lambda d: (d / "vecnormalize_512.pkl").write_bytes(b"\x80\x04garbage"),
+    "stats missing": lambda d: (d / "vecnormalize_512.pkl").unlink(),
+}
+
+
+@pytest.mark.parametrize("corrupt", CORRUPTIONS, ids=list(CORRUPTIONS))
+def test_resume_falls_back_past_a_corrupt_checkpoint_and_names_the_file(copy, capsys, corrupt):
+    CORRUPTIONS[corrupt](copy / "checkpoints")
+    run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    out = capsys.readouterr().out
+    named = "vecnormalize_512.pkl" if corrupt.startswith("stats") else "model_512.zip"
+    assert named in out and "unusable" in out
+    assert "falling back to the last complete checkpoint" in out and "model_384.zip" in out
+    assert summary(copy)["resumed_from"] == 384 and summary(copy)["timesteps"] == 640
+
+
+LATEST = {
+    "not json": "{nope",
+    "a list": "[1, 2]",
+    "missing key": '{"timesteps": 512, "model": "model_512.zip"}',
+    "bad steps": '{"timesteps": "x", "model": "model_512.zip", '
+                 '"vecnormalize": "vecnormalize_512.pkl"}',
+    "path outside": '{"timesteps": 512, "model": "../../../../etc/passwd", '
+                    '"vecnormalize": "vecnormalize_512.pkl"}',
+    "absolute path": '{"timesteps": 512, "model": "model_512.zip", '
+                     '"vecnormalize": "/tmp/evil.pkl"}',
+}
+
+
+@pytest.mark.parametrize("text", LATEST.values(), ids=list(LATEST))
+def test_a_bad_latest_json_is_reported_and_the_newest_checkpoint_on_disk_is_used(copy, capsys,
+                                                                                 text):
+    (copy / "checkpoints" / "latest.json").write_text(text)
+    run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    out = capsys.readouterr().out
+    assert "ignoring" in out and "latest.json" in out
+    assert summary(copy)["resumed_from"] == 512
+
+
+def test_a_symlink_out_of_the_run_folder_is_refused(copy, tmp_path):
+    outside = tmp_path / "elsewhere.pkl"
+    shutil.copy(copy / "checkpoints" / "vecnormalize_512.pkl", outside)
+    (copy / "checkpoints" / "link.pkl").symlink_to(outside)
+    with pytest.raises(RunFolderError, match="resolves outside"):
+        runs.confined(copy / "checkpoints", "link.pkl", "vecnormalize")
+
+
+def test_every_checkpoint_corrupt_is_an_error_naming_them(copy):
+    for p in (copy / "checkpoints").glob("model_*.zip"):
+        _truncate(p)
+    with pytest.raises(RunFolderError, match=r"no usable checkpoint.*model_512.zip.*model_128.zip"):
+        run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+
+
+@pytest.mark.parametrize("text", ["{", "[]", '{"algo": "ppo", "hyperparams": 3}',
+                                  '{"algo": "dqn"}', '{"n_envs": -5}',
+                                  '{"env_kwargs": [1]}'])
+def test_a_corrupt_config_json_is_an_error_naming_it(copy, text):
+    (copy / "config.json").write_text(text)
+    with pytest.raises(RunFolderError, match=r"config.json"):
+        run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+
+
+@pytest.mark.parametrize("target", ["model.zip", "vecnormalize.pkl"])
+def test_loading_a_corrupt_final_file_names_it(copy, target):
+    _truncate(copy / target)
+    with pytest.raises(RunFolderError, match=re.escape(target)):
+        load_policy(copy)
+
+
+def test_a_torn_evaluation_history_is_replaced_with_a_warning(copy):
+    _truncate(copy / "eval" / "evaluations.npz")
+    with pytest.warns(UserWarning, match="evaluations.npz"):
+        run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    assert np.load(copy / "eval" / "evaluations.npz")["timesteps"].tolist() == [640]
+
+
+# --- new runs, --force, locks, temporary files ------------------------------------------------
+
+def test_a_new_run_into_a_non_empty_folder_needs_force(copy):
+    (copy / "mine.txt").write_text("keep me")
+    with pytest.raises(RunFolderError, match=r"not empty.*--force"):
+        run(tiny(copy, timesteps=128))
+    assert summary(copy)["timesteps"] == 512  # untouched
+    run(tiny(copy, timesteps=128, checkpoint_every=64), force=True)
+    assert summary(copy)["timesteps"] == 128
+    assert not (copy / "checkpoints" / "model_512.zip").exists()  # the old run is gone
+    assert (copy / "mine.txt").read_text() == "keep me"  # files that are not the run's stay
+
+
+HOLD_LOCK = textwrap.dedent("""
+    import sys, time
+    from agents.runs import RunLock
+    lock = RunLock(sys.argv[1]).acquire()
+    print("locked", flush=True)
+    time.sleep(120)
+""")
+
+
+def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_lock(copy):
+    holder = subprocess.Popen([sys.executable, "-c", HOLD_LOCK, str(copy)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        with pytest.raises(RunLockedError, match=f"in use by pid {holder.pid}"):
+            run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+        with pytest.raises(RunLockedError):
+            run(tiny(copy), force=True)
+        assert summary(copy)["timesteps"] == 512
+    finally:
+        holder.kill()  # SIGKILL: no clean-up runs in the holder
+        holder.wait()
+    lock = RunLock(copy).acquire()
+    try:
+        assert lock.stale["pid"] == holder.pid  # recognised as stale, and taken over
+    finally:
+        lock.release()
+
+
+def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
+    out = tmp_path / "shared"
+    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "2048", "--n-envs", "4",
+           "--out", str(out), "--checkpoint-every", "256", "--eval-every", "100000",
+           "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
+           "--no-report", "--no-progress"]
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    results = [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in procs]
+    codes = sorted(r[0] for r in results)
+    errors = " ".join(r[2] for r in results)
+    # Either the second start found the folder locked, or (if the first had finished) not
+    # empty; both are refusals with a named reason, never an interleaved run.
+    assert codes == [0, 2], results
+    assert "rbenv: error:" in errors and ("is in use by pid" in errors or "not empty" in errors)
+    assert summary(out)["timesteps"] == 2048
+    steps = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("model_*.zip"))
+    assert steps == list(range(256, 2049, 256))
+    assert not list(out.rglob("*.tmp"))
+
+
+def test_atomic_writes_use_unique_temporary_names(tmp_path):
+    target = tmp_path / "shared.json"
+    errors = []
+
+    def writer(k):
+        try:
+            for i in range(50):
+                runs.write_json(target, {"writer": k, "i": i, "pad": "x" * 5000})
+        except Exception as e:  # pragma: no cover - the failure being tested for
+            errors.append(e)
+
+    threads = [threading.Thread(target=writer, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert json.loads(target.read_text())["i"] == 49
+    assert [p.name for p in tmp_path.iterdir()] == ["shared.json"]
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
+    target = tmp_path / "f.txt"
+    target.write_text("old")
+
+    def fail(p):
+        p.write_text("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        runs.atomic_write(target, fail)
+    assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["f.txt"]
+
+
+# --- configuration checks ---------------------------------------------------------------------
+
+def test_sac_shorter_than_learning_starts_is_refused_before_training(tmp_path):
+    with pytest.raises(InvalidParameterError, match="learning_starts"):
+        run(TrainConfig(algo="sac", timesteps=2000, out=str(tmp_path / "sac")))
+    assert not (tmp_path / "sac").exists()
+
+
+@pytest.mark.parametrize("field,value", [("threads", 0), ("n_envs", -1), ("timesteps", True),
+                                         ("n_envs", 2.5), ("checkpoint_every", 0)])
+def test_bad_counts_are_named(tmp_path, field, value):
+    with pytest.raises(InvalidParameterError, match=field):
+        run(tiny(tmp_path / "x", **{field: value}))
+
+
+# --- loading for deployment -------------------------------------------------------------------
+
+def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize  # noqa: F401 (pickle class)
+
+    policy = load_policy(base_run)
+    env = policy.make_env()
+    assert env.spec.max_episode_steps == SHORT["max_episode_steps"]  # the run's env options
+    obs, _ = env.reset(seed=3)
+    action, _ = policy.predict(obs)
+    stats = runs.load_stats(base_run / "vecnormalize.pkl")
+    expected, _ = PPO.load(base_run / "model.zip", device="cpu").predict(
+        stats.normalize_obs(obs), deterministic=True)
+    assert action.shape == (12,) and np.array_equal(action, expected)
+    with pytest.raises(ValueError, match="observation shape"):
+        policy.predict(np.zeros(3, np.float32))
+
+
+def test_a_checkpoint_is_paired_with_its_own_statistics(base_run):
+    ckpt = load_policy(base_run / "checkpoints" / "model_128.zip")
+    own = runs.load_stats(base_run / "checkpoints" / "vecnormalize_128.pkl")
+    final = runs.load_stats(base_run / "vecnormalize.pkl")
+    assert np.array_equal(ckpt.vecnormalize.obs_rms.mean, own.obs_rms.mean)
+    assert not np.allclose(ckpt.vecnormalize.obs_rms.mean, final.obs_rms.mean)
+    assert ckpt.config["n_envs"] == 4 and ckpt.env_kwargs["scene"] == "cubesat-12u"
+
+
+def test_a_checkpoint_without_its_statistics_is_refused(copy):
+    (copy / "checkpoints" / "vecnormalize_256.pkl").unlink()
+    with pytest.raises(RunFolderError, match=r"vecnormalize_256.pkl"):
+        load_policy(copy / "checkpoints" / "model_256.zip")
+
+
+def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
+    from agents.cli import main as cli_main
+
+    out = tmp_path / "torque"
+    run(tiny(out, timesteps=256, env_kwargs={**SHORT, "action_mode": "torque"}))
+    summary_path = tmp_path / "ckpt.json"
+    assert cli_main(["evaluate", "--policy", str(out / "checkpoints" / "model_128.zip"),
+                     "--episodes", "3", "--json", str(summary_path)]) == 0
+    assert json.loads(summary_path.read_text())["episodes"] == 3
+
+
+def test_not_a_model_is_an_error_naming_it(tmp_path):
+    bogus = tmp_path / "model.zip"
+    bogus.write_text("not a zip")
+    with pytest.raises(RbenvValueError, match=r"model.zip"):
+        load_policy(bogus)
+
+
+# --- threads, reproducibility, tensorboard ----------------------------------------------------
+
+def test_training_is_reproducible_given_seed_and_threads(tmp_path, base_run):
+    run(tiny(tmp_path / "again"))
+    a, b = params(base_run), params(tmp_path / "again")
+    assert a.keys() == b.keys()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert torch.get_num_threads() == 1
+    run(tiny(tmp_path / "seed1", seed=1))
+    c = params(tmp_path / "seed1")
+    assert not all(torch.equal(a[k], c[k]) for k in a)  # the comparison can fail
+
+
+def test_tensorboard_logs_through_sb3(tmp_path):
+    pytest.importorskip("tensorboard")
+    run(tiny(tmp_path / "tbrun", timesteps=256), tensorboard=str(tmp_path / "tb"))
+    events = list((tmp_path / "tb" / "tbrun").glob("events.out.tfevents.*"))
+    assert events and events[0].stat().st_size > 100
