@@ -31,6 +31,7 @@ class FloatNamespace:
     sqrt = staticmethod(math.sqrt)
     sin = staticmethod(math.sin)
     cos = staticmethod(math.cos)
+    tan = staticmethod(math.tan)
     atan2 = staticmethod(math.atan2)
     isfinite = staticmethod(math.isfinite)
 
@@ -79,6 +80,7 @@ class NumpyNamespace:
     sqrt = staticmethod(np.sqrt)
     sin = staticmethod(np.sin)
     cos = staticmethod(np.cos)
+    tan = staticmethod(np.tan)
     atan2 = staticmethod(np.arctan2)
     isfinite = staticmethod(np.isfinite)
     where = staticmethod(np.where)

@@ -119,8 +119,7 @@ def _turn(q, m, phi, xp):
 
     Components in cyclic order starting at the axis: q = (w, v₁, v₂, v₃), m = (m₁, m₂, m₃).
     """
-    half = 0.5 * phi
-    c2, s2 = xp.cos(half), xp.sin(half)
+    c2, s2 = k.cos_sin_half(phi, xp)
     c, s = c2 * c2 - s2 * s2, 2.0 * s2 * c2
     w, a, b, d = q
     m1, m2, m3 = m
