@@ -18,73 +18,95 @@ import numpy as np
 
 from core.vec import cross
 from rbenv.allocation import axis_authority, make_allocator
-from rbenv.task import TaskConfig
+from rbenv.plant import Plant
+from rbenv.tasks import Task
 
 
-def task_config(env) -> TaskConfig:
-    """The :class:`rbenv.task.TaskConfig` of a single env, vector env, or wrapped env."""
-    for candidate in (env, getattr(env, "unwrapped", None), getattr(env, "venv", None)):
-        cfg = getattr(candidate, "config", None)
-        if isinstance(cfg, TaskConfig):
-            return cfg
-    raise TypeError(f"cannot find an rbenv TaskConfig on {type(env).__name__}")
+def env_parts(env) -> tuple[Plant, Task]:
+    """The (plant, task) of a single env, vector env, wrapped env or SB3 adapter."""
+    for candidate in (env, getattr(env, "unwrapped", None), getattr(env, "venv", None),
+                      getattr(getattr(env, "venv", None), "unwrapped", None)):
+        plant, task = getattr(candidate, "plant", None), getattr(candidate, "task", None)
+        if isinstance(plant, Plant) and isinstance(task, Task):
+            return plant, task
+    raise TypeError(f"cannot find an rbenv plant and task on {type(env).__name__}")
 
 
 @dataclass(frozen=True, eq=False)
 class _TorqueController:
-    """Shared plumbing: observation → (error quaternion, ω_B), torque → action."""
+    """Shared plumbing: observation → named quantities, torque demand → action.
 
-    config: TaskConfig
+    The observation is decoded by name through the task (``task.decode``), so the same law
+    serves any task whose observation carries what it needs; the thresholds and limits it uses
+    come from the task and the scene, never from literals.
+    """
+
+    plant: Plant
+    task: Task
     allocator_name: str = "pinv"
     hysteresis: float = 0.05  # |w| of q_err below which the rotation direction is kept
     inertia: np.ndarray = field(init=False, repr=False)
     allocate: object = field(init=False, repr=False)
 
     def __post_init__(self):
-        object.__setattr__(self, "inertia", self.config.scene.body.inertia)
-        B = self.config.scene.thrusters.torque_matrix_B
+        object.__setattr__(self, "inertia", self.plant.scene.body.inertia)
+        B = self.plant.scene.thrusters.torque_matrix_B
         object.__setattr__(self, "allocate", make_allocator(self.allocator_name, B))
 
-    def _split(self, obs: np.ndarray, state, episode_start):
-        """Error quaternion with hysteresis-chosen sign (N, 4) and ω_B in rad/s (N, 3)."""
-        rate_limit = self.config.scene.episode.rate_limit
-        q_err = np.array(obs[:, :4], dtype=float)
-        omega_B = np.asarray(obs[:, 4:7], dtype=float) * rate_limit
-        if state is not None:
-            prev = np.asarray(state, dtype=float).reshape(q_err.shape)
-            if episode_start is not None:
-                prev = np.where(np.asarray(episode_start, bool).reshape(-1, 1), 0.0, prev)
-            # Keep the sign continuous with the last step unless the short way round is
-            # clearly shorter (|w| > hysteresis): a canonical q_err flips sign at w = 0,
-            # and following every flip chatters near 180° (Mayhew, Sanfelice & Teel 2011).
-            flip = (np.sum(q_err * prev, axis=1) < 0) & (q_err[:, 0] < self.hysteresis)
-            q_err = np.where(flip[:, None], -q_err, q_err)
-        return q_err, omega_B
+    @property
+    def config(self) -> Plant:
+        """The plant (kept under its earlier name)."""
+        return self.plant
+
+    @classmethod
+    def from_env(cls, env, **kwargs):
+        """Controller for ``env`` (single, vector or wrapped), from its scene and task."""
+        plant, task = env_parts(env)
+        return cls(plant, task, **kwargs)
+
+    def _continuous_sign(self, q_err: np.ndarray, state, episode_start) -> np.ndarray:
+        """q_err (N, 4) with the sign kept continuous with the last step (hysteresis)."""
+        if state is None:
+            return q_err
+        prev = np.asarray(state, dtype=float).reshape(q_err.shape)
+        if episode_start is not None:
+            prev = np.where(np.asarray(episode_start, bool).reshape(-1, 1), 0.0, prev)
+        # Keep the sign continuous with the last step unless the short way round is clearly
+        # shorter (|w| > hysteresis): a canonical q_err flips sign at w = 0, and following
+        # every flip chatters near 180° (Mayhew, Sanfelice & Teel 2011).
+        flip = (np.sum(q_err * prev, axis=1) < 0) & (q_err[:, 0] < self.hysteresis)
+        return np.where(flip[:, None], -q_err, q_err)
 
     def _act(self, torque_B: np.ndarray) -> np.ndarray:
         """Action for the env's action mode from a torque demand (N, 3) in N·m."""
-        cfg = self.config
-        if cfg.action_mode == "torque":
-            return np.clip(torque_B / cfg.torque_authority, -1.0, 1.0).astype(np.float32)
-        if cfg.action_mode != "throttle":
+        plant = self.plant
+        if plant.action_mode == "torque":
+            return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
+        if plant.action_mode != "throttle":
             raise ValueError(
                 f"scripted controllers drive action_mode 'throttle' or 'torque', got "
-                f"{cfg.action_mode!r}"
+                f"{plant.action_mode!r}"
             )
         return self.allocate(torque_B).astype(np.float32)  # throttle = action on [0, 1]
 
-    def torque(self, q_err: np.ndarray, omega_B: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+    def control(self, obs: dict, state, episode_start):
+        """Torque demand (N, 3) N·m and the new recurrent state from decoded observations."""
+        q_err = self._continuous_sign(obs["q_err"], state, episode_start)
+        return self.torque(q_err, obs["omega_B"]), q_err.astype(np.float32)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        """SB3-style ``(actions, state)`` for observations (7,) or (N, 7); deterministic."""
+        """SB3-style ``(actions, state)`` for observations (size,) or (N, size)."""
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
-        obs = obs.reshape(-1, obs.shape[-1])
-        q_err, omega_B = self._split(obs, state, episode_start)
-        action = self._act(self.torque(q_err, omega_B))
-        new_state = q_err.astype(np.float32)
-        return (action[0], new_state[0]) if single else (action, new_state)
+        decoded = self.task.decode(obs.reshape(-1, obs.shape[-1]))
+        torque, new_state = self.control(decoded, state, episode_start)
+        action = self._act(torque)
+        if single:
+            return action[0], None if new_state is None else new_state[0]
+        return action, new_state
+
+    def torque(self, q_err: np.ndarray, omega_B: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
 
     def gyroscopic(self, omega_B: np.ndarray) -> np.ndarray:
         """``ω × Iω`` (N, 3) N·m, the term the feedback cancels."""
@@ -109,16 +131,12 @@ class QuaternionPD(_TorqueController):
     def torque(self, q_err, omega_B):
         k = 2.0 * self.natural_frequency**2
         c = 2.0 * self.damping * self.natural_frequency
-        max_rate = self.max_rate or 0.5 * self.config.scene.episode.rate_limit
+        max_rate = self.max_rate or 0.5 * self.task.rate_limit
         omega_c = -(k / c) * q_err[:, 1:]
         speed = np.linalg.norm(omega_c, axis=1, keepdims=True)
         omega_c = omega_c * np.minimum(1.0, max_rate / np.maximum(speed, 1e-300))
         return -c * (omega_B - omega_c) @ self.inertia.T + self.gyroscopic(omega_B)
 
-    @classmethod
-    def from_env(cls, env, **kwargs) -> QuaternionPD:
-        """Controller for ``env`` (single, vector or wrapped), using its scene's parameters."""
-        return cls(task_config(env), **kwargs)
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,35 +160,78 @@ class EigenaxisBangBang(_TorqueController):
 
     def __post_init__(self):
         super().__post_init__()
-        authority = axis_authority(self.config.scene.thrusters.torque_matrix_B)
+        authority = axis_authority(self.plant.scene.thrusters.torque_matrix_B)
         I_axes = np.diag(self.inertia)
         object.__setattr__(self, "alpha", self.margin * float(np.min(authority / I_axes)))
-        object.__setattr__(self, "pd", QuaternionPD(self.config, self.allocator_name,
-                                                    self.hysteresis))
+        object.__setattr__(self, "pd", QuaternionPD(self.plant, self.task,
+                                                    self.allocator_name, self.hysteresis))
 
     def torque(self, q_err, omega_B):
-        max_rate = self.max_rate or 0.6 * self.config.scene.episode.rate_limit
+        max_rate = self.max_rate or 0.6 * self.task.rate_limit
         s = np.linalg.norm(q_err[:, 1:], axis=1)
         theta = 2.0 * np.arctan2(s, q_err[:, 0])
         axis = q_err[:, 1:] / np.maximum(s, 1e-300)[:, None]
         # Discrete switching curve: the fastest rate from which full deceleration, applied in
         # steps of dt, still stops at the target: ω = −αdt/2 + √((αdt/2)² + 2αθ).
-        half = 0.5 * self.alpha * self.config.scene.physics.control_dt
+        half = 0.5 * self.alpha * self.plant.control_dt
         speed = np.minimum(max_rate, np.sqrt(half * half + 2.0 * self.alpha * theta) - half)
         omega_c = -speed[:, None] * axis
         # Deadbeat tracking for a torque held over one control step: remove the rate error in
         # one step (gain·dt = 1); gain·dt = 2 is the discrete stability limit and chatters.
-        gain = 1.0 / self.config.scene.physics.control_dt
+        gain = 1.0 / self.plant.control_dt
         tau = -gain * (omega_B - omega_c) @ self.inertia.T + self.gyroscopic(omega_B)
         near = theta < math.radians(self.capture_deg)
         if near.any():
             tau[near] = self.pd.torque(q_err[near], omega_B[near])
         return tau
 
-    @classmethod
-    def from_env(cls, env, **kwargs) -> EigenaxisBangBang:
-        """Controller for ``env`` (single, vector or wrapped), using its scene's parameters."""
-        return cls(task_config(env), **kwargs)
+
+
+@dataclass(frozen=True, eq=False)
+class RateDamping(_TorqueController):
+    """Detumble by rate damping: ``τ = −(g/dt)·I ω + ω × Iω``, saturated by the allocator.
+
+    ``g`` is the fraction of the rate removed per control step when the thrusters are not
+    saturated (``g = 1`` is deadbeat; 0.5 halves the rate each step and does not chatter
+    against the success threshold). Reads only ``omega_B`` from the observation.
+    """
+
+    gain: float = 0.5
+
+    def control(self, obs, state, episode_start):
+        omega_B = obs["omega_B"]
+        c = self.gain / self.plant.control_dt
+        return -c * omega_B @ self.inertia.T + self.gyroscopic(omega_B), None
+
+
+@dataclass(frozen=True, eq=False)
+class TrackingPD(_TorqueController):
+    """Quaternion PD on the error to a moving target, with feedforward of its rate and
+    acceleration.
+
+    ``τ = I(−c(e_ω − ω_c) + ω_t × ω) + ω × Iω`` where ``e_ω = ω − ω_t`` is the rate error,
+    ``ω_t`` the target's rate in body axes (both observed) and ``ω_c = −(k/c)·q_v`` the
+    commanded relative rate, capped at ``max_rate``. ``ω_t × ω`` is the derivative of ``ω_t``
+    seen from the turning body: the acceleration feedforward. Gains ``k = 2ωn²``,
+    ``c = 2ζωn`` as :class:`QuaternionPD`.
+    """
+
+    natural_frequency: float = 0.4  # rad/s
+    damping: float = 1.0
+    max_rate: float | None = None  # rad/s; default 0.3 × the scene's rate limit
+
+    def control(self, obs, state, episode_start):
+        q_err = self._continuous_sign(obs["q_err"], state, episode_start)
+        e_w, w_t = obs["omega_err_B"], obs["omega_target_B"]
+        omega_B = e_w + w_t
+        k = 2.0 * self.natural_frequency**2
+        c = 2.0 * self.damping * self.natural_frequency
+        max_rate = self.max_rate or 0.3 * self.task.rate_limit
+        omega_c = -(k / c) * q_err[:, 1:]
+        speed = np.linalg.norm(omega_c, axis=1, keepdims=True)
+        omega_c = omega_c * np.minimum(1.0, max_rate / np.maximum(speed, 1e-300))
+        alpha = -c * (e_w - omega_c) + cross(w_t, omega_B)
+        return alpha @ self.inertia.T + self.gyroscopic(omega_B), q_err.astype(np.float32)
 
 
 @dataclass(frozen=True)
@@ -200,3 +261,19 @@ class RandomPolicy:
         obs = np.asarray(observation)
         shape = (self.action_size,) if obs.ndim == 1 else (obs.shape[0], self.action_size)
         return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32), state
+
+
+BASELINES = {"reorient": {"pd": QuaternionPD, "bangbang": EigenaxisBangBang},
+             "detumble": {"pd": RateDamping},
+             "track": {"pd": TrackingPD}}
+
+
+def baseline(env, name: str = "pd"):
+    """The scripted baseline ``name`` for ``env``'s task: "pd" (every task: quaternion PD,
+    rate damping, tracking PD) or "bangbang" (reorientation only)."""
+    _, task = env_parts(env)
+    options = BASELINES[task.name]
+    if name not in options:
+        raise ValueError(f"task {task.name!r} has scripted baselines {sorted(options)}, got "
+                         f"{name!r}")
+    return options[name].from_env(env)

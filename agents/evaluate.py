@@ -16,9 +16,8 @@ import gymnasium as gym
 import numpy as np
 
 import rbenv
-from agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
+from agents.controllers import RandomPolicy, ZeroPolicy, baseline
 from agents.runs import RunPolicy
-from rbenv.task import throttle as to_throttle
 
 SCRIPTED = ("pd", "bangbang", "zero", "random")
 
@@ -85,10 +84,8 @@ def _load_model_policy(name: str) -> tuple:
 
 def make_policy(name: str, env, seed: int = 0):
     """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``; env single or vector."""
-    if name == "pd":
-        return QuaternionPD.from_env(env)
-    if name == "bangbang":
-        return EigenaxisBangBang.from_env(env)
+    if name in ("pd", "bangbang"):
+        return baseline(env, name)
     n_act = getattr(env, "single_action_space", env.action_space).shape[0]
     if name == "zero":
         return ZeroPolicy(n_act)
@@ -102,8 +99,12 @@ def make_policy(name: str, env, seed: int = 0):
 
 def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = None,
              name: str | None = None, record: int = 3, env_kwargs: dict | None = None,
-             batch: int = 1000) -> EvalResult:
-    """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``)."""
+             batch: int = 1000, env_id: str = rbenv.ENV_ID) -> EvalResult:
+    """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``).
+
+    env_id: any registered rbenv id (reorient, detumble, track); episode i is seeded
+    ``seed + i``, so every policy evaluated with the same seed meets the same episodes.
+    """
     env_kwargs = dict(env_kwargs or {})
     label = name or (policy if isinstance(policy, str) else type(policy).__name__)
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
@@ -114,20 +115,23 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
     parts = []
     for start in range(0, episodes, batch):
         n = min(batch, episodes - start)
-        parts.append(_run_batch(policy, n, seed + start, env_kwargs, record if start == 0 else 0))
+        parts.append(_run_batch(policy, n, seed + start, env_kwargs, record if start == 0 else 0,
+                                env_id))
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
            if k not in ("traces", "scene")}
     return EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
                       traces=parts[0]["traces"], **cat)
 
 
-def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int) -> dict:
-    envs = gym.make_vec(rbenv.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
+def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
+               env_id: str = rbenv.ENV_ID) -> dict:
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point",
                         **env_kwargs)
-    cfg = envs.unwrapped.config if hasattr(envs, "unwrapped") else envs.config
+    plant, task = envs.unwrapped.plant, envs.unwrapped.task
     if isinstance(policy, str):
         policy = make_policy(policy, envs, seed)
-    dt, hold = cfg.scene.physics.control_dt, cfg.scene.episode.hold_time
+    dt, hold = plant.control_dt, plant.scene.episode.hold_time
+    error_key = "attitude_error_deg" if "q_err" in task.observation_structure else "rate_dps"
     obs, _ = envs.reset(seed=seed)
     alive = np.ones(n, bool)
     out = {k: np.full(n, np.nan) for k in ("settle_time_s", "fuel_kg", "final_error_deg",
@@ -144,21 +148,21 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int) -> dict
             if alive[i]:
                 tr = traces[i]
                 tr["time_s"].append(float(info["time_s"][i]))
-                tr["attitude_error_deg"].append(float(info["attitude_error_deg"][i]))
+                tr["attitude_error_deg"].append(float(info[error_key][i]))
                 tr["rate_dps"].append(float(info["rate_dps"][i]))
-                tr["throttle"].append(to_throttle(cfg, np.asarray(action[i], float)).tolist())
+                tr["throttle"].append(plant.throttle(np.asarray(action[i], float)).tolist())
         done = (term | trunc) & alive
         if done.any():
             idx = np.flatnonzero(done)
             success[idx] = np.asarray(info["is_success"])[idx]
             out["episode_time_s"][idx] = np.asarray(info["time_s"])[idx]
             out["fuel_kg"][idx] = np.asarray(info["fuel_kg"])[idx]
-            out["final_error_deg"][idx] = np.asarray(info["attitude_error_deg"])[idx]
-            ok = idx[success[idx]]
+            out["final_error_deg"][idx] = np.asarray(info[error_key])[idx]
+            ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt
             alive[idx] = False
     envs.close()
-    return {"success": success, "traces": traces, "scene": cfg.scene.name, **out}
+    return {"success": success, "traces": traces, "scene": plant.scene.name, **out}
 
 
 def format_table(results: list[EvalResult]) -> str:
@@ -220,7 +224,7 @@ def write_json(results: list[EvalResult], path) -> Path:
 
 
 def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: float = 8.0,
-                 env_kwargs: dict | None = None) -> Path:
+                 env_kwargs: dict | None = None, env_id: str = rbenv.ENV_ID) -> Path:
     """Render one seeded episode of ``policy`` to a GIF or MP4 (needs the render extra)."""
     from rbenv.rendering import save_video
 
@@ -230,7 +234,7 @@ def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: 
         kwargs = {**run_kwargs, **kwargs}
     if scene is not None:
         kwargs["scene"] = scene
-    env = gym.make(rbenv.ENV_ID, render_mode="rgb_array", **kwargs)
+    env = gym.make(env_id, render_mode="rgb_array", **kwargs)
     if isinstance(policy, str):
         policy = make_policy(policy, env, seed)
     obs, _ = env.reset(seed=seed)

@@ -1,13 +1,14 @@
-"""rbenv: reorient a thruster-actuated satellite, as Gymnasium environments.
+"""rbenv: attitude control of a thruster-actuated satellite, as Gymnasium environments.
 
-``import rbenv`` registers ``rbenv/SatelliteReorient-v0`` (single env, plus the native NumPy
-vector env as its ``vector_entry_point``)::
+``import rbenv`` registers three tasks on one plant, each with a single env and a native NumPy
+vector env (its ``vector_entry_point``)::
 
     import gymnasium as gym
     import rbenv
 
     env = gym.make("rbenv/SatelliteReorient-v0", scene="cubesat-12u")
-    envs = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=1024)
+    envs = gym.make_vec("rbenv/SatelliteDetumble-v0", num_envs=1024)
+    env = gym.make("rbenv/SatelliteTrack-v0", randomize={"inertia_scale": 0.2})
 
 Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v0"``, which makes
 Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :class:`Scene`.
@@ -15,34 +16,61 @@ Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :
 
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError, version
+
 import gymnasium as gym
 
-from rbenv.env import SatelliteReorientEnv
+from rbenv.env import SatelliteDetumbleEnv, SatelliteReorientEnv, SatelliteTrackEnv
+from rbenv.randomization import Randomization
 from rbenv.scene import Scene, list_scenes, load_scene
-from rbenv.task import RewardWeights
-from rbenv.vector_env import SatelliteReorientVectorEnv
+from rbenv.tasks.reorient import ReorientWeights as RewardWeights
+from rbenv.vector_env import (
+    SatelliteDetumbleVectorEnv,
+    SatelliteReorientVectorEnv,
+    SatelliteTrackVectorEnv,
+)
+
+try:
+    __version__ = version("rbenv")
+except PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0.0.0+unknown"
 
 __all__ = [
+    "DETUMBLE_ID",
     "ENV_ID",
+    "ENV_IDS",
     "MAX_EPISODE_STEPS",
+    "TRACK_ID",
+    "Randomization",
     "RewardWeights",
+    "SatelliteDetumbleEnv",
+    "SatelliteDetumbleVectorEnv",
     "SatelliteReorientEnv",
     "SatelliteReorientVectorEnv",
+    "SatelliteTrackEnv",
+    "SatelliteTrackVectorEnv",
     "Scene",
+    "__version__",
     "list_scenes",
     "load_scene",
 ]
 
 ENV_ID = "rbenv/SatelliteReorient-v0"
-# Control steps per episode of the default scene (cubesat-12u: 80 s at 0.5 s); every shipped
-# scene uses 160 steps. The env also truncates at its own scene's duration, so a shorter scene
-# is honoured; for a custom scene with more steps pass max_episode_steps=scene.episode_steps.
+DETUMBLE_ID = "rbenv/SatelliteDetumble-v0"
+TRACK_ID = "rbenv/SatelliteTrack-v0"
+# Control steps per episode of every shipped scene (80 s at 0.5 s, 160 s at 1 s, ...). The env
+# also truncates at its own scene's duration, so a shorter scene is honoured; for a custom scene
+# with more steps pass max_episode_steps=scene.episode_steps.
 MAX_EPISODE_STEPS = 160
+# id -> (single env class, vector env class), both in this package.
+ENV_IDS = {
+    ENV_ID: ("SatelliteReorientEnv", "SatelliteReorientVectorEnv"),
+    DETUMBLE_ID: ("SatelliteDetumbleEnv", "SatelliteDetumbleVectorEnv"),
+    TRACK_ID: ("SatelliteTrackEnv", "SatelliteTrackVectorEnv"),
+}
 
-if ENV_ID not in gym.registry:
-    gym.register(
-        id=ENV_ID,
-        entry_point="rbenv.env:SatelliteReorientEnv",
-        vector_entry_point="rbenv.vector_env:SatelliteReorientVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-    )
+for _id, (_single, _vector) in ENV_IDS.items():
+    if _id not in gym.registry:
+        gym.register(id=_id, entry_point=f"rbenv.env:{_single}",
+                     vector_entry_point=f"rbenv.vector_env:{_vector}",
+                     max_episode_steps=MAX_EPISODE_STEPS)

@@ -1,4 +1,10 @@
-"""The single-satellite Gymnasium env: reorient to a random target attitude with thrusters."""
+"""Single-satellite Gymnasium envs: a thin adapter over :mod:`rbenv.transition`.
+
+One class, :class:`AttitudeEnv`, serves every task; each registered id has a subclass that
+names its task and carries its documentation (``SatelliteReorientEnv``,
+``SatelliteDetumbleEnv``, ``SatelliteTrackEnv``). The state is held as Python floats, so a step
+costs tens of nanoseconds per arithmetic operation and no NumPy call in the physics.
+"""
 
 from __future__ import annotations
 
@@ -7,123 +13,84 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
+from core.backend import FLOAT
 from core.errors import InvalidParameterError
-from rbenv import task
-from rbenv.task import FLOAT_OPS, OBS_SIZE, State
+from rbenv import transition
+from rbenv.draws import EpisodeDraws
+from rbenv.state import from_start
+from rbenv.tasks import build
 
-_ZERO_TERMS = (0.0,) * len(task.REWARD_TERMS)
 RENDER_MODES = ("human", "rgb_array")
 
 
-class SatelliteReorientEnv(gym.Env):
-    """Reorient a satellite to a target attitude by firing body-fixed thrusters.
-
-    Made by ``gym.make("rbenv/SatelliteReorient-v0", **kwargs)``; kwargs (all optional):
-    ``scene`` (shipped name, TOML path or :class:`rbenv.Scene`; default ``"cubesat-12u"``),
-    ``integrator``, ``control_dt`` (s), ``substeps`` (override the scene's physics),
-    ``action_mode`` ("throttle" | "on_off" | "torque"), ``reward_weights`` (dict, see
-    :class:`rbenv.task.RewardWeights`), ``max_initial_angle_deg`` and ``max_initial_rate``
-    (rad/s; initial-condition ranges, e.g. for a curriculum), ``allocator`` (torque mode:
-    "pinv" | "nnls" | "lp"), ``render_mode`` ("rgb_array" | "human").
-
-    **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
-    over the control step) is ``clip(a, 0, 1)``, so ``a ≤ 0`` is off; torque ``B @ u`` is
-    held over the step. ``on_off``: ``a > 0`` fires at full throttle. ``torque``:
-    ``Box(-1, 1, (3,))``, a body torque as a fraction of the per-axis authority (the weaker
-    direction about each axis), turned into throttles by the allocator. Values outside [-1, 1]
-    are clipped to the space; NaN raises ``ValueError``.
-
-    **Observation** ``Box(-1, 1, (7,), float32)``:
-
-    ====  ==========================================================================
-    0     w of ``q_err = canonical(q_target* ⊗ q)`` (w ≥ 0); ``cos(θ/2)``, θ the error
-    1–3   x, y, z of ``q_err``: ``sin(θ/2)·axis``, the axis in body (= target) axes
-    4–6   body rates ``ω_B / rate_limit``, clipped to [-1, 1]
-    ====  ==========================================================================
-
-    With sensor noise the observation is built from the noisy measurement; rewards, success
-    and termination always use the true state.
-
-    **Reward** (per control step): the sum of the terms in ``info["reward_<name>"]``, see
-    :class:`rbenv.task.RewardWeights`: attitude ``−0.2·θ/π``, rate ``−0.05·min(|ω|/L, 1)``, fuel
-    ``−0.05·Σu_iF_i/ΣF_i``, progress ``10·(θ_prev − θ)/π``, hold ``+1`` per step inside the
-    success thresholds, failure ``−25`` on loss of control (default weights).
-
-    **Episode**: target and attitude uniform on SO(3) (or within ``max_initial_angle_deg``),
-    tumble up to ``max_initial_rate``. ``terminated`` with ``info["is_success"] = True`` when
-    θ < 1° and |ω| < 0.01 rad/s (scene values) for the scene's hold time; ``terminated``
-    without success when |ω| exceeds the scene's rate limit; ``truncated`` at the scene's
-    duration (and by ``TimeLimit`` through ``gym.make``).
-
-    **Info**: ``attitude_error_deg``, ``rate_dps``, ``fuel_kg``, ``impulse_Ns``, ``time_s``,
-    ``is_success``, ``reward_<term>`` for each term; ``speed_mps`` (centre-of-mass speed) when
-    the scene models translation; ``failed_thrusters`` when it models faults.
-
-    **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,)}`` replace the sampled
-    start (the generator advances as usual), e.g. to start several envs from identical states.
-    """
+class AttitudeEnv(gym.Env):
+    """A satellite, its thrusters and one task, as a Gymnasium env (see the subclasses)."""
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
+    task_name: ClassVar[str] = "reorient"
 
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
-                 max_initial_rate=None, allocator="pinv", render_mode=None):
-        self.config = task.make_config(
-            scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
-            action_mode=action_mode, reward_weights=reward_weights,
+                 max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
+                 render_mode=None):
+        self.plant, self.task = build(
+            self.task_name, scene, integrator=integrator, control_dt=control_dt,
+            substeps=substeps, action_mode=action_mode, allocator=allocator,
+            randomize=randomize, reward_weights=reward_weights,
             max_initial_angle_deg=max_initial_angle_deg, max_initial_rate=max_initial_rate,
-            allocator=allocator)
+            task_options=task_options)
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise InvalidParameterError(
-                f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}"
-            )
+                f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
         self.render_mode = render_mode
-        sc = self.config.scene
-        self.metadata = {**type(self).metadata, "render_fps": 1.0 / sc.physics.control_dt}
-        n_act = 3 if action_mode == "torque" else sc.n_thrusters
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (n_act,), np.float32)
-        self.observation_space = gym.spaces.Box(-1.0, 1.0, (OBS_SIZE,), np.float32)
-        self._action_shape = (n_act,)
-        self._max_steps = sc.episode_steps
-        self._sensor_noise = sc.sensor_noise.model == "gaussian"
-        self._dist_noise = sc.disturbance.model == "random" and sc.disturbance.noise_sigma > 0
-        self._p_fault = sc.faults.p_step if sc.faults.model == "random" else 0.0
-        self._st: State | None = None
-        self._q_target: tuple | None = None
+        self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.plant.control_dt}
+        self.action_space = gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32)
+        size = self.task.observation_size()
+        self.observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
+        self.observation_structure = dict(self.task.observation_structure)
+        self._kinds = transition.state_kinds(self.task)
+        self._max_steps = self.plant.scene.episode_steps
+        self._seed_key: int | None = None
+        self._episode = 0
+        self._st = None
         self._renderer = None
 
     @property
     def scene(self):
         """The :class:`rbenv.Scene` in use (after option overrides)."""
-        return self.config.scene
+        return self.plant.scene
+
+    @property
+    def config(self):
+        """The :class:`rbenv.plant.Plant` (scene, action mode, torque authority)."""
+        return self.plant
 
     def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
-        """Change the initial-condition ranges from the next reset on (curriculum).
+        """Change the task's initial-condition ranges from the next reset on (curriculum).
 
         max_initial_angle_deg in [0, 180]; max_initial_rate in rad/s, below the rate limit;
         None keeps the current value.
         """
-        self.config = task.with_initial_ranges(self.config, max_initial_angle_deg,
-                                               max_initial_rate)
+        self.task = self.task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
     # ------------------------------------------------------------------- Gymnasium API
 
     def reset(self, *, seed=None, options=None):
-        """Start an episode; see the class docstring for ``options``. Returns (obs, info)."""
+        """Start an episode; ``options`` replace parts of the sampled start (see the task)."""
         super().reset(seed=seed)
-        cfg = self.config
-        start = task.override_start(task.sample_episode(cfg, self.np_random), options)
-        q_target = tuple(start["q_target"])
-        bias = None if start["bias"] is None else tuple(start["bias"])
-        st = State(q=tuple(start["q"]), w=tuple(start["omega_B"]),
-                   q_target_conj=task.conj(q_target), hold=0, steps=0, fuel_kg=0.0,
-                   impulse_Ns=0.0, bias=bias, health=start["health"], throttle=np.zeros(cfg.n))
-        if cfg.scene.physics.translation:
-            st.x, st.v = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-        st.q_err, st.angle = task.error(FLOAT_OPS, st.q_target_conj, st.q)
-        self._st, self._q_target = st, q_target
-        obs = self._observation()
-        info = task.info(cfg, FLOAT_OPS, st, _ZERO_TERMS, False)
+        if seed is not None:
+            self._seed_key, self._episode = int(seed) % 2**64, 0
+        elif self._seed_key is None:
+            self._seed_key = int(self.np_random.integers(2**63))
+        draws = EpisodeDraws(np.array([self._seed_key], dtype=np.uint64),
+                             np.array([self._episode], dtype=np.uint64))
+        self._episode += 1
+        start = transition.start(self.plant, self.task, draws, options)
+        self._st = st = from_start(self._kinds, start, single=True)
+        noise = self.plant.draw_sensor_noise(self._np_random, None)
+        obs = np.array(transition.observe(self.plant, self.task, st, noise, FLOAT), np.float32)
+        info = transition.info(self.plant, self.task, st, transition.zero_terms(self.task),
+                               False, FLOAT)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -133,33 +100,16 @@ class SatelliteReorientEnv(gym.Env):
         st = self._st
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        cfg = self.config
         a = np.asarray(action, dtype=np.float64)
-        if a.shape != self._action_shape:
-            raise ValueError(f"action must have shape {self._action_shape}, got {a.shape}")
-        u = task.throttle(cfg, a)
-        rng = self._np_random
-        if st.health is not None:
-            if self._p_fault:
-                st.health = st.health * (rng.random(cfg.n) >= self._p_fault)
-            u = u * st.health
-        st.throttle = u
-        parts = task.wrench(cfg, u)
-        if parts[3] != parts[3]:
-            raise task.nan_action_error(a)
-        noise = rng.standard_normal(3).tolist() if self._dist_noise else None
-        task.physics_step(cfg, FLOAT_OPS, st, parts, noise)
-        terms, reward, success, failure = task.evaluate(cfg, FLOAT_OPS, st,
-                                                        parts[3] * cfg.inv_total_thrust)
-        obs = self._observation()
-        info = task.info(cfg, FLOAT_OPS, st, terms, success)
+        if a.shape != self.plant.action_shape:
+            raise ValueError(f"action must have shape {self.plant.action_shape}, got {a.shape}")
+        out = transition.step(self.plant, self.task, st, a,
+                              self.plant.draw_step_noise(self._np_random, None), FLOAT)
         if self.render_mode == "human":
             self.render()
-        return obs, reward, success or failure, st.steps >= self._max_steps, info
-
-    def _observation(self) -> np.ndarray:
-        noise = self._np_random.standard_normal(6).tolist() if self._sensor_noise else None
-        return np.array(task.observe(self.config, FLOAT_OPS, self._st, noise), dtype=np.float32)
+        terminated = bool(out.failure or (out.success and self.task.success_terminates))
+        return (np.array(out.obs, dtype=np.float32), out.reward, terminated,
+                st.steps >= self._max_steps, out.info)
 
     # ------------------------------------------------------------------- rendering
 
@@ -170,25 +120,16 @@ class SatelliteReorientEnv(gym.Env):
             return None
         if self._st is None:
             raise gym.error.ResetNeeded("call reset() before render()")
-        frame = self._frame()
+        if self._renderer is None:
+            from rbenv.rendering import Renderer
+
+            self._renderer = Renderer.for_scene(self.plant.scene)
+        frame = self._renderer.frame(**transition.render_values(self.plant, self.task,
+                                                                 self._st))
         if self.render_mode == "human":
             self._renderer.show(frame)
             return None
         return frame
-
-    def _frame(self) -> np.ndarray:
-        st, cfg = self._st, self.config
-        if self._renderer is None:
-            from rbenv.rendering import Renderer
-
-            sc = cfg.scene
-            self._renderer = Renderer.for_scene(sc)
-        w = st.w
-        return self._renderer.frame(
-            q=np.array(st.q), q_target=np.array(self._q_target), throttle=st.throttle,
-            error_deg=float(np.degrees(st.angle)),
-            rate_dps=float(np.degrees(np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2))),
-            time_s=st.steps * cfg.scene.physics.control_dt)
 
     def close(self):
         """Close the render window, if any."""
@@ -200,3 +141,127 @@ class SatelliteReorientEnv(gym.Env):
         state = self.__dict__.copy()
         state["_renderer"] = None  # a pygame surface/window does not pickle; re-created lazily
         return state
+
+
+class SatelliteReorientEnv(AttitudeEnv):
+    """Reorient a satellite to a target attitude by firing body-fixed thrusters.
+
+    Made by ``gym.make("rbenv/SatelliteReorient-v0", **kwargs)``.
+
+    **Arguments** (all optional):
+
+    =======================  ===================  ==============================================
+    argument                 default              meaning
+    =======================  ===================  ==============================================
+    ``scene``                ``"cubesat-12u"``    shipped name, TOML path or :class:`rbenv.Scene`
+    ``integrator``           scene's              a name in ``core.INTEGRATORS``
+    ``control_dt``           scene's              s, one env step
+    ``substeps``             scene's              integrator steps per control step
+    ``action_mode``          ``"throttle"``       ``"throttle"``, ``"on_off"`` or ``"torque"``
+    ``reward_weights``       see below            dict overriding the reward weights
+    ``max_initial_angle_deg``  scene's (180)      initial error within this angle (curriculum)
+    ``max_initial_rate``     scene's              rad/s, initial tumble up to this
+    ``allocator``            ``"pinv"``           torque mode: ``"pinv"``, ``"nnls"``, ``"lp"``
+    ``randomize``            scene's (off)        dict of domain-randomization sizes, or False
+    ``task_options``         None                 unused by this task
+    ``render_mode``          None                 ``"rgb_array"`` or ``"human"``
+    =======================  ===================  ==============================================
+
+    **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
+    over the control step) is ``clip(a, 0, 1)``, so ``a ≤ 0`` is off. ``on_off``: ``a > 0``
+    fires at full throttle. ``torque``: ``Box(-1, 1, (3,))``, a body torque as a fraction of
+    the per-axis authority, turned into throttles by the allocator. Values outside [-1, 1] are
+    clipped; NaN raises ``ValueError``.
+
+    **Observation** ``Box(-1, 1, (7,), float32)``, ``observation_structure``
+    ``{"q_err": 4, "omega_B": 3}``: the canonical error quaternion ``q_target* ⊗ q`` (w ≥ 0;
+    its vector part is ``sin(θ/2)·axis`` in body axes), then ``ω_B / rate_limit`` clipped to
+    [-1, 1]. With sensor noise it is built from the noisy measurement; rewards, success and
+    termination always use the true state.
+
+    **Reward**: the sum of ``info["reward_<term>"]``: attitude ``−0.2·θ/π``, rate
+    ``−0.05·min(|ω|/L, 1)``, fuel ``−0.05·Σu_iF_i/ΣF_i``, progress ``10·(θ_prev − θ)/π``, hold
+    ``+1`` per step inside the success thresholds, failure ``−25`` on loss of control.
+
+    **Episode end**: ``terminated`` with ``info["is_success"] = True`` when θ < 1° and
+    |ω| < 0.01 rad/s (scene values) are held for the scene's hold time; ``terminated`` without
+    success when |ω| exceeds the rate limit; ``truncated`` at the scene's duration.
+
+    **Info**: ``attitude_error_deg``, ``rate_dps``, ``fuel_kg``, ``impulse_Ns``, ``time_s``,
+    ``is_success``, ``reward_<term>``; ``speed_mps`` with translation; ``failed_thrusters``
+    with faults.
+
+    **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,)}`` replace the sampled
+    start. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a pure function of (s, e)
+    (:mod:`rbenv.draws`).
+
+    **Version History**
+
+    * v0: first release. Episode starts are counter-based draws (since rbenv 0.2; rbenv 0.1
+      drew them from ``np_random``, so seeded episodes differ between the two).
+    """
+
+    task_name: ClassVar[str] = "reorient"
+
+
+class SatelliteDetumbleEnv(AttitudeEnv):
+    """Stop a tumbling satellite with thrusters, spending as little propellant as possible.
+
+    Made by ``gym.make("rbenv/SatelliteDetumble-v0", **kwargs)``; arguments as
+    :class:`SatelliteReorientEnv`, with ``max_initial_rate`` (rad/s) the largest initial
+    tumble and ``task_options`` a dict overriding the scene's ``[tasks.detumble]`` table
+    (``min_rate_fraction``, ``max_rate_fraction``: the initial |ω| is uniform between these
+    fractions of the rate limit, about a uniformly random axis).
+
+    **Action**: as the reorientation env. **Observation** ``Box(-1, 1, (3,), float32)``,
+    ``{"omega_B": 3}``: ``ω_B / rate_limit``, clipped.
+
+    **Reward**: rate ``−0.2·|ω|/L``, progress ``10·(|ω|_prev − |ω|)/L``, fuel
+    ``−0.5·Σu_iF_i/ΣF_i``, hold ``+1`` per step below the success rate, failure ``−25`` on
+    loss of control (``reward_weights`` overrides these).
+
+    **Episode end**: ``terminated`` with success when |ω| < ``success_rate`` is held for the
+    hold time; ``terminated`` without success when |ω| > rate limit; ``truncated`` at the
+    scene's duration. **Info**: ``rate_dps``, ``fuel_kg``, ``impulse_Ns``, ``time_s``,
+    ``is_success``, ``reward_<term>``. **Reset options**: ``{"q": (4,), "omega_B": (3,)}``.
+
+    **Version History**
+
+    * v0: first release.
+    """
+
+    task_name: ClassVar[str] = "detumble"
+
+
+class SatelliteTrackEnv(AttitudeEnv):
+    """Follow a target attitude that turns at a constant rate, as a pointing spacecraft does.
+
+    Made by ``gym.make("rbenv/SatelliteTrack-v0", **kwargs)``; arguments as
+    :class:`SatelliteReorientEnv`; ``task_options`` overrides the scene's ``[tasks.track]``
+    table: ``max_target_rate`` (rad/s, the target turns about a random world-fixed axis at a
+    rate uniform up to this), ``max_initial_angle_deg`` (initial tracking error),
+    ``min_track_fraction`` (success threshold, below).
+
+    **Observation** ``Box(-1, 1, (10,), float32)``, ``{"q_err": 4, "omega_err_B": 3,
+    "omega_target_B": 3}``: the canonical error quaternion to the *moving* target, the rate
+    error ``ω_B − ω_target_B`` and the target's rate in body axes, both divided by the rate
+    limit and clipped.
+
+    **Reward**: attitude ``−0.2·θ/π``, rate ``−0.05·min(|ω − ω_t|/L, 1)``, fuel
+    ``−0.05·Σu_iF_i/ΣF_i``, progress ``10·(θ_prev − θ)/π``, on-target ``+1`` per step with
+    θ < success angle and |ω − ω_t| < success rate, failure ``−25``.
+
+    **Episode end**: the episode runs to the scene's duration (``truncated``) unless control is
+    lost (``terminated``). ``info["is_success"]`` is True on the last step when the satellite
+    was on target for at least ``min_track_fraction`` (default 0.9) of the steps in the second
+    half of the episode: success is a property of the tracking over time, not of the end.
+    **Info**: ``attitude_error_deg``, ``rate_error_dps``, ``track_fraction``, plant values,
+    ``reward_<term>``. **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,),
+    "omega_target_W": (3,)}``.
+
+    **Version History**
+
+    * v0: first release.
+    """
+
+    task_name: ClassVar[str] = "track"

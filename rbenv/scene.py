@@ -78,11 +78,11 @@ explicit inertia                 principal moments 1e-12 … 1e12 kg·m²
 thrusters                        1 … 256 (``MAX_THRUSTERS``); max_force > 0 and <= 1e4 N
 thrusters.isp                    1 … 1e5 s
 physics.substeps                 1 … 1000 (``MAX_SUBSTEPS``)
-physics.control_dt               > 0 and <= 3600 s
+physics.control_dt               1e-6 … 3600 s
 episode.duration                 > 0 and <= 1e6 s, and at most 1e6 control steps
 episode.rate_limit               1e-6 … 100 rad/s
 episode.hold_time                0 … duration
-disturbance torque and sigmas    within ±1e6 N·m
+disturbance torque and sigmas    within ±10 N·m
 sensor_noise                     attitude 0 … π rad; rate 0 … 100 rad/s
 ===============================  ===================================================
 """
@@ -103,6 +103,7 @@ from core import validation as check
 from core.errors import InvalidParameterError, RbenvValueError, describe
 from core.forces import MAX_THRUSTERS
 from rbenv.allocation import validate_torque_matrix
+from rbenv.randomization import Randomization
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -127,7 +128,7 @@ _MASS = {"low": 1e-6, "high": 1e7}  # kg
 _LENGTH = {"low": 0.0, "low_open": True, "high": 1e3}  # m, sizes
 _COORD = 1e3  # m, |position| and |com| components
 _MOMENT = (1e-12, 1e12)  # kg·m², explicit principal moments
-_TORQUE = 1e6  # N·m, disturbance torques and sigmas
+_TORQUE = 10.0  # N·m, disturbance torques and sigmas (environmental torques are < 1e-3)
 
 
 # --------------------------------------------------------------------------- field checks
@@ -175,7 +176,7 @@ class Physics:
         object.__setattr__(self, "substeps", _number("physics.substeps", self.substeps, low=1,
                                                       high=MAX_SUBSTEPS, integer=True))
         object.__setattr__(self, "control_dt", _number("physics.control_dt", self.control_dt,
-                                                        low=0.0, low_open=True, high=3600.0))
+                                                        low=1e-6, high=3600.0))
         _flag("physics.translation", self.translation)
 
     @property
@@ -315,8 +316,13 @@ class Scene:
     episode: Episode = field(default_factory=Episode)
     description: str = ""
     sources: tuple = ()
+    randomization: Randomization = field(default_factory=Randomization)
+    tasks: dict = field(default_factory=dict)  # task name -> its option table (the task checks)
 
     def __post_init__(self):
+        object.__setattr__(self, "randomization",
+                           Randomization.from_mapping(self.randomization))
+        object.__setattr__(self, "tasks", _task_tables(self.tasks))
         if not isinstance(self.name, str) or not self.name:
             raise InvalidParameterError(f"name must be a non-empty string, got {self.name!r}")
         for attr, cls in (("body", RigidBody), ("thrusters", ThrusterLayout),
@@ -334,7 +340,7 @@ class Scene:
             )
         validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
         steps = self.episode.duration / self.physics.control_dt
-        if round(steps) < 1 or steps > MAX_EPISODE_STEPS:
+        if not steps <= MAX_EPISODE_STEPS or round(steps) < 1:
             raise InvalidParameterError(
                 f"episode.duration ({self.episode.duration!r} s) must span between 1 and "
                 f"{MAX_EPISODE_STEPS} control steps of physics.control_dt = "
@@ -356,6 +362,16 @@ class Scene:
         """Number of thrusters."""
         return self.thrusters.n
 
+    def with_randomization(self, randomize) -> Scene:
+        """A copy with domain randomization replaced: a dict of sizes (overriding the scene's
+        table), a :class:`rbenv.randomization.Randomization`, or False/None-like off."""
+        if randomize is False:
+            return dataclasses.replace(self, randomization=Randomization())
+        if isinstance(randomize, dict):
+            merged = {**dataclasses.asdict(self.randomization), **randomize}
+            return dataclasses.replace(self, randomization=Randomization.from_mapping(merged))
+        return dataclasses.replace(self, randomization=Randomization.from_mapping(randomize))
+
     def with_physics(self, integrator=None, control_dt=None, substeps=None) -> Scene:
         """A copy with some physics fields replaced (``None`` keeps the scene's value)."""
         changes = {k: v for k, v in (("integrator", integrator), ("control_dt", control_dt),
@@ -372,7 +388,7 @@ class Scene:
         data = dict(data)
         _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
                                     "physics", "disturbance", "faults", "sensor_noise",
-                                    "episode"})
+                                    "episode", "randomization", "tasks"})
         scene_name = data.get("name", name)
         try:
             mass, com_B, inertia = mass_properties(_table(data, "body", required=True))
@@ -387,7 +403,9 @@ class Scene:
                 groups[key] = group(**table)
             return cls(name=scene_name or "unnamed", body=body, thrusters=thrusters, isp=isp,
                        description=data.get("description", ""),
-                       sources=data.get("sources", ()), **groups)
+                       sources=data.get("sources", ()),
+                       randomization=_table(data, "randomization"),
+                       tasks=_table(data, "tasks"), **groups)
         except RbenvValueError as exc:
             raise type(exc)(f"scene {scene_name!r}: {exc}") from None
 
@@ -414,6 +432,14 @@ class Scene:
                 f"scene file {str(path)!r} nests arrays or tables too deeply to parse"
             ) from None
         return cls.from_dict(data, name=path.stem)
+
+
+def _task_tables(tables) -> dict:
+    """``[tasks.<name>]`` tables: a dict of dicts (each task validates its own fields)."""
+    if not isinstance(tables, dict) or not all(isinstance(v, dict) for v in tables.values()):
+        raise InvalidParameterError(
+            f"tasks must be a table of per-task tables ([tasks.detumble], ...), got {tables!r}")
+    return {str(name): dict(table) for name, table in tables.items()}
 
 
 def _tomllib():

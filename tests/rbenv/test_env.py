@@ -14,7 +14,8 @@ from gymnasium.utils.env_checker import check_env
 import rbenv
 from core import quaternion
 from core.errors import InvalidParameterError, NonFiniteError
-from rbenv import task
+from rbenv.tasks.base import restricted_haar_angle
+from rbenv.tasks.reorient import ReorientTerms
 from rbenv.scene import load_scene
 
 ID = rbenv.ENV_ID
@@ -91,14 +92,14 @@ def test_step_types_info_keys_and_reward_terms_sum_exactly():
     obs, info = env.reset(seed=3)
     assert obs.dtype == np.float32 and obs.shape == (7,)
     assert info["is_success"] is False and all(info[f"reward_{t}"] == 0.0
-                                               for t in task.REWARD_TERMS)
+                                               for t in ReorientTerms._fields)
     rng = np.random.default_rng(0)
     for _ in range(50):
         obs, reward, terminated, truncated, info = env.step(rng.uniform(-1, 1, 12))
         assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
         assert env.observation_space.contains(obs)
         total = 0.0
-        for t in task.REWARD_TERMS:
+        for t in ReorientTerms._fields:
             total += info[f"reward_{t}"]
         assert total == reward
         for key in ("attitude_error_deg", "rate_dps", "fuel_kg", "impulse_Ns", "time_s"):
@@ -246,7 +247,7 @@ def test_curriculum_limits_initial_error_and_rate():
 
 def test_restricted_haar_angle_inverts_the_cdf():
     for u in (0.0, 0.3, 0.999):
-        theta = task.restricted_haar_angle(u, math.pi)
+        theta = restricted_haar_angle(u, math.pi)
         assert (theta - math.sin(theta)) / math.pi == pytest.approx(u, abs=1e-12)
 
 

@@ -13,11 +13,12 @@ from gymnasium.vector.utils import batch_space
 
 import rbenv
 from core import quaternion
-from rbenv import task
+from rbenv.tasks.base import restricted_haar_angle
+from rbenv.tasks.reorient import ReorientTerms
 
 ID = rbenv.ENV_ID
 KEYS = ("attitude_error_deg", "rate_dps", "fuel_kg", "impulse_Ns", "time_s", "is_success",
-        *(f"reward_{t}" for t in task.REWARD_TERMS))
+        *(f"reward_{t}" for t in ReorientTerms._fields))
 
 
 def make_vec(n=4, **kwargs):
@@ -60,8 +61,11 @@ def test_options_and_autoreset_mode_per_instance():
     assert same.single_action_space.shape == (3,)
     assert make_vec(2, autoreset_mode="SameStep").metadata["autoreset_mode"] is \
         AutoresetMode.SAME_STEP
+    assert make_vec(2, autoreset_mode=AutoresetMode.DISABLED).autoreset_mode is \
+        AutoresetMode.DISABLED
+    assert nxt.autoreset_mode is AutoresetMode.NEXT_STEP  # an attribute, as Gymnasium's envs
     with pytest.raises(ValueError, match="autoreset_mode"):
-        make_vec(2, autoreset_mode=AutoresetMode.DISABLED)
+        make_vec(2, autoreset_mode="Sometimes")
 
 
 def test_sync_vectorization_of_the_single_env_also_works():

@@ -1,0 +1,7 @@
+"""``python -m rbenv``: the ``rbenv`` command without the name clash with Ruby's rbenv."""
+
+import sys
+
+from agents.cli import main
+
+sys.exit(main())

@@ -1,0 +1,359 @@
+"""The plant: one satellite and its actuators, whatever the task asks of it.
+
+The plant turns an action into thruster throttles (with faults and an optional one-step control
+delay), throttles into a body wrench, and the wrench plus the disturbance torque into motion
+over one control step (integrator substeps, and the centre of mass when the scene models
+translation). It also measures the state for the observation (sensor noise) and draws its own
+part of an episode start (disturbance bias, reset faults, domain randomization). It knows
+nothing of targets or rewards: that is the task's business (:mod:`rbenv.tasks`).
+
+States are component tuples as in :mod:`core.kernels`: Python floats for the single env, (N,)
+arrays for the vector env; ``xp`` is the matching :mod:`core.backend` namespace.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from core import INTEGRATORS
+from core import kernels as k
+from core.backend import FLOAT
+from core.dynamics import check_finite_state, translate
+from core.errors import InvalidParameterError, NonFiniteError
+from rbenv.randomization import Randomization, draw_episode_model
+from rbenv.scene import G0, Scene
+
+__all__ = ["ACTION_MODES", "Plant", "PlantState", "StepNoise", "Wrench", "make_plant"]
+
+ACTION_MODES = ("throttle", "on_off", "torque")
+ALLOCATORS = ("pinv", "nnls", "lp")
+
+
+class Wrench(NamedTuple):
+    """What the thrusters apply over a control step (body frame).
+
+    torque_B: 3 components, N·m. thrust_N: Σ u_i F_i, N (sets propellant use). force_B: 3
+    components, N, or None when the scene does not model translation.
+    """
+
+    torque_B: tuple
+    thrust_N: object
+    force_B: tuple | None
+
+
+class StepNoise(NamedTuple):
+    """Per-step random draws: fault uniforms (n or (N, n)), disturbance normals (3
+    components), sensor normals (6 components); each None when the model is off."""
+
+    faults: object
+    disturbance: tuple | None
+    sensor: tuple | None
+
+
+class PlantState:
+    """Mutable plant state; components are floats (one satellite) or (N,) arrays.
+
+    q: body→world quaternion (4). w: ω_B, rad/s (3). x, v: centre-of-mass position (m) and
+    velocity (m/s) (3 each) or None. bias: disturbance bias, N·m (3) or None. health: (n,) or
+    (N, n) of 1 (working) / 0 (failed), or None. fuel_kg, impulse_Ns: cumulative. throttle:
+    throttles applied in the last step, (n,) or (N, n). steps: control steps taken. model:
+    the episode's :class:`rbenv.randomization.EpisodeModel` (domain randomization) or None.
+    pending: with a control delay, the throttles commanded last step, else None.
+    """
+
+    __slots__ = ("bias", "fuel_kg", "health", "impulse_Ns", "model", "pending", "q", "steps",
+                 "throttle", "v", "w", "x")
+
+    def __init__(self, **values):
+        for name in self.__slots__:
+            setattr(self, name, values.get(name))
+
+    def __getstate__(self):
+        return {name: getattr(self, name) for name in self.__slots__}
+
+    def __setstate__(self, values):
+        for name in self.__slots__:
+            setattr(self, name, values[name])
+
+
+@dataclass(frozen=True, eq=False)
+class Plant:
+    """Scene plus actuation options, with everything the per-step code needs precomputed.
+
+    Build with :func:`make_plant`. ``action_matrix`` (n, 4 or 7) maps throttles to
+    ``[τ_B (3, N·m), Σ u_i F_i (N), F_B (3, N, only with translation)]``.
+    """
+
+    scene: Scene
+    action_mode: str = "throttle"
+    allocator_name: str = "pinv"
+    n: int = field(init=False)
+    action_shape: tuple = field(init=False)
+    action_matrix: np.ndarray = field(init=False, repr=False)
+    allocator: object = field(init=False, repr=False)
+    torque_authority: np.ndarray = field(init=False, repr=False)
+    advance: object = field(init=False, repr=False)
+    action_bounds: tuple = field(init=False, repr=False)
+    # Scene scalars read every step, flattened (one attribute lookup instead of three).
+    h: float = field(init=False)  # s, integrator step
+    substeps: int = field(init=False)
+    control_dt: float = field(init=False)  # s
+    fuel_per_impulse: float = field(init=False)  # kg/(N·s) = 1 / (Isp g0)
+    inv_total_thrust: float = field(init=False)  # 1/N: thrust fraction = Σu_iF_i / ΣF_i
+    disturbance_torque: tuple | None = field(init=False)  # N·m, constant model only
+    p_fault: float = field(init=False)  # per-step fault probability (0: none)
+    dist_noise: float = field(init=False)  # N·m, 1σ per-step disturbance noise (0: none)
+    sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
+    randomization: Randomization | None = field(init=False)
+
+    def __post_init__(self):
+        sc, thr = self.scene, self.scene.thrusters
+        if self.action_mode not in ACTION_MODES:
+            raise InvalidParameterError(
+                f"action_mode must be one of {list(ACTION_MODES)}, got {self.action_mode!r}")
+        if self.allocator_name not in ALLOCATORS:
+            raise InvalidParameterError(
+                f"allocator must be one of {list(ALLOCATORS)}, got {self.allocator_name!r}")
+        dist, faults, sensor = sc.disturbance, sc.faults, sc.sensor_noise
+        values = {
+            "n": thr.n, "h": sc.physics.h, "substeps": sc.physics.substeps,
+            "control_dt": sc.physics.control_dt, "fuel_per_impulse": 1.0 / (sc.isp * G0),
+            "inv_total_thrust": 1.0 / float(thr.max_force.sum()),
+            "disturbance_torque": tuple(dist.torque.tolist()) if dist.model == "constant"
+            else None,
+            "p_fault": faults.p_step if faults.model == "random" else 0.0,
+            "dist_noise": dist.noise_sigma if dist.model == "random" else 0.0,
+            "sensor_noise": (sensor.attitude, sensor.rate) if sensor.model == "gaussian"
+            else None,
+            "advance": INTEGRATORS[sc.physics.integrator].advance,
+            "action_matrix": action_matrix(thr.torque_matrix_B, thr.max_force,
+                                           thr.force_matrix_B if sc.physics.translation
+                                           else None),
+            "randomization": sc.randomization if sc.randomization.enabled else None,
+        }
+        torque = self.action_mode == "torque"
+        values["action_shape"] = (3,) if torque else (thr.n,)
+        low = np.full(values["action_shape"], -1.0 if torque else 0.0)
+        high = np.ones(values["action_shape"])
+        for arr in (low, high):
+            arr.setflags(write=False)
+        values["action_bounds"] = (low, high)
+        values["allocator"], values["torque_authority"] = None, None
+        if torque:
+            from rbenv.allocation import axis_authority, make_allocator
+
+            values["allocator"] = make_allocator(self.allocator_name, thr.torque_matrix_B)
+            values["torque_authority"] = axis_authority(thr.torque_matrix_B)
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def noisy(self) -> bool:
+        """Whether a step draws random numbers (faults, disturbance or sensor noise)."""
+        return bool(self.p_fault or self.dist_noise or self.sensor_noise is not None)
+
+    @property
+    def translation(self) -> bool:
+        """Whether the centre of mass moves (the scene models translation)."""
+        return self.scene.physics.translation
+
+    # ------------------------------------------------------------------- actuation
+
+    def throttle(self, a: np.ndarray) -> np.ndarray:
+        """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
+
+        throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
+        torque: ``clip(a, -1, 1) · authority`` (N·m per axis) through the allocator. NaN is
+        rejected; in throttle mode by :func:`rbenv.transition.step` from the propagated NaN
+        thrust, so the hot path pays no extra check.
+        """
+        mode = self.action_mode
+        low, high = self.action_bounds
+        if mode == "throttle":
+            return np.minimum(np.maximum(a, low), high)
+        if np.isnan(a).any():
+            raise nan_action_error(a)
+        if mode == "on_off":
+            return (a > 0.0).astype(float)
+        return self.allocator(np.minimum(np.maximum(a, low), high) * self.torque_authority)
+
+    def apply_faults_and_delay(self, st: PlantState, u: np.ndarray, fault_draw) -> np.ndarray:
+        """Throttles that actually fire: mid-episode faults, failed thrusters, control delay."""
+        if st.health is not None:
+            if fault_draw is not None:
+                st.health = st.health * (fault_draw >= self.p_fault)
+            u = u * st.health
+        if st.pending is not None:
+            delayed = st.model.delayed
+            fired = np.where(delayed[..., None], st.pending, u) if np.ndim(delayed) else \
+                (st.pending if delayed else u)
+            st.pending = u
+            u = fired
+        return u
+
+    def wrench(self, st: PlantState, u: np.ndarray, xp) -> Wrench:
+        """The body wrench of throttles u, (n,) or (N, n), held over the step."""
+        matrix = self.action_matrix if st.model is None else st.model.action_matrix
+        if xp is FLOAT:
+            parts = (u @ matrix).tolist()  # a list of floats: the kernels index it alike
+        elif matrix.ndim == 2:
+            parts = tuple(matrix.T @ u.T)
+        else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
+            parts = tuple(np.einsum("ni,nik->kn", u, matrix))
+        force = (parts[4], parts[5], parts[6]) if len(parts) > 4 else None
+        return Wrench((parts[0], parts[1], parts[2]), parts[3], force)
+
+    # ------------------------------------------------------------------- motion
+
+    def advance_state(self, st: PlantState, wrench: Wrench, dist_noise, xp) -> None:
+        """Advance ``st`` over one control step under ``wrench`` and the disturbance.
+
+        The thruster torque plus the disturbance (constant torque, or bias + ``dist_noise``)
+        drives ``substeps`` integrator steps; with translation the centre of mass moves under
+        the body force rotated to the world frame at each substep. Raises NonFiniteError if
+        any state component is not finite afterwards. Propellant: ``Σu_iF_i·dt / (Isp g0)``.
+        """
+        tau = wrench.torque_B
+        if st.bias is not None:
+            tau = k.add(tau, st.bias)
+            if dist_noise is not None:
+                tau = k.add(tau, dist_noise, self.dist_noise)
+        elif self.disturbance_torque is not None:
+            tau = k.add(tau, self.disturbance_torque)
+        body = self.scene.body if st.model is None else st.model.body
+        h, advance = self.h, self.advance
+        q, w = st.q, st.w
+        for _ in range(self.substeps):
+            if st.x is not None:
+                self._translate(st, body, k.rotate(q, wrench.force_B))
+            q, w = advance(body, q, w, h, tau, None)
+        self._check_finite(st, q, w, xp)
+        st.q, st.w = q, w
+        impulse = wrench.thrust_N * self.control_dt
+        st.impulse_Ns = st.impulse_Ns + impulse
+        st.fuel_kg = st.fuel_kg + impulse * self.fuel_per_impulse
+        st.steps = st.steps + 1
+
+    def _translate(self, st: PlantState, body, force_W: tuple) -> None:
+        """Move the centre of mass one integrator step under force_W (N, world frame)."""
+        name, h = self.scene.physics.integrator, self.h
+        moved = [translate(name, body, st.x[i], st.v[i], h, force_W[i]) for i in range(3)]
+        st.x = tuple(m[0] for m in moved)
+        st.v = tuple(m[1] for m in moved)
+
+    def _check_finite(self, st: PlantState, q, w, xp) -> None:
+        """Raise NonFiniteError unless every state component (q, ω, x, v) is finite."""
+        comps = (*q, *w) if st.x is None else (*q, *w, *st.x, *st.v)
+        if xp.all_finite(comps):
+            return
+        name = self.scene.physics.integrator
+        check_finite_state(q, w, name, self.h)
+        raise NonFiniteError(
+            f"simulation diverged: the centre-of-mass state (position, velocity) became "
+            f"non-finite with integrator={name!r}, dt={self.h!r}; the net force or the step "
+            "is too large for float64")
+
+    # ------------------------------------------------------------------- sensing
+
+    def measure(self, st: PlantState, noise) -> tuple[tuple, tuple]:
+        """Measured (q, ω_B): the true state, or with noise ``q ⊗ exp(σ_att·n[:3])`` and
+        ``ω_B + σ_rate·n[3:]`` (noise: 6 standard-normal components)."""
+        if noise is None:
+            return st.q, st.w
+        s_att, s_rate = self.sensor_noise
+        q = k.qnormalize(k.qmul(st.q, k.exp(k.scale(noise[:3], s_att))))
+        return q, k.add(st.w, noise[3:], s_rate)
+
+    def draw_sensor_noise(self, rng: np.random.Generator, batch: int | None):
+        """6 standard-normal components (one satellite, or (batch,) arrays), or None."""
+        return None if self.sensor_noise is None else _components(rng, 6, batch)
+
+    def draw_step_noise(self, rng: np.random.Generator, batch: int | None) -> StepNoise:
+        """This step's random draws from ``rng``: one satellite (batch None) or ``batch``.
+
+        Order: fault uniforms, disturbance normals, sensor normals (each only when modelled).
+        """
+        if not self.noisy:
+            return _NO_NOISE
+        n = self.n
+        faults = dist = sensor = None
+        if self.p_fault:
+            faults = rng.random(n if batch is None else (batch, n))
+        if self.dist_noise:
+            dist = _components(rng, 3, batch)
+        if self.sensor_noise is not None:
+            sensor = _components(rng, 6, batch)
+        return StepNoise(faults, dist, sensor)
+
+    # ------------------------------------------------------------------- episode start
+
+    def sample_start(self, draws) -> dict:
+        """The plant's part of an episode start for ``draws.n`` envs, from stream "plant".
+
+        Returns arrays with a leading batch axis: ``bias`` (N, 3) N·m or None, ``health``
+        (N, n) or None, and ``model`` (an EpisodeModel of the randomized physics) or None.
+        """
+        sc = self.scene
+        bias = health = model = None
+        if sc.disturbance.model == "random":
+            bias = (sc.disturbance.bias_sigma * draws.normal("plant", 3)).T
+        if sc.faults.model == "random":
+            health = (draws.uniform("plant", self.n, offset=6) >= sc.faults.p_reset).T * 1.0
+        if self.randomization is not None:
+            model = draw_episode_model(self, draws)
+        return {"bias": bias, "health": health, "model": model}
+
+
+_NO_NOISE = StepNoise(None, None, None)
+
+
+def _components(rng: np.random.Generator, count: int, batch: int | None) -> tuple:
+    if batch is None:
+        return tuple(rng.standard_normal(count).tolist())
+    return tuple(rng.standard_normal((count, batch)))
+
+
+def action_matrix(torque_matrix_B, max_force, force_matrix_B=None) -> np.ndarray:
+    """(n, 4) or (n, 7) read-only map from throttles to ``[τ_B, Σu_iF_i, F_B]``.
+
+    torque_matrix_B: (3, n) N·m per unit throttle; max_force: (n,) N; force_matrix_B: (3, n)
+    N per unit throttle, or None without translation.
+    """
+    cols = [np.asarray(torque_matrix_B).T, np.asarray(max_force)[:, None]]
+    if force_matrix_B is not None:
+        cols.append(np.asarray(force_matrix_B).T)
+    matrix = np.ascontiguousarray(np.hstack(cols), dtype=float)
+    matrix.setflags(write=False)
+    return matrix
+
+
+def nan_action_error(action) -> ValueError:
+    """The ValueError for an action containing NaN, naming the first bad index."""
+    bad = np.argwhere(np.isnan(np.asarray(action, dtype=float)))
+    where = tuple(int(i) for i in bad[0]) if len(bad) else ()
+    return ValueError(
+        f"action must not contain NaN (got NaN at index {where}); actions outside [-1, 1] are "
+        "clipped to the action space, but NaN has no meaning"
+    )
+
+
+def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
+               action_mode="throttle", allocator="pinv", randomize=None) -> Plant:
+    """Resolve env options against a scene (name, path or Scene) into a :class:`Plant`.
+
+    integrator, control_dt (s), substeps: override the scene's physics. action_mode:
+    "throttle" | "on_off" | "torque". allocator: "pinv" | "nnls" | "lp" (torque mode).
+    randomize: None keeps the scene's domain randomization; a dict overrides its fields
+    (see :class:`rbenv.randomization.Randomization`); False turns it off.
+    """
+    from rbenv.scene import load_scene
+
+    sc = load_scene("cubesat-12u" if scene is None else scene)
+    sc = sc.with_physics(integrator=integrator, control_dt=control_dt, substeps=substeps)
+    if randomize is not None:
+        sc = sc.with_randomization(randomize)
+    return Plant(scene=sc, action_mode=action_mode, allocator_name=allocator)
+

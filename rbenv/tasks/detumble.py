@@ -1,0 +1,130 @@
+"""Detumble: stop a satellite tumbling about a random axis, with as little propellant as can be.
+
+``rbenv/SatelliteDetumble-v0``. The attitude is uniform on SO(3) (it does not matter), the body
+rate has a uniformly random direction and a magnitude uniform between ``min_rate_fraction`` and
+``max_rate_fraction`` of the rate limit (the scene's ``[tasks.detumble]`` table, or
+``task_options``). Success: |ω| < ``success_rate`` held for the hold time; failure: |ω| above
+the rate limit. Fuel counts: its weight is ten times the reorientation task's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from core import validation
+from core.backend import NUMPY
+from rbenv.tasks.base import Task, Weights, option_table, unit_rows
+
+
+@dataclass(frozen=True)
+class DetumbleWeights(Weights):
+    """Reward weights (per control step; ω the body rate, L the rate limit).
+
+    rate ``−w·|ω|/L``; progress ``w·(|ω|_prev − |ω|)/L`` (potential-based); fuel
+    ``−w·Σu_iF_i/ΣF_i``; hold ``+w`` per step below the success rate; failure ``−w`` once.
+    """
+
+    rate: float = 0.2
+    progress: float = 10.0
+    fuel: float = 0.5
+    hold: float = 1.0
+    failure: float = 25.0
+
+
+class DetumbleTerms(NamedTuple):
+    """Reward terms of one step; they sum, left to right, to the reward."""
+
+    rate: object
+    progress: object
+    fuel: object
+    hold: object
+    failure: object
+
+
+@dataclass(frozen=True, eq=False)
+class Detumble(Task):
+    """Bring |ω| below the success rate and keep it there (see the module docstring)."""
+
+    name: ClassVar[str] = "detumble"
+    env_id: ClassVar[str] = "rbenv/SatelliteDetumble-v0"
+    observation_structure: ClassVar[dict] = {"omega_B": 3}
+    Terms: ClassVar[type] = DetumbleTerms
+    WeightsType: ClassVar[type] = DetumbleWeights
+    state_fields: ClassVar[dict] = {"rate": "f", "hold": "i"}
+    reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3}
+    OPTIONS: ClassVar[dict] = {"min_rate_fraction": 0.3, "max_rate_fraction": 0.8}
+
+    weights: DetumbleWeights = DetumbleWeights()
+    min_rate: float = 0.0  # rad/s
+    max_rate: float = 0.0  # rad/s
+
+    def observation_scale(self) -> dict:
+        return {"omega_B": self.rate_limit}
+
+    def with_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None):
+        """Curriculum: ``max_initial_rate`` (rad/s) caps the initial tumble; angle unused."""
+        if max_initial_rate is None:
+            return self
+        rate = validation.number("max_initial_rate", max_initial_rate, low=0.0,
+                                 high=self.rate_limit, high_open=True)
+        return replace(self, max_rate=rate, min_rate=min(self.min_rate, rate))
+
+    def sample_start(self, draws) -> dict:
+        """Attitude uniform; rate direction uniform, magnitude uniform in [min, max].
+
+        Stream "task": normals 0–3 attitude, 4–6 rate direction, then uniform slot 14.
+        """
+        g = draws.normal("task", 7)
+        u = draws.uniform("task", 1, offset=14)[0]
+        rate = self.min_rate + (self.max_rate - self.min_rate) * u
+        return {"q": unit_rows(g[0:4]), "omega_B": unit_rows(g[4:7]) * rate[:, None]}
+
+    def complete_start(self, start: dict) -> None:
+        w = start["omega_B"]
+        start.update(rate=NUMPY.sqrt(np.sum(w * w, axis=1)),
+                     hold=np.zeros(len(w), dtype=np.int64))
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """ω_B / rate_limit, clipped to [-1, 1] (3)."""
+        s = 1.0 / self.rate_limit
+        clip = xp.clip
+        return (clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0), clip(w[2] * s, -1.0, 1.0))
+
+    def evaluate(self, st, thrust_fraction, xp):
+        wt = self.weights
+        w = st.w
+        rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        inside = rate < self.success_rate
+        st.hold = xp.where(inside, st.hold + 1, 0)
+        failure = rate > self.rate_limit
+        inv_limit = 1.0 / self.rate_limit
+        terms = DetumbleTerms(
+            -wt.rate * xp.minimum(rate * inv_limit, 1.0),
+            wt.progress * inv_limit * (st.rate - rate),
+            -wt.fuel * thrust_fraction,
+            wt.hold * inside,
+            -wt.failure * failure,
+        )
+        st.rate = rate
+        return terms, st.hold >= self.hold_steps, failure
+
+    def info(self, st, xp) -> dict:
+        """rate_dps."""
+        return {"rate_dps": self.rate_info(st, xp)}
+
+
+def make_detumble(plant, reward_weights=None, max_initial_angle_deg=None,
+                  max_initial_rate=None, task_options=None) -> Detumble:
+    """The detumble task on ``plant``; ``max_initial_rate`` (rad/s) overrides the top rate."""
+    opts = option_table(plant.scene, Detumble, task_options)
+    limit = plant.scene.episode.rate_limit
+    lo = validation.number("tasks.detumble.min_rate_fraction", opts["min_rate_fraction"],
+                           low=0.0, high=1.0, high_open=True)
+    hi = validation.number("tasks.detumble.max_rate_fraction", opts["max_rate_fraction"],
+                           low=lo, high=1.0, high_open=True)
+    task = Detumble(plant=plant, weights=DetumbleWeights.from_mapping(reward_weights),
+                    min_rate=lo * limit, max_rate=hi * limit)
+    return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)

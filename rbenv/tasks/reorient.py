@@ -1,0 +1,174 @@
+"""Reorient: turn from a random attitude to a fixed random target and hold it there.
+
+``rbenv/SatelliteReorient-v0``. The target is uniform on SO(3); the error rotation
+``q_target* ⊗ q`` is Haar-uniform within ``max_initial_angle_deg`` (180°: the attitude is an
+independent uniform rotation) and the body starts tumbling at up to ``max_initial_rate``.
+Success: error < ``success_angle_deg`` and |ω| < ``success_rate`` held for ``hold_time``
+(scene values); failure: |ω| > ``rate_limit``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from core import validation
+from rbenv.tasks.base import (
+    _DEG,
+    Task,
+    Weights,
+    conj_rows,
+    error_quaternion,
+    exp_rows,
+    option_table,
+    qmul_rows,
+    restricted_haar_angle,
+    unit_rows,
+)
+
+_INV_PI = 1.0 / math.pi
+
+
+@dataclass(frozen=True)
+class ReorientWeights(Weights):
+    """Reward weights (per control step; θ the error, ω the body rate, L the rate limit).
+
+    attitude ``−w·θ/π``; rate ``−w·min(|ω|/L, 1)``; fuel ``−w·Σu_iF_i/ΣF_i``; progress
+    ``w·(θ_prev − θ)/π`` (potential-based shaping); hold ``+w`` per step inside the success
+    thresholds; failure ``−w`` once, on loss of control.
+    """
+
+    attitude: float = 0.2
+    rate: float = 0.05
+    fuel: float = 0.05
+    progress: float = 10.0
+    hold: float = 1.0
+    failure: float = 25.0
+
+
+class ReorientTerms(NamedTuple):
+    """Reward terms of one step; they sum, left to right, to the reward."""
+
+    attitude: object
+    rate: object
+    fuel: object
+    progress: object
+    hold: object
+    failure: object
+
+
+def initial_ranges(scene, max_angle_deg=None, max_rate=None) -> tuple[float, float]:
+    """Validated (max initial angle in rad, max initial rate in rad/s); None: scene default."""
+    ep = scene.episode
+    deg = ep.max_initial_angle_deg if max_angle_deg is None else max_angle_deg
+    rate = ep.max_initial_rate if max_rate is None else max_rate
+    deg = validation.number("max_initial_angle_deg", deg, low=0.0, high=180.0)
+    rate = validation.number("max_initial_rate (rad/s, below the rate limit)", rate, low=0.0,
+                             high=ep.rate_limit, high_open=True)
+    return math.radians(deg), rate
+
+
+@dataclass(frozen=True, eq=False)
+class Reorient(Task):
+    """Turn to a fixed target attitude and hold it (see the module docstring)."""
+
+    name: ClassVar[str] = "reorient"
+    env_id: ClassVar[str] = "rbenv/SatelliteReorient-v0"
+    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3}
+    Terms: ClassVar[type] = ReorientTerms
+    WeightsType: ClassVar[type] = ReorientWeights
+    state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
+                                    "hold": "i"}
+    reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4}
+
+    weights: ReorientWeights = ReorientWeights()
+    max_initial_angle: float = math.pi  # rad
+    max_initial_rate: float = 0.02  # rad/s
+
+    def observation_scale(self) -> dict:
+        return {"q_err": 1.0, "omega_B": self.rate_limit}
+
+    def with_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None):
+        deg = math.degrees(self.max_initial_angle) if max_initial_angle_deg is None \
+            else max_initial_angle_deg
+        rate = self.max_initial_rate if max_initial_rate is None else max_initial_rate
+        angle, rate = initial_ranges(self.plant.scene, deg, rate)
+        return replace(self, max_initial_angle=angle, max_initial_rate=rate)
+
+    # ------------------------------------------------------------------- episode start
+
+    def sample_start(self, draws) -> dict:
+        """Target uniform on SO(3); error Haar-uniform within the angle; tumble up to the rate.
+
+        Slots of stream "task": normals 0–3 target, 4–6 error axis, 7–9 rate direction (two
+        uniform slots each), then uniforms 20 (error angle) and 21 (rate magnitude).
+        """
+        g = draws.normal("task", 10)
+        u = draws.uniform("task", 2, offset=20)
+        q_target = unit_rows(g[0:4])
+        theta = restricted_haar_angle(u[0], self.max_initial_angle)
+        q = qmul_rows(q_target, exp_rows(unit_rows(g[4:7]) * np.atleast_1d(theta)[:, None]))
+        omega_B = unit_rows(g[7:10]) * (self.max_initial_rate * u[1])[:, None]
+        return {"q": q, "omega_B": omega_B, "q_target": q_target}
+
+    def complete_start(self, start: dict) -> None:
+        from core.backend import NUMPY
+
+        conj = conj_rows(start.pop("q_target"))
+        e, angle = error_quaternion(tuple(conj.T), tuple(start["q"].T), NUMPY)
+        start.update(q_target_conj=conj, q_err=np.stack(e, axis=1), angle=angle,
+                     hold=np.zeros(len(angle), dtype=np.int64))
+
+    # ------------------------------------------------------------------- per step
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """Canonical q_err (4), then ω_B / rate_limit clipped to [-1, 1] (3)."""
+        e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
+        s = 1.0 / self.rate_limit
+        clip = xp.clip
+        return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
+                clip(w[2] * s, -1.0, 1.0))
+
+    def evaluate(self, st, thrust_fraction, xp):
+        """Reward terms, success (thresholds held) and failure (|ω| > rate limit)."""
+        wt = self.weights
+        st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
+        w = st.w
+        rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        inside = (angle < self.success_angle) & (rate < self.success_rate)
+        st.hold = xp.where(inside, st.hold + 1, 0)
+        failure = rate > self.rate_limit
+        terms = ReorientTerms(
+            -wt.attitude * _INV_PI * angle,
+            -wt.rate * xp.minimum(rate * (1.0 / self.rate_limit), 1.0),
+            -wt.fuel * thrust_fraction,
+            wt.progress * _INV_PI * (st.angle - angle),
+            wt.hold * inside,
+            -wt.failure * failure,
+        )
+        st.angle = angle
+        return terms, st.hold >= self.hold_steps, failure
+
+    def info(self, st, xp) -> dict:
+        """attitude_error_deg and rate_dps."""
+        return {"attitude_error_deg": st.angle * _DEG, "rate_dps": self.rate_info(st, xp)}
+
+    def target(self, st) -> tuple:
+        """The target quaternion (4 components), for rendering."""
+        c = st.q_target_conj
+        return (c[0], -c[1], -c[2], -c[3])
+
+    def error_angle(self, st):
+        return st.angle
+
+
+def make_reorient(plant, reward_weights=None, max_initial_angle_deg=None,
+                  max_initial_rate=None, task_options=None) -> Reorient:
+    """The reorientation task on ``plant`` with validated options (None: scene defaults)."""
+    option_table(plant.scene, Reorient, task_options)  # it takes none: unknown names raise
+    angle, rate = initial_ranges(plant.scene, max_initial_angle_deg, max_initial_rate)
+    return Reorient(plant=plant, weights=ReorientWeights.from_mapping(reward_weights),
+                    max_initial_angle=angle, max_initial_rate=rate)

@@ -1,0 +1,211 @@
+"""Track: keep pointing at a target attitude that turns at a constant rate.
+
+``rbenv/SatelliteTrack-v0``. The target frame turns about a world-fixed axis at a constant rate
+``Ω_W`` (uniform direction, magnitude uniform up to ``max_target_rate``), as the local orbital
+frame of a nadir-pointing spacecraft or the line of sight to a ground target does. Its attitude
+after ``t`` seconds is ``exp(Ω_W t) ⊗ q_target(0)``, exact; seen from the body its rate is
+``ω_t_B = Rᵀ Ω_W`` and that rate changes at ``d(ω_t_B)/dt = ω_t_B × ω_B``.
+
+The episode starts within ``max_initial_angle_deg`` of the target, tumbling at up to the scene's
+``max_initial_rate``, and always runs to the scene's duration unless control is lost. Rewards
+accrue for tracking at every step; ``is_success`` (on the last step) requires the satellite to
+be on target (error < success angle, |ω − ω_t_B| < success rate) for at least
+``min_track_fraction`` of the steps in the second half of the episode.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from core import kernels as k
+from core import validation
+from core.backend import NUMPY
+from rbenv.tasks.base import (
+    _DEG,
+    Task,
+    Weights,
+    conj_rows,
+    error_quaternion,
+    exp_rows,
+    option_table,
+    qmul_rows,
+    restricted_haar_angle,
+    unit_rows,
+)
+
+_INV_PI = 1.0 / math.pi
+
+
+@dataclass(frozen=True)
+class TrackWeights(Weights):
+    """Reward weights (per control step; θ the error to the moving target, e_ω = ω − ω_t_B).
+
+    attitude ``−w·θ/π``; rate ``−w·min(|e_ω|/L, 1)``; fuel ``−w·Σu_iF_i/ΣF_i``; progress
+    ``w·(θ_prev − θ)/π``; on_target ``+w`` per step on target; failure ``−w`` once.
+    """
+
+    attitude: float = 0.2
+    rate: float = 0.05
+    fuel: float = 0.05
+    progress: float = 10.0
+    on_target: float = 1.0
+    failure: float = 25.0
+
+
+class TrackTerms(NamedTuple):
+    """Reward terms of one step; they sum, left to right, to the reward."""
+
+    attitude: object
+    rate: object
+    fuel: object
+    progress: object
+    on_target: object
+    failure: object
+
+
+@dataclass(frozen=True, eq=False)
+class Track(Task):
+    """Follow a target turning at a constant rate (see the module docstring)."""
+
+    name: ClassVar[str] = "track"
+    env_id: ClassVar[str] = "rbenv/SatelliteTrack-v0"
+    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_err_B": 3, "omega_target_B": 3}
+    Terms: ClassVar[type] = TrackTerms
+    WeightsType: ClassVar[type] = TrackWeights
+    success_terminates: ClassVar[bool] = False
+    state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_step_conj": "c4",
+                                    "omega_target_W": "c3", "q_err": "c4", "angle": "f",
+                                    "on_steps": "i"}
+    reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4, "omega_target_W": 3}
+    OPTIONS: ClassVar[dict] = {"max_target_rate_fraction": 0.3, "max_initial_angle_deg": 30.0,
+                               "min_track_fraction": 0.9}
+
+    weights: TrackWeights = TrackWeights()
+    max_target_rate: float = 0.0  # rad/s
+    max_initial_angle: float = math.radians(30.0)  # rad
+    max_initial_rate: float = 0.0  # rad/s
+    min_track_fraction: float = 0.9
+
+    @property
+    def episode_steps(self) -> int:
+        """Control steps in an episode (the scene's duration)."""
+        return self.plant.scene.episode_steps
+
+    @property
+    def scored_from(self) -> int:
+        """Steps after which on-target steps count towards success (the second half)."""
+        return self.episode_steps // 2
+
+    def observation_scale(self) -> dict:
+        L = self.rate_limit
+        return {"q_err": 1.0, "omega_err_B": L, "omega_target_B": L}
+
+    def with_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None):
+        deg = math.degrees(self.max_initial_angle) if max_initial_angle_deg is None \
+            else validation.number("max_initial_angle_deg", max_initial_angle_deg, low=0.0,
+                                   high=180.0)
+        rate = self.max_initial_rate if max_initial_rate is None else validation.number(
+            "max_initial_rate", max_initial_rate, low=0.0, high=self.rate_limit,
+            high_open=True)
+        return replace(self, max_initial_angle=math.radians(deg), max_initial_rate=rate)
+
+    # ------------------------------------------------------------------- episode start
+
+    def sample_start(self, draws) -> dict:
+        """Stream "task": normals 0–3 target, 4–6 error axis, 7–9 tumble direction, 10–12
+        target-rate axis; uniforms 26 (error angle), 27 (tumble), 28 (target rate)."""
+        g = draws.normal("task", 13)
+        u = draws.uniform("task", 3, offset=26)
+        q_target = unit_rows(g[0:4])
+        theta = np.atleast_1d(restricted_haar_angle(u[0], self.max_initial_angle))
+        q = qmul_rows(q_target, exp_rows(unit_rows(g[4:7]) * theta[:, None]))
+        return {"q": q, "omega_B": unit_rows(g[7:10]) * (self.max_initial_rate * u[1])[:, None],
+                "q_target": q_target,
+                "omega_target_W": unit_rows(g[10:13]) * (self.max_target_rate * u[2])[:, None]}
+
+    def complete_start(self, start: dict) -> None:
+        conj = conj_rows(start.pop("q_target"))
+        step = exp_rows(start["omega_target_W"] * self.plant.control_dt)
+        e, angle = error_quaternion(tuple(conj.T), tuple(start["q"].T), NUMPY)
+        start.update(q_target_conj=conj, q_step_conj=conj_rows(step),
+                     q_err=np.stack(e, axis=1), angle=angle,
+                     on_steps=np.zeros(len(angle), dtype=np.int64))
+
+    # ------------------------------------------------------------------- per step
+
+    def advance_target(self, st) -> None:
+        """``q_target ← exp(Ω_W dt) ⊗ q_target`` (as conjugates), renormalised."""
+        st.q_target_conj = k.qnormalize(k.qmul(st.q_target_conj, st.q_step_conj))
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """q_err (4), (ω − ω_t_B)/L (3) and ω_t_B/L (3), rates clipped to [-1, 1]."""
+        e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
+        w_t = k.rotate_inverse(q, st.omega_target_W)
+        s = 1.0 / self.rate_limit
+        clip = xp.clip
+        return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
+                *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
+
+    def evaluate(self, st, thrust_fraction, xp):
+        wt = self.weights
+        st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
+        w = st.w
+        w_t = k.rotate_inverse(st.q, st.omega_target_W)
+        e0, e1, e2 = w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2]
+        rate_err = xp.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        on = (angle < self.success_angle) & (rate_err < self.success_rate)
+        st.on_steps = st.on_steps + (on & (st.steps > self.scored_from))
+        failure = rate > self.rate_limit
+        terms = TrackTerms(
+            -wt.attitude * _INV_PI * angle,
+            -wt.rate * xp.minimum(rate_err * (1.0 / self.rate_limit), 1.0),
+            -wt.fuel * thrust_fraction,
+            wt.progress * _INV_PI * (st.angle - angle),
+            wt.on_target * on,
+            -wt.failure * failure,
+        )
+        st.angle = angle
+        scored = self.episode_steps - self.scored_from
+        success = (st.steps >= self.episode_steps) & \
+            (st.on_steps >= self.min_track_fraction * scored)
+        return terms, success, failure
+
+    def info(self, st, xp) -> dict:
+        """attitude_error_deg, rate_error_dps, track_fraction (on-target share so far of the
+        scored second half)."""
+        w, w_t = st.w, k.rotate_inverse(st.q, st.omega_target_W)
+        e = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
+        scored = xp.maximum(st.steps - self.scored_from, 1)
+        return {"attitude_error_deg": st.angle * _DEG,
+                "rate_error_dps": xp.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) * _DEG,
+                "track_fraction": st.on_steps / scored}
+
+    def target(self, st) -> tuple:
+        c = st.q_target_conj
+        return (c[0], -c[1], -c[2], -c[3])
+
+    def error_angle(self, st):
+        return st.angle
+
+
+def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initial_rate=None,
+               task_options=None) -> Track:
+    """The tracking task on ``plant`` (options: scene ``[tasks.track]``, then task_options)."""
+    opts = option_table(plant.scene, Track, task_options)
+    limit = plant.scene.episode.rate_limit
+    frac = validation.number("tasks.track.max_target_rate_fraction",
+                             opts["max_target_rate_fraction"], low=0.0, high=0.9)
+    deg = validation.number("tasks.track.max_initial_angle_deg", opts["max_initial_angle_deg"],
+                            low=0.0, high=180.0)
+    share = validation.number("tasks.track.min_track_fraction", opts["min_track_fraction"],
+                              low=0.0, high=1.0)
+    task = Track(plant=plant, weights=TrackWeights.from_mapping(reward_weights),
+                 max_target_rate=frac * limit, max_initial_angle=math.radians(deg),
+                 max_initial_rate=plant.scene.episode.max_initial_rate,
+                 min_track_fraction=share)
+    return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
