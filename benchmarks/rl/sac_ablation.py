@@ -1,0 +1,352 @@
+"""Why SAC/TD3 fail on cubesat-12u and what fixes them; PPO's propellant against the PD's.
+
+Each variant trains one SB3 model on the native rbenv vector env (same-step autoreset, through
+:class:`agents.sb3.SB3VecEnv`), then evaluates the deterministic policy on the held-out seeded
+episodes ``1_000_000 + i`` (i < 500), as ``rbenv evaluate`` does. Env-side changes under study
+are prototyped here as SB3 ``VecEnv`` wrappers, so the env package itself is untouched:
+
+* ``action_map="affine"``: throttle = (a + 1) / 2 instead of clip(a, 0, 1), so a tanh-squashed
+  policy has no dead half of its action box (the env still clips, after the map);
+* ``curriculum``: the maximum initial angle grows linearly from ``start_deg`` to 180° over the
+  first ``frac`` of training, through the env's ``set_initial_ranges``.
+
+One JSON per variant under ``benchmarks/results/rl/<study>/``; a variant whose JSON exists is
+skipped, so a killed study resumes. ``summary`` writes ``summary.md`` from the JSONs.
+
+    python -m benchmarks.rl.sac_ablation run sac-default sac-affine ...
+    python -m benchmarks.rl.sac_ablation list
+    python -m benchmarks.rl.sac_ablation summary
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+
+import rbenv
+from agents.sb3 import SB3VecEnv
+
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl"
+EVAL_SEED = 1_000_000
+EVAL_EPISODES = 500
+CURVE_SEED = 2_000_000  # intermediate evaluations: disjoint from the held-out seeds
+CURVE_EPISODES = 100
+
+_SAC = {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
+        "learning_starts": 5_000, "train_freq": 1, "gradient_steps": 1, "gamma": 0.99,
+        "tau": 0.01, "policy_kwargs": {"net_arch": [256, 256]}}
+_TD3 = {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
+        "learning_starts": 5_000, "train_freq": 1, "gradient_steps": 8, "gamma": 0.99,
+        "tau": 0.01, "policy_kwargs": {"net_arch": [128, 128]}}
+_PPO = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
+        "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
+        "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}}
+
+
+def _v(algo, steps, hp, n_envs=8, action_map="clip", curriculum=None, env_kwargs=None,
+       noise=0.1, study="sac"):
+    return {"algo": algo, "timesteps": steps, "n_envs": n_envs, "hyperparams": hp,
+            "action_map": action_map, "curriculum": curriculum,
+            "env_kwargs": env_kwargs or {}, "action_noise_sigma": noise, "study": study}
+
+
+_CUR = {"start_deg": 20.0, "frac": 0.5}
+_UTD1 = {**_SAC, "gradient_steps": 8, "policy_kwargs": {"net_arch": [128, 128]}}
+_FIX = {**_UTD1, "n_steps": 3}
+
+VARIANTS = {
+    # ---- SAC, 50k env steps: one change at a time from the shipped defaults
+    "sac-default": _v("sac", 50_000, _SAC),
+    "sac-affine": _v("sac", 50_000, _SAC, action_map="affine"),
+    "sac-utd1": _v("sac", 50_000, _UTD1),
+    "sac-utd1-curr": _v("sac", 50_000, _UTD1, curriculum=_CUR),
+    "sac-affine-utd1": _v("sac", 50_000, _UTD1, action_map="affine"),
+    # ---- candidate fix: one gradient step per env step, curriculum, 3-step returns
+    "sac-fix": _v("sac", 40_000, _FIX, curriculum=_CUR),
+    "td3-fix": _v("td3", 40_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, study="td3"),
+    # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
+    **{f"ppo-fuel{w:g}": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo",
+                           env_kwargs={"reward_weights": {"fuel": w}})
+       for w in (0.05, 0.5, 1.0, 2.0)},
+}
+
+
+# --------------------------------------------------------------------------- env wrappers
+
+
+def throttle_action(a: np.ndarray, action_map: str) -> np.ndarray:
+    """The env action for policy output ``a`` in [-1, 1]: identity, or (a + 1) / 2."""
+    if action_map == "clip":
+        return a
+    if action_map == "affine":
+        return 0.5 * (np.clip(a, -1.0, 1.0) + 1.0)
+    raise ValueError(f"action_map must be 'clip' or 'affine', got {action_map!r}")
+
+
+class MappedVecEnv(SB3VecEnv):
+    """:class:`SB3VecEnv` whose actions pass through :func:`throttle_action` first."""
+
+    def __init__(self, venv, action_map: str):
+        super().__init__(venv)
+        self.action_map = action_map
+
+    def step_async(self, actions: np.ndarray) -> None:
+        super().step_async(throttle_action(np.asarray(actions), self.action_map))
+
+
+def make_env(spec: dict, n_envs: int, seed: int):
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    venv = gym.make_vec(rbenv.ENV_ID, num_envs=n_envs, vectorization_mode="vector_entry_point",
+                        autoreset_mode=AutoresetMode.SAME_STEP, **spec["env_kwargs"])
+    env = VecMonitor(MappedVecEnv(venv, spec["action_map"]), info_keywords=("is_success",))
+    env.seed(seed)
+    return env
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int) -> dict:
+    """Deterministic policy on ``episodes`` seeded episodes (episode i: seed + i), first done."""
+    envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
+                        **{k: v for k, v in spec["env_kwargs"].items()
+                           if k not in ("max_initial_angle_deg",)})
+    cfg = envs.config
+    obs, _ = envs.reset(seed=seed)
+    alive = np.ones(episodes, bool)
+    success = np.zeros(episodes, bool)
+    lost = np.zeros(episodes, bool)
+    fuel = np.zeros(episodes)
+    t_end = np.zeros(episodes)
+    err = np.zeros(episodes)
+    while alive.any():
+        action, _ = model.predict(vecnorm.normalize_obs(obs), deterministic=True)
+        obs, _, term, trunc, info = envs.step(throttle_action(action, spec["action_map"]))
+        done = (term | trunc) & alive
+        idx = np.flatnonzero(done)
+        success[idx] = np.asarray(info["is_success"])[idx]
+        lost[idx] = np.asarray(info["rate_dps"])[idx] > np.degrees(cfg.rate_limit)
+        fuel[idx] = np.asarray(info["fuel_kg"])[idx]
+        t_end[idx] = np.asarray(info["time_s"])[idx]
+        err[idx] = np.asarray(info["attitude_error_deg"])[idx]
+        alive &= ~done
+    envs.close()
+    hold, dt = cfg.scene.episode.hold_time, cfg.control_dt
+    settle = t_end[success] - hold + dt
+    return {"episodes": episodes, "seed": seed, "success_rate": float(success.mean()),
+            "loss_of_control_rate": float(lost.mean()),
+            "fuel_mean_g": float(1000 * fuel.mean()),
+            "settle_time_median_s": float(np.median(settle)) if len(settle) else None,
+            "final_error_median_deg": float(np.median(err))}
+
+
+def baseline(policy: str, env_kwargs=None, episodes: int = EVAL_EPISODES) -> dict:
+    """The scripted baseline on the held-out episodes (same summary keys as :func:`evaluate`)."""
+    from agents.evaluate import evaluate as run
+
+    r = run(policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=env_kwargs, record=0)
+    s = r.summary()
+    return {"episodes": episodes, "seed": EVAL_SEED, "success_rate": s["success_rate"],
+            "fuel_mean_g": 1000 * s["fuel"]["mean"],
+            "settle_time_median_s": s["settle_time_s"]["median"],
+            "final_error_median_deg": s["final_error_deg"]["median"]}
+
+
+# --------------------------------------------------------------------------- training
+
+
+def _callback(spec: dict, curve: list, eval_every: int):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Monitor(BaseCallback):
+        """Curriculum schedule, training-episode outcomes and a held-aside learning curve."""
+
+        def _on_training_start(self):
+            self.t0, self.next_eval, self.window = time.time(), eval_every, []
+            self._curriculum()
+
+        def _curriculum(self):
+            cur = spec["curriculum"]
+            if not cur:
+                return
+            frac = min(self.num_timesteps / (cur["frac"] * spec["timesteps"]), 1.0)
+            deg = cur["start_deg"] + frac * (180.0 - cur["start_deg"])
+            self.training_env.env_method("set_initial_ranges", max_initial_angle_deg=deg)
+
+        def _on_step(self):
+            for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
+                if done and "rate_dps" in info:
+                    self.window.append((bool(info.get("is_success", False)),
+                                        info["rate_dps"] > 10.0, info["time_s"]))
+            if self.num_timesteps >= self.next_eval:
+                self.next_eval += eval_every
+                self._curriculum()
+                w = np.array(self.window[-200:], float) if self.window else np.zeros((1, 3))
+                point = {"timesteps": int(self.num_timesteps),
+                         "wall_s": round(time.time() - self.t0, 1),
+                         "train_success": float(w[:, 0].mean()),
+                         "train_loss_of_control": float(w[:, 1].mean()),
+                         "train_episode_s": float(w[:, 2].mean())}
+                vn = self.model.get_vec_normalize_env()
+                point["eval_success"] = evaluate(self.model, vn, spec, CURVE_EPISODES,
+                                                 CURVE_SEED)["success_rate"]
+                curve.append(point)
+                print(json.dumps(point), flush=True)
+            return True
+
+    return Monitor()
+
+
+def train_and_evaluate(name: str, spec: dict, seed: int = 0) -> dict:
+    import stable_baselines3
+    import torch
+    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3.common.noise import NormalActionNoise
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)
+    algo = {"ppo": PPO, "sac": SAC, "td3": TD3}[spec["algo"]]
+    env = VecNormalize(make_env(spec, spec["n_envs"], seed),
+                       gamma=spec["hyperparams"].get("gamma", 0.99))
+    hp = copy.deepcopy(spec["hyperparams"])  # SB3 writes into policy_kwargs
+    if spec["algo"] == "td3":
+        n_act = env.action_space.shape[0]
+        hp["action_noise"] = NormalActionNoise(np.zeros(n_act),
+                                               spec["action_noise_sigma"] * np.ones(n_act))
+    model = algo("MlpPolicy", env, seed=seed, device="cpu", **hp)
+    curve: list = []
+    eval_every = max(spec["timesteps"] // 10, 1)
+    start = time.time()
+    model.learn(spec["timesteps"], callback=_callback(spec, curve, eval_every))
+    wall = time.time() - start
+    result = evaluate(model, env, spec, EVAL_EPISODES, EVAL_SEED)
+    env.close()
+    return {"variant": name, "spec": spec, "train_seed": seed, "train_wall_s": round(wall, 1),
+            "result": result, "curve": curve,
+            "versions": {"python": platform.python_version(),
+                         "stable_baselines3": stable_baselines3.__version__,
+                         "torch": torch.__version__, "torch_threads": torch.get_num_threads()}}
+
+
+# --------------------------------------------------------------------------- summary
+
+
+def _row(name: str, data: dict) -> str:
+    s, r = data["spec"], data["result"]
+    hp = s["hyperparams"]
+    ratio = hp.get("gradient_steps", 0) / s["n_envs"] if s["algo"] != "ppo" else None
+    cur = s["curriculum"]
+    cur_txt = f"{cur['start_deg']:.0f}°→180° over {cur['frac']:.0%}" if cur else "—"
+    arch = hp.get("policy_kwargs", {}).get("net_arch")
+    settle = r["settle_time_median_s"]
+    return (f"| {name} | {s['algo']} | {s['timesteps'] // 1000}k | {s['action_map']} | "
+            f"{'—' if ratio is None else f'{ratio:g}'} | {arch} | {cur_txt} | "
+            f"{json.dumps(s['env_kwargs']) if s['env_kwargs'] else '—'} | "
+            f"{_extra(hp)} | {100 * r['success_rate']:.1f}% | "
+            f"{100 * r['loss_of_control_rate']:.1f}% | {r['fuel_mean_g']:.2f} | "
+            f"{'—' if settle is None else f'{settle:.1f}'} | {data['train_wall_s'] / 60:.1f} |")
+
+
+_SHOWN = {"gradient_steps", "policy_kwargs", "buffer_size", "batch_size", "train_freq", "gamma",
+          "tau", "n_steps", "n_epochs", "gae_lambda", "clip_range"}
+
+
+def _extra(hp: dict) -> str:
+    """Hyperparameters that differ from the family's base dict (for the table)."""
+    extra = {k: v for k, v in hp.items() if k not in _SHOWN and not _is_base(k, v)}
+    pk = {k: v for k, v in hp.get("policy_kwargs", {}).items() if k != "net_arch"}
+    extra.update(pk)
+    return ", ".join(f"{k}={v}" for k, v in extra.items()) or "—"
+
+
+def _is_base(key, value) -> bool:
+    return any(base.get(key) == value for base in (_SAC, _TD3, _PPO))
+
+
+def summary(directory: Path = RESULTS) -> Path:
+    lines = ["| variant | algo | env steps | action map | grad steps / env step | net | "
+             "curriculum | env kwargs | other | success | loss of control | fuel (g) | "
+             "settle median (s) | train wall (min) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    base = []
+    for path in sorted(directory.glob("*/*.json")):
+        data = json.loads(path.read_text())
+        if "variant" in data:
+            lines.append(_row(data["variant"], data))
+        elif "baseline" in data:
+            r = data["result"]
+            base.append(f"| {data['baseline']} | {json.dumps(data['env_kwargs'])} | "
+                        f"{100 * r['success_rate']:.1f}% | {r['fuel_mean_g']:.2f} | "
+                        f"{r['settle_time_median_s']:.1f} |")
+    text = "# SAC / TD3 / PPO study on cubesat-12u\n\n"
+    text += (f"Held-out evaluation: {EVAL_EPISODES} episodes, seeds {EVAL_SEED:,} + i, "
+             "deterministic policy. Generated by `python -m benchmarks.rl.sac_ablation "
+             "summary`.\n\n")
+    if base:
+        text += ("| baseline | env kwargs | success | fuel (g) | settle median (s) |\n"
+                 "|---|---|---|---|---|\n" + "\n".join(base) + "\n\n")
+    text += "\n".join(lines) + "\n"
+    out = directory / "summary.md"
+    out.write_text(text)
+    return out
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    run = sub.add_parser("run")
+    run.add_argument("variants", nargs="+")
+    run.add_argument("--seed", type=int, default=0)
+    sub.add_parser("list")
+    sub.add_parser("summary")
+    base = sub.add_parser("baseline")
+    base.add_argument("policy")
+    base.add_argument("--env-kwargs", default="{}")
+    args = parser.parse_args(argv)
+    if args.cmd == "list":
+        for name, spec in VARIANTS.items():
+            print(name, json.dumps(spec))
+        return
+    if args.cmd == "summary":
+        print(summary().read_text())
+        return
+    if args.cmd == "baseline":
+        kw = json.loads(args.env_kwargs)
+        tag = "-".join(f"{k}{v}" for k, v in kw.get("reward_weights", {}).items())
+        out = RESULTS / "baselines" / f"{args.policy}{'-' + tag if tag else ''}.json"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        data = {"baseline": args.policy, "env_kwargs": kw, "result": baseline(args.policy, kw)}
+        out.write_text(json.dumps(data, indent=2) + "\n")
+        print(json.dumps(data))
+        return
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    for name in args.variants:
+        spec = VARIANTS[name]
+        suffix = "" if args.seed == 0 else f"-seed{args.seed}"
+        out = RESULTS / spec["study"] / f"{name}{suffix}.json"
+        if out.exists():
+            print(f"skip {name}: {out} exists")
+            continue
+        out.parent.mkdir(parents=True, exist_ok=True)
+        print(f"== {name}: {json.dumps(spec)}", flush=True)
+        data = train_and_evaluate(name, spec, args.seed)
+        tmp = out.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data, indent=2) + "\n")
+        os.replace(tmp, out)
+        print(json.dumps({"variant": name, **data["result"], "wall_s": data["train_wall_s"]}),
+              flush=True)
+        summary()
+
+
+if __name__ == "__main__":
+    main()
