@@ -67,6 +67,28 @@ def check_finite_state(q, w_B, integrator: str, h: float, *extra) -> None:
     )
 
 
+# What kernel arithmetic raises on overflow (math.ceil(inf), int(nan), 1.0 / 0.0, ...).
+_OVERFLOW = (OverflowError, ZeroDivisionError, FloatingPointError, ValueError)
+
+
+def _diverged_inside(exc: Exception, integrator: str, h: float):
+    """Re-raise an arithmetic failure inside an integrator kernel as :class:`NonFiniteError`."""
+    if isinstance(exc, InvalidParameterError):
+        raise exc
+    raise NonFiniteError(
+        f"simulation diverged inside integrator={integrator!r} at dt={h!r}: the arithmetic "
+        f"overflowed ({type(exc).__name__}: {exc}); reduce dt·|ω| or the torques"
+    ) from None
+
+
+def _advance(kernel, integrator, body, q, w_B, h, tau_B, tau_W):
+    """``kernel.advance``, with arithmetic overflow inside the kernel reported as divergence."""
+    try:
+        return kernel.advance(body, q, w_B, h, tau_B, tau_W)
+    except _OVERFLOW as exc:
+        _diverged_inside(exc, integrator, h)
+
+
 def _prepare(body, state, dt, force, torque, integrator, torque_B):
     if not isinstance(body, RigidBody):
         raise InvalidParameterError(f"body must be a core.RigidBody, got {type(body).__name__}")
@@ -103,7 +125,8 @@ def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
                                                   torque_B)
     q = kernels.unpack(state.orientation)
     w_B = kernels.rotate_inverse(q, kernels.unpack(state.angular_velocity))
-    q_new, w_new = kernel.advance(body, q, w_B, h, _parts(torque_B), _parts(torque))
+    q_new, w_new = _advance(kernel, integrator, body, q, w_B, h, _parts(torque_B),
+                            _parts(torque))
     x, v = state.position, state.velocity
     if translation:
         x, v = translate(integrator, body, x, v, h, force)
@@ -135,15 +158,19 @@ def simulate(body: RigidBody, state: BodyState, dt: float, n_steps: int, force=N
     tau_B, tau_W = _parts(torque_B), _parts(torque)
     x, v = state.position, state.velocity
     history = [(x, v, _pack(q, shape), _pack(w_B, shape))]
-    for _ in range(n_steps):
-        q, w_B = kernel.advance(body, q, w_B, h, tau_B, tau_W)
-        if translation:
-            x, v = translate(integrator, body, x, v, h, force)
-            check_finite_state(q, w_B, integrator, h, x, v)
-        else:
-            check_finite_state(q, w_B, integrator, h)
-        if trajectory:
-            history.append((x, v, _pack(q, shape), _pack(w_B, shape)))
+    advance = kernel.advance
+    try:
+        for _ in range(n_steps):
+            q, w_B = advance(body, q, w_B, h, tau_B, tau_W)
+            if translation:
+                x, v = translate(integrator, body, x, v, h, force)
+                check_finite_state(q, w_B, integrator, h, x, v)
+            else:
+                check_finite_state(q, w_B, integrator, h)
+            if trajectory:
+                history.append((x, v, _pack(q, shape), _pack(w_B, shape)))
+    except _OVERFLOW as exc:
+        _diverged_inside(exc, integrator, h)
     if trajectory:
         xs, vs, qs, ws = (np.stack(f) for f in zip(*history, strict=True))
         return BodyState.from_arrays(xs, vs, qs, quaternion.rotate(qs, ws))

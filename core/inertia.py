@@ -11,6 +11,7 @@ result converge to the closed form, which exposes the lecture's hollow-box formu
 from __future__ import annotations
 
 import functools
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,14 +63,18 @@ class MassProperties:
 def _finite_result(func):
     """Raise :class:`NonFiniteError` when finite inputs overflow to a non-finite result."""
 
+    signature = inspect.signature(func)
+
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         out = func(*args, **kwargs)
         parts = (out.mass, out.com, out.inertia) if isinstance(out, MassProperties) else (out,)
         if not all(np.isfinite(p).all() for p in parts):
+            bound = signature.bind(*args, **kwargs).arguments
+            given = ", ".join(f"{k}={describe(v)}" for k, v in bound.items())
             raise NonFiniteError(
-                f"{func.__name__} overflowed: the inputs are finite but the result is not "
-                f"({describe(parts[-1])}); rescale the units"
+                f"{func.__name__} overflowed: the inputs ({given}) are finite but the result is "
+                "not; rescale the units"
             )
         return out
 
@@ -101,7 +106,7 @@ def validate(inertia, *, name: str = "inertia") -> np.ndarray:
         raise InvalidInertiaError(
             f"{name} must be symmetric, got {describe(arr)} (max |I - Iᵀ| = {asym:.3g})"
         )
-    arr = 0.5 * (arr + arr.T)
+    arr = _symmetrised(arr)
     # Eigenvalues of the tensor divided by its largest entry: no overflow near 1e308.
     moments = np.linalg.eigvalsh(arr / scale) * scale
     if moments[0] <= _RTOL * scale:
@@ -119,6 +124,12 @@ def validate(inertia, *, name: str = "inertia") -> np.ndarray:
     return arr
 
 
+def _symmetrised(arr: np.ndarray) -> np.ndarray:
+    """``(A + Aᵀ)/2``, halving first only when the sum would overflow."""
+    sym = 0.5 * (arr + arr.T)
+    return sym if np.isfinite(sym).all() else 0.5 * arr + 0.5 * arr.T
+
+
 def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments and axes of a symmetric (3, 3) tensor.
 
@@ -126,9 +137,13 @@ def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     columns are the principal axes in body coordinates, so ``inertia == R @ diag(moments) @ R.T``.
     """
     arr = check.array("inertia", inertia, (3, 3))
-    scale = float(np.abs(arr).max()) or 1.0
-    moments, R = np.linalg.eigh(0.5 * (arr + arr.T) / scale)
-    moments = moments * scale
+    scale = float(np.abs(arr).max())
+    if 1e-150 < scale < 1e150:
+        moments, R = np.linalg.eigh(0.5 * (arr + arr.T))
+    else:  # near over- or underflow: decompose the tensor divided by its largest entry
+        scale = scale or 1.0
+        moments, R = np.linalg.eigh(_symmetrised(arr / scale))
+        moments = moments * scale
     if np.linalg.det(R) < 0:
         R[:, 2] = -R[:, 2]
     return moments, R

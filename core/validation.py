@@ -234,6 +234,11 @@ def _object_to_float(name: str, value, arr: np.ndarray) -> np.ndarray:
                              f"in {show(value)}") from None
 
 
+def _with_shape(arr: np.ndarray) -> str:
+    text = show(arr)
+    return text if "shape" in text else f"{text} of shape {arr.shape}"
+
+
 def _shape_text(shape) -> str:
     dims = ", ".join("n" if s is None else str(s) for s in shape)
     return f"({dims},)" if len(shape) == 1 else f"({dims})"
@@ -249,7 +254,7 @@ def array(name: str, value, shape: tuple, *, readonly: bool = False) -> np.ndarr
         s is not None and a != s for a, s in zip(arr.shape, shape, strict=True)
     ):
         raise InvalidParameterError(
-            f"{name} must have shape {_shape_text(shape)}, got {show(arr)} of shape {arr.shape}"
+            f"{name} must have shape {_shape_text(shape)}, got {_with_shape(arr)}"
         )
     if readonly:
         arr = np.array(arr, dtype=float)
@@ -262,8 +267,7 @@ def vectors(name: str, value, width: int) -> np.ndarray:
     arr = finite_array(name, value)
     if arr.ndim == 0 or arr.shape[-1] != width:
         raise InvalidParameterError(
-            f"{name} must have shape ({width},) or (..., {width}), got {show(arr)} of shape "
-            f"{arr.shape}"
+            f"{name} must have shape ({width},) or (..., {width}), got {_with_shape(arr)}"
         )
     return arr
 

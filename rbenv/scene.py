@@ -390,6 +390,10 @@ class Scene:
                                     "physics", "disturbance", "faults", "sensor_noise",
                                     "episode", "randomization", "tasks"})
         scene_name = data.get("name", name)
+        if "name" in data and (not isinstance(scene_name, str) or not scene_name):
+            raise InvalidParameterError(
+                f"name must be a non-empty string, got {describe(scene_name)}"
+            )
         try:
             mass, com_B, inertia = mass_properties(_table(data, "body", required=True))
             body = RigidBody(mass=mass, inertia=inertia)

@@ -118,7 +118,7 @@ def test_explicit_inertia_diagonal_or_full():
     ({"episode": {"hold_time": -1.0}}, ["episode.hold_time", "-1.0", ">= 0"]),
     ({"physics": {"integrator": "leapfrog"}}, ["physics.integrator", "leapfrog", "one of"]),
     ({"physics": {"substeps": 0}}, ["physics.substeps", "0", ">= 1"]),
-    ({"physics": {"control_dt": 0.0}}, ["physics.control_dt", "> 0"]),
+    ({"physics": {"control_dt": 0.0}}, ["physics.control_dt", ">= 1e-06"]),
     ({"episode": {"rate_limit": 0.005}}, ["success_rate", "rate_limit"]),
     ({"disturbance": {"model": "none", "bias_sigma": 1e-6}}, ["disturbance.bias_sigma", "random"]),
     ({"faults": {"model": "random", "p_reset": 1.5}}, ["faults.p_reset", "1.5", "<= 1.0"]),
