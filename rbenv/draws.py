@@ -25,19 +25,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.backend import FLOAT, NUMPY
+
 __all__ = ["STREAMS", "EpisodeDraws"]
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _EPISODE_MUL = np.uint64(0xD1B54A32D192ED03)
-_STREAM_MUL = np.uint64(0xABC98388FB8FAC03)
 _S30, _S27, _S31, _S11 = (np.uint64(s) for s in (30, 27, 31, 11))
 _TO_UNIT = 2.0**-53
 _TWO_PI = 2.0 * np.pi
 
 # One stream per consumer of episode-start randomness.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
+# Each stream's key offset, computed once with Python ints (NumPy scalars warn on wrapping).
+_STREAM_INTS = {name: (i * 0xABC98388FB8FAC03) % 2**64 for name, i in STREAMS.items()}
+_STREAM_KEYS = {name: np.uint64(key) for name, key in _STREAM_INTS.items()}
 
 
 def _mix(z: np.ndarray) -> np.ndarray:
@@ -47,38 +51,82 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return z ^ (z >> _S31)
 
 
-class EpisodeDraws:
-    """The random numbers of one episode start for each of N envs (N = 1 for the single env).
+_MASK = 2**64 - 1
+_M1_INT, _M2_INT, _GOLDEN_INT = int(_M1), int(_M2), int(_GOLDEN)
+_EPISODE_MUL_INT = int(_EPISODE_MUL)
 
-    seeds, episodes: (N,) uint64 arrays. ``uniform(stream, count)`` and ``normal(stream,
-    count)`` return ``count`` arrays of shape (N,): slot ``j`` of each stream is always the same
-    number for the same (seed, episode), whatever else was drawn.
+
+def _mix_int(z: int) -> int:
+    """:func:`_mix` on one Python int (exact: the same bits as the uint64 array version)."""
+    z = ((z ^ (z >> 30)) * _M1_INT) & _MASK
+    z = ((z ^ (z >> 27)) * _M2_INT) & _MASK
+    return z ^ (z >> 31)
+
+
+class EpisodeDraws:
+    """The random numbers of one episode start for each of N envs.
+
+    seeds, episodes: (N,) integer arrays, or one int each with ``single=True`` (the single
+    env), which hands out numbers as Python floats instead of (N,) arrays; ``xp`` is the matching
+    :mod:`core.backend` namespace, so task code written on components serves both. The bits
+    are the same in both cases (integer arithmetic is exact; one env's key is mixed on Python
+    ints, cheaper than NumPy calls on one-element arrays), and the Box–Muller step is NumPy's
+    in both, so a single env and a sub-env draw the same numbers. Slot ``j`` of a
+    stream is always the same number for the same (seed, episode), whatever else was drawn.
     """
 
-    __slots__ = ("_keys", "n")
+    __slots__ = ("_keys", "n", "single", "xp")
 
-    def __init__(self, seeds: np.ndarray, episodes: np.ndarray):
-        with np.errstate(over="ignore"):
-            self._keys = _mix(_mix(seeds.astype(np.uint64) ^ _GOLDEN)
-                              + episodes.astype(np.uint64) * _EPISODE_MUL)
+    def __init__(self, seeds, episodes, single: bool = False):
+        self.single = bool(single)
+        self.xp = FLOAT if self.single else NUMPY
+        if self.single:  # seeds, episodes: one int each
+            key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
+                            + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
+            self._keys, self.n = key, 1
+            return
+        # uint64 array arithmetic wraps silently (only NumPy scalars warn on overflow).
+        self._keys = _mix(_mix(np.asarray(seeds, dtype=np.uint64) ^ _GOLDEN)
+                          + np.asarray(episodes, dtype=np.uint64) * _EPISODE_MUL)
         self.n = len(self._keys)
+
+    def components(self, arr: np.ndarray) -> tuple:
+        """Rows of a (count, N) array as components: floats (single) or (N,) arrays."""
+        return tuple(arr[:, 0].tolist()) if self.single else tuple(arr)
 
     def _bits(self, stream: str, count: int, offset: int) -> np.ndarray:
         """(count, N) uint64: slots offset … offset + count − 1 of ``stream``."""
-        base = self._keys + np.uint64(STREAMS[stream]) * _STREAM_MUL
+        base = self._keys + _STREAM_KEYS[stream]
         slots = (np.arange(offset, offset + count, dtype=np.uint64) + np.uint64(1)) * _GOLDEN
         return _mix(base[None, :] + slots[:, None])
 
-    def uniform(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
-        """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
-        with np.errstate(over="ignore"):
-            return (self._bits(stream, count, offset) >> _S11).astype(np.float64) * _TO_UNIT
+    def _single_uniforms(self, stream: str, count: int, offset: int) -> list:
+        """The one env's uniforms of slots offset… as Python floats (Python-int hashing)."""
+        base = self._keys + _STREAM_INTS[stream]
+        return [(_mix_int((base + (j + 1) * _GOLDEN_INT) & _MASK) >> 11) * _TO_UNIT
+                for j in range(offset, offset + count)]
 
-    def normal(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
+    def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
+        """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
+        if self.single:
+            return np.array(self._single_uniforms(stream, count, offset))[:, None]
+        return (self._bits(stream, count, offset) >> _S11).astype(np.float64) * _TO_UNIT
+
+    def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) standard normals (Box–Muller on uniform slots ``offset + 2k, + 2k + 1``).
 
         Uses ``2·count`` uniform slots starting at ``offset``.
         """
-        u = self.uniform(stream, 2 * count, offset)
+        u = self.uniform_array(stream, 2 * count, offset)
         radius = np.sqrt(-2.0 * np.log1p(-u[0::2]))  # 1 − u in (0, 1]: finite
         return radius * np.cos(_TWO_PI * u[1::2])
+
+    def uniform(self, stream: str, count: int, offset: int = 0) -> tuple:
+        """``count`` uniform components (floats or (N,) arrays), slots ``offset…``."""
+        if self.single:
+            return tuple(self._single_uniforms(stream, count, offset))
+        return tuple(self.uniform_array(stream, count, offset))
+
+    def normal(self, stream: str, count: int, offset: int = 0) -> tuple:
+        """``count`` standard-normal components, from uniform slots ``offset…``."""
+        return self.components(self.normal_array(stream, count, offset))

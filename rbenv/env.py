@@ -82,8 +82,7 @@ class AttitudeEnv(gym.Env):
             self._seed_key, self._episode = int(seed) % 2**64, 0
         elif self._seed_key is None:
             self._seed_key = int(self.np_random.integers(2**63))
-        draws = EpisodeDraws(np.array([self._seed_key], dtype=np.uint64),
-                             np.array([self._episode], dtype=np.uint64))
+        draws = EpisodeDraws(self._seed_key, self._episode, single=True)
         self._episode += 1
         start = transition.start(self.plant, self.task, draws, options)
         self._st = st = from_start(self._kinds, start, single=True)

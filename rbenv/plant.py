@@ -108,6 +108,7 @@ class Plant:
     dist_noise: float = field(init=False)  # N·m, 1σ per-step disturbance noise (0: none)
     sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
     randomization: Randomization | None = field(init=False)
+    noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
     def __post_init__(self):
         sc, thr = self.scene, self.scene.thrusters
@@ -134,6 +135,8 @@ class Plant:
                                            else None),
             "randomization": sc.randomization if sc.randomization.enabled else None,
         }
+        values["noisy"] = bool(values["p_fault"] or values["dist_noise"]
+                               or values["sensor_noise"] is not None)
         torque = self.action_mode == "torque"
         values["action_shape"] = (3,) if torque else (thr.n,)
         low = np.full(values["action_shape"], -1.0 if torque else 0.0)
@@ -149,11 +152,6 @@ class Plant:
             values["torque_authority"] = axis_authority(thr.torque_matrix_B)
         for name, value in values.items():
             object.__setattr__(self, name, value)
-
-    @property
-    def noisy(self) -> bool:
-        """Whether a step draws random numbers (faults, disturbance or sensor noise)."""
-        return bool(self.p_fault or self.dist_noise or self.sensor_noise is not None)
 
     @property
     def translation(self) -> bool:
@@ -230,7 +228,8 @@ class Plant:
             if st.x is not None:
                 self._translate(st, body, k.rotate(q, wrench.force_B))
             q, w = advance(body, q, w, h, tau, None)
-        self._check_finite(st, q, w, xp)
+        if not xp.all_finite((*q, *w) if st.x is None else (*q, *w, *st.x, *st.v)):
+            self._raise_non_finite(q, w)
         st.q, st.w = q, w
         impulse = wrench.thrust_N * self.control_dt
         st.impulse_Ns = st.impulse_Ns + impulse
@@ -244,11 +243,8 @@ class Plant:
         st.x = tuple(m[0] for m in moved)
         st.v = tuple(m[1] for m in moved)
 
-    def _check_finite(self, st: PlantState, q, w, xp) -> None:
-        """Raise NonFiniteError unless every state component (q, ω, x, v) is finite."""
-        comps = (*q, *w) if st.x is None else (*q, *w, *st.x, *st.v)
-        if xp.all_finite(comps):
-            return
+    def _raise_non_finite(self, q, w) -> None:
+        """Raise NonFiniteError naming the integrator and step (some component is not finite)."""
         name = self.scene.physics.integrator
         check_finite_state(q, w, name, self.h)
         raise NonFiniteError(
@@ -293,15 +289,16 @@ class Plant:
     def sample_start(self, draws) -> dict:
         """The plant's part of an episode start for ``draws.n`` envs, from stream "plant".
 
-        Returns arrays with a leading batch axis: ``bias`` (N, 3) N·m or None, ``health``
-        (N, n) or None, and ``model`` (an EpisodeModel of the randomized physics) or None.
+        ``bias``: 3 components, N·m, or None; ``health``: (N, n) of 1/0, or None; ``model``:
+        an :class:`rbenv.randomization.EpisodeModel` of the randomized physics, or None.
         """
         sc = self.scene
         bias = health = model = None
         if sc.disturbance.model == "random":
-            bias = (sc.disturbance.bias_sigma * draws.normal("plant", 3)).T
+            bias = k.scale(draws.normal("plant", 3), sc.disturbance.bias_sigma)
         if sc.faults.model == "random":
-            health = (draws.uniform("plant", self.n, offset=6) >= sc.faults.p_reset).T * 1.0
+            u = draws.uniform_array("plant", self.n, offset=6)
+            health = (u.T >= sc.faults.p_reset).astype(float)
         if self.randomization is not None:
             model = draw_episode_model(self, draws)
         return {"bias": bias, "health": health, "model": model}

@@ -190,20 +190,20 @@ def draw_episode_model(plant, draws) -> EpisodeModel:
     """
     rnd, sc = plant.randomization, plant.scene
     thr, n, N = sc.thrusters, plant.n, draws.n
-    scale = 1.0 + rnd.inertia_scale * (2.0 * draws.uniform("randomization", 3) - 1.0)
-    rot = math.radians(rnd.inertia_rotation_deg) * draws.normal("randomization", 3, 3)
+    scale = 1.0 + rnd.inertia_scale * (2.0 * draws.uniform_array("randomization", 3) - 1.0)
+    rot = math.radians(rnd.inertia_rotation_deg) * draws.normal_array("randomization", 3, 3)
     inertia = _perturbed_inertia(sc.body.inertia, scale.T, rot.T)
-    direction = draws.normal("randomization", 3, 9).T
+    direction = draws.normal_array("randomization", 3, 9).T
     direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
-    radius = rnd.com_offset * np.cbrt(draws.uniform("randomization", 1, 15)[0])
+    radius = rnd.com_offset * np.cbrt(draws.uniform_array("randomization", 1, 15)[0])
     com_offset = direction * radius[:, None]
     force = thr.max_force * (1.0 + rnd.force_scale
-                             * (2.0 * draws.uniform("randomization", n, 16).T - 1.0))
-    tilt_normals = draws.normal("randomization", 3 * n, 16 + n).T.reshape(N, n, 3)
+                             * (2.0 * draws.uniform_array("randomization", n, 16).T - 1.0))
+    tilt_normals = draws.normal_array("randomization", 3 * n, 16 + n).T.reshape(N, n, 3)
     tilt = math.radians(rnd.misalignment_deg) * np.sqrt(
-        draws.uniform("randomization", n, 16 + 7 * n).T)
+        draws.uniform_array("randomization", n, 16 + 7 * n).T)
     dirs = _tilted(thr.directions_B, tilt_normals, tilt)
-    delayed = draws.uniform("randomization", 1, 16 + 8 * n)[0] < rnd.delay_probability
+    delayed = draws.uniform_array("randomization", 1, 16 + 8 * n)[0] < rnd.delay_probability
     force_B = dirs * force[..., None]  # (N, n, 3) N at full throttle
     arms = thr.positions_B - thr.com_B - com_offset[:, None, :]  # (N, n, 3) m
     torque_B = cross(arms, force_B)

@@ -1,23 +1,22 @@
 """Episode state shared by plant and task, for one satellite (floats) or N (arrays).
 
 A state is one plain object with a field per quantity. Each field has a *kind* that says how it
-is stored and how an episode start (arrays with a leading axis of the envs being reset) is
-written into it:
+is stored; an episode start (see :func:`rbenv.transition.start`) gives each field's value in
+the same form, for the envs being reset (m of them):
 
-=========  ==============================  ===========================  ====================
-kind       one satellite                   N satellites                 start value
-=========  ==============================  ===========================  ====================
-``"c3"``   tuple of 3 floats               tuple of 3 (N,) arrays       (m, 3)
-``"c4"``   tuple of 4 floats               tuple of 4 (N,) arrays       (m, 4)
-``"f"``    float                           (N,) float array             (m,)
-``"i"``    int                             (N,) int64 array             (m,)
-``"b"``    bool                            (N,) bool array              (m,)
-``"row"``  (n,) array                      (N, n) array                 (m, n)
-``"obj"``  ``value.single()``              value, rows set by assign()  EpisodeModel
-=========  ==============================  ===========================  ====================
+=========  ============================  ===========================  ======================
+kind       one satellite                 N satellites                 start value
+=========  ============================  ===========================  ======================
+``"c3"``   tuple of 3 floats             tuple of 3 (N,) arrays       3 floats or (m,) arrays
+``"c4"``   tuple of 4 floats             tuple of 4 (N,) arrays       4 floats or (m,) arrays
+``"f"``    float                         (N,) float array             a float or (m,)
+``"i"``    int                           (N,) int64 array             a number or (m,)
+``"row"``  (n,) array                    (N, n) array                 (m, n) array
+``"obj"``  ``value.single()``            value, rows set by assign()  an EpisodeModel
+=========  ============================  ===========================  ======================
 
 A start value of None leaves the field None (the model is off). The single env builds its state
-with :func:`from_start` (m = 1); the vector env with :func:`from_start` at reset and
+with :func:`from_start`; the vector env with :func:`from_start` at a full reset and
 :func:`assign` for the sub-envs that autoreset.
 """
 
@@ -37,13 +36,11 @@ class State:
 
 def _single(kind: str, value):
     if kind in ("c3", "c4"):
-        return tuple(value[0].tolist())
+        return tuple(float(c) for c in value)
     if kind == "f":
-        return float(value[0])
+        return float(value)
     if kind == "i":
-        return int(value[0])
-    if kind == "b":
-        return bool(value[0])
+        return int(value)
     if kind == "row":
         return np.array(value[0], dtype=float)
     return value.single()
@@ -51,13 +48,11 @@ def _single(kind: str, value):
 
 def _batch(kind: str, value):
     if kind in ("c3", "c4"):
-        return tuple(np.array(value[:, j], dtype=float) for j in range(value.shape[1]))
+        return tuple(np.array(c, dtype=float) for c in value)
     if kind == "f":
         return np.array(value, dtype=float)
     if kind == "i":
         return np.array(value, dtype=np.int64)
-    if kind == "b":
-        return np.array(value, dtype=bool)
     if kind == "row":
         return np.array(value, dtype=float)
     return value
@@ -80,8 +75,8 @@ def assign(st: State, kinds: dict, idx: np.ndarray, start: dict) -> None:
         if value is None or field is None:
             continue
         if kind in ("c3", "c4"):
-            for j, comp in enumerate(field):
-                comp[idx] = value[:, j]
+            for comp, new in zip(field, value, strict=True):
+                comp[idx] = new
         elif kind == "obj":
             field.assign(idx, value)
         else:

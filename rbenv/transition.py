@@ -48,7 +48,9 @@ def state_kinds(task) -> dict:
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp) -> Outcome:
     """Advance ``st`` by one control step under ``action`` (float64, validated shape)."""
-    u = plant.apply_faults_and_delay(st, plant.throttle(action), noise.faults)
+    u = plant.throttle(action)
+    if st.health is not None or st.pending is not None:
+        u = plant.apply_faults_and_delay(st, u, noise.faults)
     st.throttle = u
     wrench = plant.wrench(st, u, xp)
     if xp.any(wrench.thrust_N != wrench.thrust_N):  # NaN propagated from the action
@@ -57,16 +59,16 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp) -> Ou
     task.advance_target(st)
     terms, success, failure = task.evaluate(st, wrench.thrust_N * plant.inv_total_thrust, xp)
     reward = sum(terms)
-    return Outcome(observe(plant, task, st, noise.sensor), reward, terms, success, failure,
+    return Outcome(observe(plant, task, st, noise.sensor, xp), reward, terms, success, failure,
                    info(plant, task, st, terms, success, xp))
 
 
-def observe(plant: Plant, task, st, sensor_noise, xp=None) -> tuple:
+def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     """Observation components; with sensor noise, from the noisy measurement."""
-    from core.backend import namespace
-
+    if sensor_noise is None:
+        return task.observe(st, st.q, st.w, xp)
     q, w = plant.measure(st, sensor_noise)
-    return task.observe(st, q, w, xp or namespace(st.w[0]))
+    return task.observe(st, q, w, xp)
 
 
 def info(plant: Plant, task, st, terms, success, xp) -> dict:
@@ -76,8 +78,7 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     out["impulse_Ns"] = st.impulse_Ns
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
-    for name, value in zip(task.Terms._fields, terms, strict=True):
-        out["reward_" + name] = value
+    out.update(zip(task.reward_keys, terms, strict=True))
     if st.x is not None:
         v = st.v
         out["speed_mps"] = xp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
@@ -115,28 +116,28 @@ def zero_terms(task, value=0.0) -> tuple:
 
 
 def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
-    """Start values (arrays with a leading axis of ``draws.n`` envs) for new episodes.
+    """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
 
     options: the reset options (names in ``task.reset_options``); for the vector env their
     leading axis is num_envs and ``rows`` selects the rows of the envs being reset.
     """
+    xp, m = draws.xp, draws.n
     s = task.sample_start(draws)
-    _override(task, s, options, rows, draws.n)
+    _override(task, s, options, rows, draws)
     s.update(plant.sample_start(draws))
-    task.complete_start(s)
-    m = draws.n
-    s["w"] = s.pop("omega_B")
-    s.update(fuel_kg=np.zeros(m), impulse_Ns=np.zeros(m), steps=np.zeros(m, dtype=np.int64),
+    task.complete_start(s, xp)
+    zero = xp.zeros(m)
+    s.update(w=s.pop("omega_B"), fuel_kg=zero, impulse_Ns=zero, steps=zero,
              throttle=np.zeros((m, plant.n)))
     if plant.translation:
-        s["x"], s["v"] = np.zeros((m, 3)), np.zeros((m, 3))
+        s["x"] = s["v"] = (zero, zero, zero)
     rnd = plant.randomization
     if rnd is not None and rnd.delay_probability > 0.0:
         s["pending"] = np.zeros((m, plant.n))
     return s
 
 
-def _override(task, s: dict, options, rows, m: int) -> None:
+def _override(task, s: dict, options, rows, draws) -> None:
     """Replace sampled start values by reset options (validated, named in errors)."""
     if not options:
         return
@@ -157,11 +158,11 @@ def _override(task, s: dict, options, rows, m: int) -> None:
             arr = arr[rows]
         elif arr.shape != (width,):
             raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
-        arr = np.broadcast_to(arr, (m, width))
+        arr = np.broadcast_to(arr, (draws.n, width))
         if width == 4:
             arr = validation.unit_quaternion(name, arr)
             arr = arr / np.linalg.norm(arr, axis=-1, keepdims=True)
-        elif np.linalg.norm(arr, axis=-1).max() > MAX_RESET_RATE:
+        elif np.linalg.norm(arr, axis=-1).max(initial=0.0) > MAX_RESET_RATE:
             raise InvalidParameterError(
                 f"{name} must have |ω| <= {MAX_RESET_RATE:g} rad/s, got {arr.tolist()}")
-        s[key] = np.array(arr, dtype=float)
+        s[key] = draws.components(np.array(arr, dtype=float).T)

@@ -24,7 +24,7 @@ and implements :meth:`sample_start`, :meth:`complete_start`, :meth:`observe`,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import ClassVar
 
 import numpy as np
@@ -114,36 +114,33 @@ class Task:
         return {name: obs[..., s] * scale[name] for name, s in self.observation_slices().items()}
 
     # ------------------------------------------------------------------- thresholds
+    # Read every step, so computed once here from the scene (frozen, like everything else).
+    rate_limit: float = field(init=False)  # rad/s: |ω| above it is loss of control
+    inv_rate_limit: float = field(init=False)  # s/rad
+    success_rate: float = field(init=False)  # rad/s: settled below this rate (or rate error)
+    success_angle: float = field(init=False)  # rad: on target below this error
+    hold_steps: int = field(init=False)  # consecutive steps inside the thresholds for success
+    reward_keys: tuple = field(init=False)  # "reward_<term>" info keys, in term order
 
-    @property
-    def rate_limit(self) -> float:
-        """rad/s: |ω| above it is loss of control (terminated, not a success)."""
-        return self.plant.scene.episode.rate_limit
-
-    @property
-    def success_rate(self) -> float:
-        """rad/s: the rate (or rate error) below which the satellite counts as settled."""
-        return self.plant.scene.episode.success_rate
-
-    @property
-    def success_angle(self) -> float:
-        """rad: the attitude error below which the satellite counts as on target."""
-        return math.radians(self.plant.scene.episode.success_angle_deg)
-
-    @property
-    def hold_steps(self) -> int:
-        """Consecutive control steps inside the thresholds that make a success."""
-        return self.plant.scene.hold_steps
+    def __post_init__(self):
+        scene = self.plant.scene
+        ep = scene.episode
+        for name, value in (("rate_limit", ep.rate_limit), ("inv_rate_limit", 1.0 / ep.rate_limit),
+                            ("success_rate", ep.success_rate),
+                            ("success_angle", math.radians(ep.success_angle_deg)),
+                            ("hold_steps", scene.hold_steps),
+                            ("reward_keys", tuple("reward_" + t for t in self.Terms._fields))):
+            object.__setattr__(self, name, value)
 
     # ------------------------------------------------------------------- interface
 
     def sample_start(self, draws) -> dict:
-        """Raw start values for ``draws.n`` episodes: "q" (N, 4), "omega_B" (N, 3) and the
+        """Raw start values (components, see :mod:`rbenv.state`): "q", "omega_B" and the
         task's target fields; from the "task" stream of :class:`rbenv.draws.EpisodeDraws`."""
         raise NotImplementedError
 
-    def complete_start(self, start: dict) -> None:
-        """Add the derived state fields (errors, counters) to ``start`` (arrays, in place)."""
+    def complete_start(self, start: dict, xp) -> None:
+        """Add the derived state fields (errors, counters) to ``start`` (in place)."""
         raise NotImplementedError
 
     def observe(self, st, q, w, xp) -> tuple:
@@ -211,46 +208,33 @@ def error_quaternion(q_target_conj: tuple, q: tuple, xp) -> tuple[tuple, object]
     return e, 2.0 * xp.atan2(xp.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]), e[0])
 
 
-def restricted_haar_angle(u, max_angle: float):
+def restricted_haar_angle(u, max_angle: float, xp=None):
     """Rotation angle of a Haar-uniform rotation conditioned on angle ≤ max_angle (rad).
 
-    The Haar measure gives the angle the CDF ``(θ − sin θ)/π`` on [0, π]; this inverts it at
-    ``u·(θm − sin θm)`` by bisection, for u a float or an array in [0, 1).
+    The Haar measure gives the angle the CDF ``(θ − sin θ)/π`` on [0, π]; this solves
+    ``θ − sin θ = u·(θm − sin θm)`` for u in [0, 1) (a float or an array; ``xp`` its
+    namespace) by Newton's method from ``∛(6t)``, which lies left of the root because
+    ``θ − sin θ ≤ θ³/6``; the function is convex, so the iterates converge monotonically
+    after the first step (clipped to [0, θm]).
     """
-    u = np.asarray(u, dtype=float)
-    target = u * (max_angle - math.sin(max_angle))
-    lo, hi = np.zeros_like(u), np.full_like(u, max_angle)
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        below = mid - np.sin(mid) < target
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    out = 0.5 * (lo + hi)
-    return float(out) if out.ndim == 0 else out
+    if xp is None:
+        from core.backend import namespace
+
+        xp = namespace(u)
+    t = u * (max_angle - math.sin(max_angle))
+    theta = xp.minimum((6.0 * t) ** (1.0 / 3.0), max_angle)
+    for _ in range(12):
+        slope = xp.maximum(1.0 - xp.cos(theta), 1e-300)
+        theta = xp.clip(theta - (theta - xp.sin(theta) - t) / slope, 0.0, max_angle)
+    return theta
 
 
-def unit_rows(normals: np.ndarray) -> np.ndarray:
-    """Rows of ``normals`` (count, N) → (N, count) unit vectors (uniform directions)."""
-    v = normals.T
-    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+def unit(v: tuple, xp) -> tuple:
+    """A 3-vector of components scaled to unit length (uniform direction from normals)."""
+    inv = 1.0 / xp.maximum(xp.sqrt(k.dot(v, v)), 1e-300)
+    return k.scale(v, inv)
 
 
-def rotate_rows(q: np.ndarray, v: np.ndarray, inverse: bool = False) -> np.ndarray:
-    """(N, 4) quaternions applied to (N, 3) vectors (world←body, or body←world if inverse)."""
-    comps = (k.rotate_inverse if inverse else k.rotate)(tuple(q.T), tuple(v.T))
-    return np.stack(comps, axis=1)
-
-
-def qmul_rows(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Row-wise Hamilton product of (N, 4) arrays."""
-    return np.stack(k.qmul(tuple(p.T), tuple(q.T)), axis=1)
-
-
-def exp_rows(v: np.ndarray) -> np.ndarray:
-    """Row-wise exponential map of (N, 3) rotation vectors → (N, 4) unit quaternions."""
-    return np.stack(k.exp(tuple(v.T)), axis=1)
-
-
-def conj_rows(q: np.ndarray) -> np.ndarray:
-    """Row-wise conjugate of (N, 4) quaternions."""
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+def conj(q: tuple) -> tuple:
+    """Conjugate of a quaternion given as 4 components."""
+    return (q[0], -q[1], -q[2], -q[3])

@@ -12,11 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
-import numpy as np
-
+from core import kernels as k
 from core import validation
-from core.backend import NUMPY
-from rbenv.tasks.base import Task, Weights, option_table, unit_rows
+from rbenv.tasks.base import Task, Weights, option_table, unit
 
 
 @dataclass(frozen=True)
@@ -78,18 +76,18 @@ class Detumble(Task):
         Stream "task": normals 0–3 attitude, 4–6 rate direction, then uniform slot 14.
         """
         g = draws.normal("task", 7)
-        u = draws.uniform("task", 1, offset=14)[0]
+        (u,) = draws.uniform("task", 1, offset=14)
         rate = self.min_rate + (self.max_rate - self.min_rate) * u
-        return {"q": unit_rows(g[0:4]), "omega_B": unit_rows(g[4:7]) * rate[:, None]}
+        return {"q": k.qnormalize(g[0:4]), "omega_B": k.scale(unit(g[4:7], draws.xp), rate)}
 
-    def complete_start(self, start: dict) -> None:
+    def complete_start(self, start: dict, xp) -> None:
         w = start["omega_B"]
-        start.update(rate=NUMPY.sqrt(np.sum(w * w, axis=1)),
-                     hold=np.zeros(len(w), dtype=np.int64))
+        rate = xp.sqrt(k.dot(w, w))
+        start.update(rate=rate, hold=0 * rate)
 
     def observe(self, st, q, w, xp) -> tuple:
         """ω_B / rate_limit, clipped to [-1, 1] (3)."""
-        s = 1.0 / self.rate_limit
+        s = self.inv_rate_limit
         clip = xp.clip
         return (clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0), clip(w[2] * s, -1.0, 1.0))
 
@@ -100,7 +98,7 @@ class Detumble(Task):
         inside = rate < self.success_rate
         st.hold = xp.where(inside, st.hold + 1, 0)
         failure = rate > self.rate_limit
-        inv_limit = 1.0 / self.rate_limit
+        inv_limit = self.inv_rate_limit
         terms = DetumbleTerms(
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
             wt.progress * inv_limit * (st.rate - rate),

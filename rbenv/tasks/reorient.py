@@ -13,20 +13,17 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
-import numpy as np
-
+from core import kernels as k
 from core import validation
 from rbenv.tasks.base import (
     _DEG,
     Task,
     Weights,
-    conj_rows,
+    conj,
     error_quaternion,
-    exp_rows,
     option_table,
-    qmul_rows,
     restricted_haar_angle,
-    unit_rows,
+    unit,
 )
 
 _INV_PI = 1.0 / math.pi
@@ -103,31 +100,34 @@ class Reorient(Task):
     def sample_start(self, draws) -> dict:
         """Target uniform on SO(3); error Haar-uniform within the angle; tumble up to the rate.
 
-        Slots of stream "task": normals 0–3 target, 4–6 error axis, 7–9 rate direction (two
-        uniform slots each), then uniforms 20 (error angle) and 21 (rate magnitude).
+        Stream "task" (two uniform slots per normal): normals 0–3 target, 4–6 rate direction,
+        uniform 14 rate magnitude; then the error: normals 8–11 (uniform on SO(3), the
+        full-angle case) or normals 8–10 (axis) and uniform 22 (angle).
         """
-        g = draws.normal("task", 10)
-        u = draws.uniform("task", 2, offset=20)
-        q_target = unit_rows(g[0:4])
-        theta = restricted_haar_angle(u[0], self.max_initial_angle)
-        q = qmul_rows(q_target, exp_rows(unit_rows(g[4:7]) * np.atleast_1d(theta)[:, None]))
-        omega_B = unit_rows(g[7:10]) * (self.max_initial_rate * u[1])[:, None]
-        return {"q": q, "omega_B": omega_B, "q_target": q_target}
+        xp = draws.xp
+        g = draws.normal("task", 7)
+        (u_rate,) = draws.uniform("task", 1, offset=14)
+        q_target = k.qnormalize(g[0:4])
+        omega_B = k.scale(unit(g[4:7], xp), self.max_initial_rate * u_rate)
+        if self.max_initial_angle >= math.pi:
+            error = k.qnormalize(draws.normal("task", 4, offset=16))
+        else:
+            (u_angle,) = draws.uniform("task", 1, offset=22)
+            theta = restricted_haar_angle(u_angle, self.max_initial_angle, xp)
+            error = k.exp(k.scale(unit(draws.normal("task", 3, offset=16), xp), theta))
+        return {"q": k.qmul(q_target, error), "omega_B": omega_B, "q_target": q_target}
 
-    def complete_start(self, start: dict) -> None:
-        from core.backend import NUMPY
-
-        conj = conj_rows(start.pop("q_target"))
-        e, angle = error_quaternion(tuple(conj.T), tuple(start["q"].T), NUMPY)
-        start.update(q_target_conj=conj, q_err=np.stack(e, axis=1), angle=angle,
-                     hold=np.zeros(len(angle), dtype=np.int64))
+    def complete_start(self, start: dict, xp) -> None:
+        q_target_conj = conj(start.pop("q_target"))
+        e, angle = error_quaternion(q_target_conj, start["q"], xp)
+        start.update(q_target_conj=q_target_conj, q_err=e, angle=angle, hold=0 * angle)
 
     # ------------------------------------------------------------------- per step
 
     def observe(self, st, q, w, xp) -> tuple:
         """Canonical q_err (4), then ω_B / rate_limit clipped to [-1, 1] (3)."""
         e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
-        s = 1.0 / self.rate_limit
+        s = self.inv_rate_limit
         clip = xp.clip
         return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
                 clip(w[2] * s, -1.0, 1.0))
@@ -143,7 +143,7 @@ class Reorient(Task):
         failure = rate > self.rate_limit
         terms = ReorientTerms(
             -wt.attitude * _INV_PI * angle,
-            -wt.rate * xp.minimum(rate * (1.0 / self.rate_limit), 1.0),
+            -wt.rate * xp.minimum(rate * self.inv_rate_limit, 1.0),
             -wt.fuel * thrust_fraction,
             wt.progress * _INV_PI * (st.angle - angle),
             wt.hold * inside,

@@ -19,22 +19,17 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
-import numpy as np
-
 from core import kernels as k
 from core import validation
-from core.backend import NUMPY
 from rbenv.tasks.base import (
     _DEG,
     Task,
     Weights,
-    conj_rows,
+    conj,
     error_quaternion,
-    exp_rows,
     option_table,
-    qmul_rows,
     restricted_haar_angle,
-    unit_rows,
+    unit,
 )
 
 _INV_PI = 1.0 / math.pi
@@ -118,22 +113,22 @@ class Track(Task):
     def sample_start(self, draws) -> dict:
         """Stream "task": normals 0–3 target, 4–6 error axis, 7–9 tumble direction, 10–12
         target-rate axis; uniforms 26 (error angle), 27 (tumble), 28 (target rate)."""
+        xp = draws.xp
         g = draws.normal("task", 13)
         u = draws.uniform("task", 3, offset=26)
-        q_target = unit_rows(g[0:4])
-        theta = np.atleast_1d(restricted_haar_angle(u[0], self.max_initial_angle))
-        q = qmul_rows(q_target, exp_rows(unit_rows(g[4:7]) * theta[:, None]))
-        return {"q": q, "omega_B": unit_rows(g[7:10]) * (self.max_initial_rate * u[1])[:, None],
+        q_target = k.qnormalize(g[0:4])
+        theta = restricted_haar_angle(u[0], self.max_initial_angle, xp)
+        q = k.qmul(q_target, k.exp(k.scale(unit(g[4:7], xp), theta)))
+        return {"q": q, "omega_B": k.scale(unit(g[7:10], xp), self.max_initial_rate * u[1]),
                 "q_target": q_target,
-                "omega_target_W": unit_rows(g[10:13]) * (self.max_target_rate * u[2])[:, None]}
+                "omega_target_W": k.scale(unit(g[10:13], xp), self.max_target_rate * u[2])}
 
-    def complete_start(self, start: dict) -> None:
-        conj = conj_rows(start.pop("q_target"))
-        step = exp_rows(start["omega_target_W"] * self.plant.control_dt)
-        e, angle = error_quaternion(tuple(conj.T), tuple(start["q"].T), NUMPY)
-        start.update(q_target_conj=conj, q_step_conj=conj_rows(step),
-                     q_err=np.stack(e, axis=1), angle=angle,
-                     on_steps=np.zeros(len(angle), dtype=np.int64))
+    def complete_start(self, start: dict, xp) -> None:
+        q_target_conj = conj(start.pop("q_target"))
+        step = k.exp(k.scale(start["omega_target_W"], self.plant.control_dt))
+        e, angle = error_quaternion(q_target_conj, start["q"], xp)
+        start.update(q_target_conj=q_target_conj, q_step_conj=conj(step), q_err=e,
+                     angle=angle, on_steps=0 * angle)
 
     # ------------------------------------------------------------------- per step
 
@@ -145,7 +140,7 @@ class Track(Task):
         """q_err (4), (ω − ω_t_B)/L (3) and ω_t_B/L (3), rates clipped to [-1, 1]."""
         e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
         w_t = k.rotate_inverse(q, st.omega_target_W)
-        s = 1.0 / self.rate_limit
+        s = self.inv_rate_limit
         clip = xp.clip
         return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
                 *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
@@ -163,7 +158,7 @@ class Track(Task):
         failure = rate > self.rate_limit
         terms = TrackTerms(
             -wt.attitude * _INV_PI * angle,
-            -wt.rate * xp.minimum(rate_err * (1.0 / self.rate_limit), 1.0),
+            -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
             -wt.fuel * thrust_fraction,
             wt.progress * _INV_PI * (st.angle - angle),
             wt.on_target * on,

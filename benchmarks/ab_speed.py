@@ -1,0 +1,117 @@
+"""A/B env speed of two source trees, measured in one run (alternating subprocesses).
+
+    python -m benchmarks.ab_speed --baseline /path/to/old/checkout [--rounds 5]
+
+A redesign must not lose speed, and on a shared machine only figures taken side by side mean
+anything. This runs the same probe in a fresh interpreter for each tree (``PYTHONPATH`` set to
+the tree), alternating trees round by round, and keeps the best of the rounds for each figure:
+
+* ``single_us``: µs per step of the default env through ``gym.make`` (random throttles,
+  resets inline), and ``pendulum_us`` for ``Pendulum-v1`` in the same process;
+* ``vec_random``: env-steps/s of the native vector env at N = 4096, random throttles;
+* ``vec_zero``: the same with all thrusters off (no episode ends);
+* ``vec_reset_heavy``: one fixed random throttle for every sub-env and step (a few percent of
+  the sub-envs lose control and autoreset each step).
+
+Writes ``<out>/ab_speed.json`` (default ``benchmarks/results``) with both trees' figures and
+the ratios new/old.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+PROBE = r"""
+import json, time
+import gymnasium as gym
+import numpy as np
+import rbenv
+
+def best(fn, n, rounds=3):
+    out = []
+    for _ in range(rounds):
+        t = time.perf_counter(); fn(n); out.append((time.perf_counter() - t) / n)
+    return min(out)
+
+def single(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    shape = (256, *env.action_space.shape)
+    acts = np.random.default_rng(0).uniform(-1, 1, shape).astype(np.float32)
+    def run(n):
+        for i in range(n):
+            _, _, te, tr, _ = env.step(acts[i % 256])
+            if te or tr:
+                env.reset()
+    return best(run, 3000)
+
+def vec(kind, n=4096):
+    env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n)
+    env.reset(seed=0)
+    rng = np.random.default_rng(1)
+    shape = env.action_space.shape
+    if kind == "random":
+        acts = rng.uniform(-1, 1, (16, *shape)).astype(np.float32)
+    elif kind == "zero":
+        acts = -np.ones((16, *shape), np.float32)
+    else:
+        acts = np.broadcast_to(rng.uniform(-1, 1, shape[1:]).astype(np.float32), (16, *shape))
+    for i in range(20):  # warm up past the first episode ends
+        env.step(acts[i % 16])
+    def run(k):
+        for i in range(k):
+            env.step(acts[i % 16])
+    return n / best(run, 20)
+
+print(json.dumps({"single_us": 1e6 * single("rbenv/SatelliteReorient-v0"),
+                  "pendulum_us": 1e6 * single("Pendulum-v1"),
+                  "vec_random": vec("random"), "vec_zero": vec("zero"),
+                  "vec_reset_heavy": vec("reset_heavy")}))
+"""
+
+
+def _probe(tree: Path) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", PROBE], env=env, cwd=tree, check=True,
+                         capture_output=True, text=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--baseline", required=True, help="source tree of the old revision")
+    p.add_argument("--new", default=str(Path(__file__).resolve().parents[1]),
+                   help="source tree of the new revision (default: this one)")
+    p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--out", default="benchmarks/results", help="folder for ab_speed.json")
+    args = p.parse_args(argv)
+    trees = {"old": Path(args.baseline).resolve(), "new": Path(args.new).resolve()}
+    best: dict = {name: {} for name in trees}
+    for r in range(args.rounds):
+        for name, tree in trees.items():
+            for key, value in _probe(tree).items():
+                keep = min if key.endswith("_us") else max
+                best[name][key] = keep(best[name].get(key, value), value)
+        print(f"round {r + 1}/{args.rounds}: {best}", flush=True)
+    for name in trees:
+        b = best[name]
+        b["single_vs_pendulum"] = b["single_us"] / b["pendulum_us"]
+        b["reset_heavy_vs_zero"] = b["vec_reset_heavy"] / b["vec_zero"]
+    ratios = {key: best["new"][key] / best["old"][key] for key in best["new"]}
+    data = {"trees": {k: str(v) for k, v in trees.items()}, "rounds": args.rounds,
+            "best": best, "new_over_old": ratios,
+            "notes": "µs figures: lower is better; steps/s figures: higher is better"}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "ab_speed.json").write_text(json.dumps(data, indent=2) + "\n")
+    print(json.dumps(ratios, indent=2))
+    return data
+
+
+if __name__ == "__main__":
+    main()
