@@ -415,27 +415,57 @@ class Scene:
 
     @classmethod
     def from_toml(cls, path) -> Scene:
-        """Read a scene from a TOML file (``name`` defaults to the file stem)."""
+        """Read a scene from a TOML file (``name`` defaults to the file stem).
+
+        ``base = "<shipped scene>"`` at the top of the file starts from that scene: its tables
+        are merged field by field with the file's (the file wins), so a variant states only
+        what it changes.
+        """
         path = Path(path)
-        toml = _tomllib()
-        raw = check.read_regular_file("scene file", path, max_bytes=MAX_SCENE_BYTES)
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise InvalidParameterError(
-                f"scene file {str(path)!r} must be UTF-8 text; byte {exc.start} is not "
-                f"({exc.reason})"
-            ) from None
-        try:
-            data = toml.loads(text)
-        except toml.TOMLDecodeError as exc:
-            raise InvalidParameterError(f"scene file {str(path)!r} is not valid TOML: {exc}") \
-                from None
-        except RecursionError:
-            raise InvalidParameterError(
-                f"scene file {str(path)!r} nests arrays or tables too deeply to parse"
-            ) from None
+        data = _read_toml(path)
+        if "base" in data:
+            data = _with_base(data, path)
         return cls.from_dict(data, name=path.stem)
+
+
+def _read_toml(path: Path) -> dict:
+    """The parsed TOML of a scene file (regular file, size-capped, UTF-8), named errors."""
+    toml = _tomllib()
+    raw = check.read_regular_file("scene file", path, max_bytes=MAX_SCENE_BYTES)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InvalidParameterError(
+            f"scene file {str(path)!r} must be UTF-8 text; byte {exc.start} is not "
+            f"({exc.reason})"
+        ) from None
+    try:
+        return toml.loads(text)
+    except toml.TOMLDecodeError as exc:
+        raise InvalidParameterError(f"scene file {str(path)!r} is not valid TOML: {exc}") \
+            from None
+    except RecursionError:
+        raise InvalidParameterError(
+            f"scene file {str(path)!r} nests arrays or tables too deeply to parse"
+        ) from None
+
+
+def _with_base(data: dict, path: Path) -> dict:
+    """``data`` laid over the shipped scene named by its ``base`` key (one level only)."""
+    data = dict(data)
+    name = check.choice(f"scene file {str(path)!r}: base", data.pop("base"), list_scenes())
+    with resources.as_file(_scene_dir() / f"{name}.toml") as base_path:
+        base = _read_toml(base_path)
+    if "base" in base:
+        raise InvalidParameterError(f"shipped scene {name!r} has a base itself; a variant "
+                                    "may only build on a scene without one")
+    base.pop("name", None)
+    for key, value in data.items():
+        if isinstance(value, dict) and isinstance(base.get(key), dict):
+            base[key] = {**base[key], **value}
+        else:
+            base[key] = value
+    return base
 
 
 def _task_tables(tables) -> dict:
