@@ -171,8 +171,8 @@ class Track(Task):
         return terms, success, failure
 
     def info(self, st, xp) -> dict:
-        """attitude_error_deg, rate_dps, rate_error_dps, track_fraction (on-target share so far of the
-        scored second half)."""
+        """attitude_error_deg, rate_dps, rate_error_dps and track_fraction (the on-target
+        share so far of the scored second half)."""
         w, w_t = st.w, k.rotate_inverse(st.q, st.omega_target_W)
         e = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
         scored = xp.maximum(st.steps - self.scored_from, 1)
