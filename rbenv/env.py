@@ -14,64 +14,32 @@ import gymnasium as gym
 import numpy as np
 
 from core.backend import FLOAT
-from core.errors import InvalidParameterError
 from rbenv import transition
+from rbenv.adapter import ENV_OPTIONS, TaskAdapter
 from rbenv.draws import EpisodeDraws
 from rbenv.state import from_start
-from rbenv.tasks import build
 
 RENDER_MODES = ("human", "rgb_array")
 
 
-class AttitudeEnv(gym.Env):
+class AttitudeEnv(TaskAdapter, gym.Env):
     """A satellite, its thrusters and one task, as a Gymnasium env (see the subclasses)."""
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
-    task_name: ClassVar[str] = "reorient"
 
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
                  max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
                  render_mode=None):
-        self.plant, self.task = build(
-            self.task_name, scene, integrator=integrator, control_dt=control_dt,
-            substeps=substeps, action_mode=action_mode, allocator=allocator,
-            randomize=randomize, reward_weights=reward_weights,
-            max_initial_angle_deg=max_initial_angle_deg, max_initial_rate=max_initial_rate,
-            task_options=task_options)
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise InvalidParameterError(
-                f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}")
-        self.render_mode = render_mode
+        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
+        self.action_space, self.observation_space = self._setup(options, render_mode,
+                                                                RENDER_MODES)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.plant.control_dt}
-        self.action_space = gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32)
-        size = self.task.observation_size()
-        self.observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
-        self.observation_structure = dict(self.task.observation_structure)
-        self._kinds = transition.state_kinds(self.task)
         self._max_steps = self.plant.scene.episode_steps
         self._seed_key: int | None = None
         self._episode = 0
         self._st = None
         self._renderer = None
-
-    @property
-    def scene(self):
-        """The :class:`rbenv.Scene` in use (after option overrides)."""
-        return self.plant.scene
-
-    @property
-    def config(self):
-        """The :class:`rbenv.plant.Plant` (scene, action mode, torque authority)."""
-        return self.plant
-
-    def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
-        """Change the task's initial-condition ranges from the next reset on (curriculum).
-
-        max_initial_angle_deg in [0, 180]; max_initial_rate in rad/s, below the rate limit;
-        None keeps the current value.
-        """
-        self.task = self.task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
     # ------------------------------------------------------------------- Gymnasium API
 
@@ -114,19 +82,12 @@ class AttitudeEnv(gym.Env):
 
     def render(self):
         """``rgb_array``: an (H, W, 3) uint8 frame; ``human``: draw to a window, return None."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode to make()")
+        renderer = self._ready_renderer()
+        if renderer is None:
             return None
-        if self._st is None:
-            raise gym.error.ResetNeeded("call reset() before render()")
-        if self._renderer is None:
-            from rbenv.rendering import Renderer
-
-            self._renderer = Renderer.for_scene(self.plant.scene)
-        frame = self._renderer.frame(**transition.render_values(self.plant, self.task,
-                                                                 self._st))
+        frame = self._frame()
         if self.render_mode == "human":
-            self._renderer.show(frame)
+            renderer.show(frame)
             return None
         return frame
 
@@ -135,11 +96,6 @@ class AttitudeEnv(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        state["_renderer"] = None  # a pygame surface/window does not pickle; re-created lazily
-        return state
 
 
 class SatelliteReorientEnv(AttitudeEnv):

@@ -18,9 +18,9 @@ from core import validation
 from core.backend import NUMPY
 from core.errors import InvalidParameterError
 from rbenv import transition
+from rbenv.adapter import ENV_OPTIONS, TaskAdapter
 from rbenv.draws import EpisodeDraws
 from rbenv.state import assign, from_start
-from rbenv.tasks import build
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
@@ -34,7 +34,7 @@ def _autoreset_mode(value) -> AutoresetMode:
     return mode
 
 
-class AttitudeVectorEnv(VectorEnv):
+class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     """``num_envs`` copies of a single :class:`rbenv.env.AttitudeEnv` as one NumPy batch.
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
@@ -63,40 +63,26 @@ class AttitudeVectorEnv(VectorEnv):
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
                                 "autoreset_mode": AutoresetMode.NEXT_STEP}
-    task_name: ClassVar[str] = "reorient"
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None):
+        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
-        self.plant, self.task = build(
-            self.task_name, scene, integrator=integrator, control_dt=control_dt,
-            substeps=substeps, action_mode=action_mode, allocator=allocator,
-            randomize=randomize, reward_weights=reward_weights,
-            max_initial_angle_deg=max_initial_angle_deg, max_initial_rate=max_initial_rate,
-            task_options=task_options)
-        if render_mode not in (None, "rgb_array"):
-            raise InvalidParameterError(
-                f"render_mode must be None or 'rgb_array' for the vector env, got {render_mode!r}")
-        self.render_mode = render_mode
+        self.single_action_space, self.single_observation_space = self._setup(
+            options, render_mode, ("rgb_array",))
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
-        self.single_action_space = gym.spaces.Box(-1.0, 1.0, self.plant.action_shape,
-                                                  np.float32)
-        size = self.task.observation_size()
-        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, (size,), np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self.observation_structure = dict(self.task.observation_structure)
         steps = self.plant.scene.episode_steps
         if max_episode_steps is not None:
             steps = min(steps, validation.count("max_episode_steps", max_episode_steps,
                                                 high=2**31))
         self._max_steps = steps
-        self._kinds = transition.state_kinds(self.task)
         self._seeds: np.ndarray | None = None
         self._episodes = np.zeros(self.num_envs, dtype=np.uint64)
         self._st = None
@@ -104,29 +90,12 @@ class AttitudeVectorEnv(VectorEnv):
         self._prev_done = np.zeros(self.num_envs, dtype=bool)
         self._mask = np.ones(self.num_envs, dtype=bool)
         self._mask.setflags(write=False)
-        self._renderers = None
-
-    @property
-    def scene(self):
-        """The :class:`rbenv.Scene` in use (after option overrides)."""
-        return self.plant.scene
-
-    @property
-    def config(self):
-        """The :class:`rbenv.plant.Plant` (scene, action mode, torque authority)."""
-        return self.plant
+        self._renderer = None
 
     @property
     def np_random_seed(self) -> tuple:
         """The seed of each sub-env's episode starts (as ``SyncVectorEnv``: one per sub-env)."""
         return () if self._seeds is None else tuple(int(s) for s in self._seeds)
-
-    def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
-        """Change the initial-condition ranges for every later episode start (curriculum).
-
-        Sub-envs already running keep their episode; autoresets use the new ranges.
-        """
-        self.task = self.task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
     # ------------------------------------------------------------------- reset
 
@@ -272,29 +241,15 @@ class AttitudeVectorEnv(VectorEnv):
 
     def render(self):
         """``rgb_array``: a tuple of N frames (H, W, 3) uint8 (one renderer for all)."""
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode to make_vec")
+        if self._ready_renderer() is None:
             return None
-        if self._st is None:
-            raise gym.error.ResetNeeded("call reset() before render()")
-        from rbenv.rendering import Renderer
-
-        if self._renderers is None:
-            self._renderers = Renderer.for_scene(self.plant.scene)
-        return tuple(self._renderers.frame(**transition.render_values(self.plant, self.task,
-                                                                      self._st, i))
-                     for i in range(self.num_envs))
+        return tuple(self._frame(i) for i in range(self.num_envs))
 
     def close_extras(self, **kwargs):
         """Release the renderer, if any (also after a failed __init__, via __del__)."""
-        if getattr(self, "_renderers", None) is not None:
-            self._renderers.close()
-            self._renderers = None
-
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        state["_renderers"] = None
-        return state
+        if getattr(self, "_renderer", None) is not None:
+            self._renderer.close()
+            self._renderer = None
 
 
 def _zero_rows(idx, terms, reward, success, terminated, truncated):

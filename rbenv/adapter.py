@@ -1,0 +1,84 @@
+"""What the single-env and the vector-env adapters share: the plant, the task, their spaces.
+
+Both adapters take the same env options (:data:`ENV_OPTIONS`), build the (plant, task) pair
+with :func:`rbenv.tasks.build`, and expose the same accessors; only how they hold the state
+(floats or arrays) and Gymnasium's API shape differ.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import gymnasium as gym
+import numpy as np
+
+from core.errors import InvalidParameterError
+from rbenv import transition
+from rbenv.tasks import build
+
+ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "reward_weights",
+               "max_initial_angle_deg", "max_initial_rate", "allocator", "randomize",
+               "task_options")
+
+
+class TaskAdapter:
+    """Mixin of :class:`rbenv.env.AttitudeEnv` and :class:`rbenv.vector_env.AttitudeVectorEnv`.
+
+    Subclasses name their task in ``task_name``.
+    """
+
+    task_name: ClassVar[str] = "reorient"
+
+    def _setup(self, options: dict, render_mode, render_modes) -> tuple[gym.Space, gym.Space]:
+        """Build plant and task from ``options`` (the env options by name); returns the
+        single-satellite action and observation spaces."""
+        self.plant, self.task = build(self.task_name, **options)
+        if render_mode is not None and render_mode not in render_modes:
+            raise InvalidParameterError(
+                f"render_mode must be None or one of {list(render_modes)}, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.observation_structure = dict(self.task.observation_structure)
+        self._kinds = transition.state_kinds(self.task)
+        size = self.task.observation_size()
+        return (gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32),
+                gym.spaces.Box(-1.0, 1.0, (size,), np.float32))
+
+    @property
+    def scene(self):
+        """The :class:`rbenv.Scene` in use (after option overrides)."""
+        return self.plant.scene
+
+    @property
+    def config(self):
+        """The :class:`rbenv.plant.Plant` (scene, action mode, torque authority)."""
+        return self.plant
+
+    def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
+        """Change the task's initial-condition ranges for every later episode start
+        (curriculum); episodes already running keep theirs. max_initial_angle_deg in
+        [0, 180]; max_initial_rate in rad/s, below the rate limit; None keeps a value."""
+        self.task = self.task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
+
+    def _ready_renderer(self):
+        """The renderer (made on first use), or None after warning when no render_mode."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to "
+                            "gym.make or gym.make_vec")
+            return None
+        if self._st is None:
+            raise gym.error.ResetNeeded("call reset() before render()")
+        if self._renderer is None:
+            from rbenv.rendering import Renderer
+
+            self._renderer = Renderer.for_scene(self.plant.scene)
+        return self._renderer
+
+    def _frame(self, index: int | None = None):
+        """One (H, W, 3) uint8 frame of the satellite (sub-env ``index`` of a batch)."""
+        return self._renderer.frame(**transition.render_values(self.plant, self.task, self._st,
+                                                               index))
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_renderer"] = None  # a pygame surface/window does not pickle; re-made lazily
+        return state
