@@ -1,6 +1,6 @@
 """rbenv's rigid-body core: quaternions, inertia tensors, rigid-body state and integrators.
 
-Imports only NumPy (SciPy only inside :mod:`core.reference`). Conventions (DESIGN.md):
+Imports only NumPy (SciPy only inside :mod:`core.reference`). Conventions (docs/design.md):
 quaternions are scalar-first (w, x, y, z), Hamilton, body→world; names carry frames
 (``_W`` world, ``_B`` body); SI units.
 """

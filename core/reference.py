@@ -5,7 +5,7 @@ the *global* error of every integrator in :mod:`core.integrators` without a nume
 of unknown quality. :func:`solve_ivp_reference` covers torque-driven cases with a tight DOP853
 solution instead.
 
-Conventions (DESIGN.md): quaternions are scalar-first ``(w, x, y, z)``, Hamilton, unit, and map
+Conventions (docs/design.md): quaternions are scalar-first ``(w, x, y, z)``, Hamilton, unit, and map
 body to world (``v_W = q ⊗ v_B ⊗ q*``). Inertia is given as **principal moments** ``(3,)`` in
 kg·m², i.e. the body frame *is* the principal frame: ``I = diag(moments)`` in body axes (any
 order). Body rates ``omega_B`` are in rad/s, body frame; times in s.
