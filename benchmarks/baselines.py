@@ -1,0 +1,73 @@
+"""Scripted baselines on every task and scene, on the same seeded episodes.
+
+    python -m benchmarks.baselines [--episodes 1000] [--seed 1000000] [--out benchmarks/results]
+
+For each registered task and each shipped scene, evaluates every scripted baseline the task has
+(reorient: quaternion PD and eigenaxis bang-bang; detumble: rate damping; track: tracking PD
+with feedforward) and the do-nothing policy, all on episodes ``seed … seed + episodes − 1``.
+Writes ``baselines.json`` and ``baselines.md`` into ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import rbenv
+from agents.controllers import BASELINES
+from agents.evaluate import evaluate
+
+TASK_OF = {rbenv.ENV_ID: "reorient", rbenv.DETUMBLE_ID: "detumble", rbenv.TRACK_ID: "track"}
+
+
+def run(episodes: int, seed: int) -> list[dict]:
+    """One summary row per (task, scene, policy)."""
+    rows = []
+    for env_id, task in TASK_OF.items():
+        for scene in rbenv.list_scenes():
+            for policy in (*BASELINES[task], "zero"):
+                start = time.perf_counter()
+                s = evaluate(policy, episodes=episodes, seed=seed, scene=scene, env_id=env_id,
+                             record=0).summary()
+                rows.append({"task": task, "scene": scene, "policy": policy,
+                             "episodes": episodes, "success_rate": s["success_rate"],
+                             "settle_time_median_s": s["settle_time_s"]["median"],
+                             "fuel_mean_g": 1000 * s["fuel"]["mean"],
+                             "final_error_median": s["final_error_deg"]["median"],
+                             "wall_s": time.perf_counter() - start})
+    return rows
+
+
+def markdown(rows: list[dict]) -> str:
+    """The rows as a Markdown table."""
+    lines = ["| task | scene | policy | success | settle median (s) | fuel mean (g) |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        settle = r["settle_time_median_s"]
+        lines.append(f"| {r['task']} | {r['scene']} | {r['policy']} | "
+                     f"{100 * r['success_rate']:.1f}% | "
+                     f"{'—' if settle is None else f'{settle:.1f}'} | {r['fuel_mean_g']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> list[dict]:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--episodes", type=int, default=1000)
+    p.add_argument("--seed", type=int, default=1_000_000)
+    p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and table")
+    args = p.parse_args(argv)
+    rows = run(args.episodes, args.seed)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "baselines.json").write_text(json.dumps(
+        {"episodes": args.episodes, "seed": args.seed, "rows": rows}, indent=2) + "\n")
+    table = markdown(rows)
+    (out / "baselines.md").write_text(table)
+    print(table)
+    return rows
+
+
+if __name__ == "__main__":
+    main()
