@@ -137,6 +137,13 @@ class Plant:
         }
         values["noisy"] = bool(values["p_fault"] or values["dist_noise"]
                                or values["sensor_noise"] is not None)
+        rnd = values["randomization"]
+        if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg) \
+                and sc.physics.integrator == "splitting":
+            raise InvalidParameterError(
+                "integrator 'splitting' rotates about the principal axes of one fixed inertia, "
+                "so it cannot step randomized inertias (randomization.inertia_scale or "
+                "inertia_rotation_deg > 0); use 'rk4' or 'midpoint'")
         torque = self.action_mode == "torque"
         values["action_shape"] = (3,) if torque else (thr.n,)
         low = np.full(values["action_shape"], -1.0 if torque else 0.0)

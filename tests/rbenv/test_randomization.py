@@ -120,6 +120,10 @@ def test_randomization_off_is_the_nominal_plant_and_bad_sizes_are_named():
         make_plant("cubesat-12u", randomize={"mass_scale": 0.1})
     with pytest.raises(InvalidParameterError, match="inertia_scale"):
         make_plant("cubesat-12u", randomize={"inertia_scale": True})
+    with pytest.raises(InvalidParameterError, match="splitting"):
+        make_plant("cubesat-12u-dr", integrator="splitting")
+    assert make_plant("cubesat-12u-dr", integrator="splitting",
+                      randomize={"inertia_scale": 0.0, "inertia_rotation_deg": 0.0})
 
 
 def test_scripted_baselines_use_the_nominal_model_under_randomization():
