@@ -20,7 +20,7 @@ from core.errors import InvalidParameterError
 from rbenv import transition
 from rbenv.adapter import ENV_OPTIONS, TaskAdapter
 from rbenv.draws import EpisodeDraws
-from rbenv.state import assign, from_start
+from rbenv.state import State, assign, from_start
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
@@ -173,35 +173,41 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         terminated = out.failure | (success & self.task.success_terminates)
         truncated = st.steps >= self._max_steps
         obs, extra = self._stack(out.obs), {}
+        flags = (reward, success, terminated, truncated)
         mode = self.autoreset_mode
         if mode is AutoresetMode.NEXT_STEP:
             if self._prev_done.any():
-                idx = np.flatnonzero(self._prev_done)
-                assign(st, self._kinds, idx, self._start(idx))
-                obs[idx] = self._observation()[idx]
-                terms, reward, success, terminated, truncated = _zero_rows(
-                    idx, terms, reward, success, terminated, truncated)
+                self._restart(np.flatnonzero(self._prev_done), obs, terms, flags)
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.SAME_STEP:
             done = terminated | truncated
             if done.any():
-                idx = np.flatnonzero(done)
                 extra = self._final(done, obs, self._info(terms, success))
-                assign(st, self._kinds, idx, self._start(idx))
-                obs[idx] = self._observation()[idx]
-                terms, _, success, _, _ = _zero_rows(idx, terms, reward, success, terminated,
-                                                     truncated)
+                self._restart(np.flatnonzero(done), obs, terms, (success,))
         info = self._info(terms, success)
         info.update(extra)
         self._obs = obs
         return obs, reward, terminated, truncated, info
+
+    def _restart(self, idx: np.ndarray, obs: np.ndarray, terms, flags) -> None:
+        """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``,
+        and their rows of ``terms`` and ``flags`` (this step's fresh arrays) zeroed in place."""
+        start = self._start(idx)
+        assign(self._st, self._kinds, idx, start)
+        view = State()
+        view.__dict__.update(start)  # the new episodes alone, as a state of len(idx)
+        noise = self.plant.draw_sensor_noise(self.np_random, len(idx))
+        obs[idx] = self._stack(transition.observe(self.plant, self.task, view, noise, NUMPY),
+                               len(idx))
+        for arr in (*terms, *flags):
+            arr[idx] = 0
 
     def _actions(self, actions) -> np.ndarray:
         """Actions as float64 (N, k); TypeError for a non-array, ValueError for a bad shape."""
         if np.isscalar(actions) or actions is None:
             raise TypeError(f"actions must be an array of shape {self.action_space.shape}, got "
                             f"{type(actions).__name__} {actions!r}")
-        a = np.asarray(actions, dtype=np.float64)
+        a = np.array(actions, dtype=np.float64)  # a copy: the plant may clip it in place
         if a.shape != self.action_space.shape:
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
         return a
@@ -219,8 +225,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         return {"final_obs": final_obs, "_final_obs": done.copy(), "final_info": final_info,
                 "_final_info": done.copy()}
 
-    def _stack(self, comps: tuple) -> np.ndarray:
-        obs = np.empty((self.num_envs, len(comps)), dtype=np.float32)
+    def _stack(self, comps: tuple, rows: int | None = None) -> np.ndarray:
+        obs = np.empty((rows or self.num_envs, len(comps)), dtype=np.float32)
         for j, c in enumerate(comps):
             obs[:, j] = c
         return obs
@@ -250,18 +256,6 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         if getattr(self, "_renderer", None) is not None:
             self._renderer.close()
             self._renderer = None
-
-
-def _zero_rows(idx, terms, reward, success, terminated, truncated):
-    """Copies with rows ``idx`` zeroed: the reset rows of an autoreset step."""
-    rows = np.zeros(len(reward), dtype=bool)
-    rows[idx] = True
-    terms = type(terms)(*(np.where(rows, 0.0, t) for t in terms))
-    reward, success = reward.copy(), np.array(success, dtype=bool)
-    terminated, truncated = terminated.copy(), truncated.copy()
-    reward[idx] = 0.0
-    success[idx] = terminated[idx] = truncated[idx] = False
-    return terms, reward, success, terminated, truncated
 
 
 class SatelliteReorientVectorEnv(AttitudeVectorEnv):
