@@ -289,7 +289,7 @@ def unit_quaternion(name: str, value, *, normalize: bool = False,
     norm = big[..., 0] * np.sqrt(np.sum(scaled * scaled, axis=-1))
     if normalize:
         return scaled / np.sqrt(np.sum(scaled * scaled, axis=-1, keepdims=True))
-    if np.abs(norm - 1.0).max() > UNIT_TOL:
+    if np.abs(norm - 1.0).max(initial=0.0) > UNIT_TOL:
         raise InvalidParameterError(
             f"{name} must be a unit quaternion (|q| = 1 within {UNIT_TOL}), got |q| = "
             f"{show(norm)}; use core.quaternion.normalize"

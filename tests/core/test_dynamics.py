@@ -313,3 +313,55 @@ def test_trajectory_has_time_axis():
     traj = simulate(asymmetric_body(), spinning_state([0.1, 0.2, 0.3]), 0.1, 10, trajectory=True)
     assert traj.orientation.shape == (11, 4)
     assert np.array_equal(traj.orientation[0], Q0)
+
+
+# ------------------------------------------------------------------ overflow and batch checks
+
+
+@pytest.mark.parametrize("integrator", sorted(INTEGRATORS))
+@pytest.mark.parametrize("inertia_diag", [(1.0, 1.0, 1.0), (1.0, 2.0, 2.5)])
+def test_overflowing_step_raises_instead_of_returning_a_zero_quaternion(integrator, inertia_diag):
+    body = RigidBody(mass=1.0, inertia=np.diag(inertia_diag))
+    state = BodyState(angular_velocity=[0.1, 0.2, 0.3])
+    with pytest.raises(NonFiniteError, match="diverged"):
+        step(body, state, 1e160, integrator=integrator)
+
+
+def test_simulate_checks_every_step_and_translation():
+    body = RigidBody(mass=1.0, inertia=np.eye(3))
+    with pytest.raises(NonFiniteError, match="diverged"):
+        simulate(body, BodyState(velocity=[1e300, 0.0, 0.0]), 1e10, 3)
+    with pytest.raises(NonFiniteError, match="diverged"):
+        step(body, BodyState(), 10.0, force=[1e308, 1e308, 0.0])
+
+
+def test_mismatched_batches_name_the_fields():
+    body = RigidBody(mass=1.0, inertia=np.eye(3))
+    state = BodyState(angular_velocity=np.zeros((3, 3)))
+    with pytest.raises(InvalidParameterError, match=r"state \(3,\), torque \(2,\)"):
+        step(body, state, 0.1, torque=np.zeros((2, 3)))
+    with pytest.raises(InvalidParameterError, match=r"torque \(4, 3\).*state's batch shape"):
+        step(body, state, 0.1, torque=np.zeros((4, 3, 3)))
+    with pytest.raises(InvalidParameterError, match=r"position \(2,\), angular_velocity \(3,\)"):
+        BodyState(position=np.zeros((2, 3)), angular_velocity=np.zeros((3, 3)))
+
+
+def test_empty_batches_step_to_empty_batches():
+    body = RigidBody(mass=1.0, inertia=np.diag([1.0, 2.0, 2.5]))
+    out = simulate(body, BodyState(angular_velocity=np.zeros((0, 3))), 0.1, 3,
+                   torque=np.zeros((0, 3)))
+    assert out.orientation.shape == (0, 4) and out.angular_velocity.shape == (0, 3)
+
+
+@pytest.mark.parametrize("bad", [True, "0.1", 1 + 1j, {"dt": 0.1}, 10**400])
+def test_dt_type_holes_are_closed(bad):
+    body = RigidBody(mass=1.0, inertia=np.eye(3))
+    with pytest.raises(InvalidParameterError, match="dt"):
+        step(body, BodyState(), bad)
+
+
+def test_n_steps_cap_and_numpy_integers():
+    body = RigidBody(mass=1.0, inertia=np.eye(3))
+    with pytest.raises(InvalidParameterError, match="n_steps must be >= 0 and <= 10000000"):
+        simulate(body, BodyState(), 0.1, 10**12)
+    simulate(body, BodyState(), 0.1, np.int64(2))

@@ -629,3 +629,60 @@ def test_hollow_cylinder_limits_are_the_thin_tube_and_the_thin_disc():
     J = inertia.hollow_cylinder(m, r, 1e-9)
     np.testing.assert_allclose(np.diag(J), [m * r * r / 4, m * r * r / 4, m * r * r / 2],
                                rtol=1e-7)
+
+
+# ------------------------------------------------------------------ hostile mesh input
+
+
+def _tetrahedron():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    return v, f
+
+
+def test_unused_far_vertex_is_ignored():
+    v, f = _tetrahedron()
+    with_far = inertia.from_mesh(np.vstack([v, [1e6, -1e6, 1e6]]), f, mass=1.0)
+    plain = inertia.from_mesh(v, f, mass=1.0)
+    np.testing.assert_allclose(with_far.inertia, plain.inertia, rtol=1e-12)
+    np.testing.assert_allclose(with_far.com, [0.25, 0.25, 0.25], rtol=1e-12)
+
+
+def test_only_regular_mesh_files_are_read(tmp_path):
+    import os
+
+    fifo = tmp_path / "pipe.stl"
+    os.mkfifo(fifo)
+    with pytest.raises(MeshError, match="must be a regular file, got a FIFO"):
+        inertia.load_mesh(fifo)
+    zero = tmp_path / "zero.obj"
+    zero.symlink_to("/dev/zero")
+    with pytest.raises(MeshError, match="character device"):
+        inertia.load_mesh(zero)
+    folder = tmp_path / "dir.stl"
+    folder.mkdir()
+    with pytest.raises(MeshError, match="directory"):
+        inertia.load_mesh(folder)
+
+
+def test_stl_face_count_cap(tmp_path):
+    n = mesh.MAX_MESH_FACES + 1
+    path = tmp_path / "big.stl"
+    path.write_bytes(b"\0" * 80 + np.uint32(n).tobytes() + b"\0" * (50 * n))
+    with pytest.raises(MeshError, match=f"{n} triangles; the limit is {mesh.MAX_MESH_FACES}"):
+        inertia.load_mesh(path)
+
+
+def test_overflowing_closed_forms_name_their_arguments():
+    with pytest.raises(NonFiniteError, match=r"solid_sphere overflowed.*radius=1e\+200"):
+        inertia.solid_sphere(1e200, 1e200)
+    with pytest.raises(InvalidParameterError, match="n must be >= 1 and <= 200"):
+        inertia.box_particles(1.0, (1, 1, 1), 10**6)
+
+
+def test_validate_and_principal_axes_near_overflow():
+    big = np.diag([1.0, 2.0, 2.5]) * 1e307
+    np.testing.assert_allclose(inertia.validate(big), big)
+    moments, R = inertia.principal_axes(big)
+    np.testing.assert_allclose(moments, [1e307, 2e307, 2.5e307])
+    np.testing.assert_allclose(np.abs(R), np.eye(3))
