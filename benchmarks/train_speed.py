@@ -76,37 +76,39 @@ def measure(rounds: int = ROUNDS, rollouts: int = ROLLOUTS) -> list[dict]:
 
 def plot(rows: list[dict]):
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = plt.subplots(figsize=(7.5, 3.8))
     labels, values, colors = [], [], []
     for r in rows:
         labels.append(f"{r['threads']} thread{'s' if r['threads'] > 1 else ''}\n"
-                      f"{'busy machine' if r['competing_process'] else 'idle machine'}")
+                      f"{'+ 1 busy process' if r['competing_process'] else 'no competitor'}")
         values.append(r["steps_per_s"])
         colors.append("C0" if r["threads"] == 1 else "C1")
     ax.bar(labels, values, color=colors)
     for i, v in enumerate(values):
         ax.text(i, v, f"{v:,.0f}", ha="center", va="bottom")
     ax.set_ylabel("PPO training steps/s")
-    ax.set_title(f"rbenv train (PPO defaults) on {os.cpu_count()} cores")
+    ax.set_title(f"rbenv train (PPO defaults), {os.cpu_count()} cores (median of {ROUNDS})")
     fig.tight_layout()
     return fig
 
 
 def main() -> dict:
+    load_before = os.getloadavg()  # others' load on a shared machine, for the record
     rows = measure()
     print(table([{k: r[k] for k in ("threads", "competing_process", "steps_per_s",
                                     "relative_to_1_thread_alone")} for r in rows],
                 ["threads", "competing_process", "steps_per_s", "relative_to_1_thread_alone"]))
     by = {(r["threads"], r["competing_process"]): r["steps_per_s"] for r in rows}
     ratios = {
-        "1_thread_over_2_threads_idle": by[1, False] / by[2, False],
+        "1_thread_over_2_threads_alone": by[1, False] / by[2, False],
         "1_thread_over_2_threads_busy": by[1, True] / by[2, True],
-        "busy_over_idle_1_thread": by[1, True] / by[1, False],
-        "busy_over_idle_2_threads": by[2, True] / by[2, False],
+        "busy_over_alone_1_thread": by[1, True] / by[1, False],
+        "busy_over_alone_2_threads": by[2, True] / by[2, False],
     }
     print({k: round(v, 2) for k, v in ratios.items()})
     write_json("train_speed", {"rounds": ROUNDS, "timesteps_per_measurement":
-                               ROLLOUTS * 64 * 64, "rows": rows, "ratios": ratios})
+                               ROLLOUTS * 64 * 64, "load_average_before": load_before,
+                               "rows": rows, "ratios": ratios})
     save_figure(plot(rows), "train_speed")
     return {"rows": rows, "ratios": ratios}
 

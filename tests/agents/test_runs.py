@@ -396,3 +396,21 @@ def test_tensorboard_logs_through_sb3(tmp_path):
     run(tiny(tmp_path / "tbrun", timesteps=256), tensorboard=str(tmp_path / "tb"))
     events = list((tmp_path / "tb" / "tbrun").glob("events.out.tfevents.*"))
     assert events and events[0].stat().st_size > 100
+
+
+def test_progress_bar_counts_this_sessions_steps_at_the_average_rate(copy, monkeypatch):
+    import agents.train as train_module
+
+    bars = []
+    original = train_module.RateProgress._on_training_start
+
+    def keep(self):
+        original(self)
+        bars.append(self.pbar)
+
+    monkeypatch.setattr(train_module.RateProgress, "_on_training_start", keep)
+    train(TrainConfig(out=str(copy), timesteps=768), resume=True, progress_bar=True,
+          report=False)
+    (bar,) = bars
+    assert bar.total == 256 and bar.n == 256  # resumed at 512: only the new steps
+    assert bar.smoothing == 0  # the rate shown is steps / elapsed, updates included
