@@ -167,17 +167,21 @@ class Plant:
 
     # ------------------------------------------------------------------- actuation
 
-    def throttle(self, a: np.ndarray) -> np.ndarray:
+    def throttle(self, a: np.ndarray, in_place: bool = False) -> np.ndarray:
         """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
 
         throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
         torque: ``clip(a, -1, 1) · authority`` (N·m per axis) through the allocator. NaN is
         rejected; in throttle mode by :func:`rbenv.transition.step` from the propagated NaN
-        thrust, so the hot path pays no extra check.
+        thrust, so the hot path pays no extra check. ``in_place``: the caller owns ``a`` and
+        lets throttle mode clip it in place (no temporaries: the vector env's batch).
         """
         mode = self.action_mode
         low, high = self.action_bounds
         if mode == "throttle":
+            if in_place:
+                np.maximum(a, low, out=a)
+                return np.minimum(a, high, out=a)
             return np.minimum(np.maximum(a, low), high)
         if np.isnan(a).any():
             raise nan_action_error(a)

@@ -46,9 +46,13 @@ def state_kinds(task) -> dict:
     return {**PLANT_FIELDS, **task.state_fields}
 
 
-def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp) -> Outcome:
-    """Advance ``st`` by one control step under ``action`` (float64, validated shape)."""
-    u = plant.throttle(action)
+def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
+         own_action: bool = False) -> Outcome:
+    """Advance ``st`` by one control step under ``action`` (float64, validated shape).
+
+    own_action: the caller made ``action`` for this call, so it may be clipped in place.
+    """
+    u = plant.throttle(action, in_place=own_action)
     if st.health is not None or st.pending is not None:
         u = plant.apply_faults_and_delay(st, u, noise.faults)
     st.throttle = u

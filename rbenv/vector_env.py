@@ -168,7 +168,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             raise gym.error.ResetNeeded("call reset() before step()")
         a = self._actions(actions)
         out = transition.step(self.plant, self.task, st, a,
-                              self.plant.draw_step_noise(self.np_random, self.num_envs), NUMPY)
+                              self.plant.draw_step_noise(self.np_random, self.num_envs), NUMPY,
+                              own_action=True)
         terms, reward, success = out.terms, out.reward, out.success
         terminated = out.failure | (success & self.task.success_terminates)
         truncated = st.steps >= self._max_steps
