@@ -36,6 +36,7 @@ _EPISODE_MUL = np.uint64(0xD1B54A32D192ED03)
 _S30, _S27, _S31, _S11 = (np.uint64(s) for s in (30, 27, 31, 11))
 _TO_UNIT = 2.0**-53
 _TWO_PI = 2.0 * np.pi
+_BLOCK = 32  # uniform slots hashed at once per stream (covers every task's start)
 
 # One stream per consumer of episode-start randomness.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
@@ -75,11 +76,12 @@ class EpisodeDraws:
     stream is always the same number for the same (seed, episode), whatever else was drawn.
     """
 
-    __slots__ = ("_keys", "n", "single", "xp")
+    __slots__ = ("_blocks", "_keys", "n", "single", "xp")
 
     def __init__(self, seeds, episodes, single: bool = False):
         self.single = bool(single)
         self.xp = FLOAT if self.single else NUMPY
+        self._blocks = {}  # stream -> (slots, N) uniforms computed so far (batch path)
         if self.single:  # seeds, episodes: one int each
             key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
                             + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
@@ -110,7 +112,14 @@ class EpisodeDraws:
         """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
         if self.single:
             return np.array(self._single_uniforms(stream, count, offset))[:, None]
-        return (self._bits(stream, count, offset) >> _S11).astype(np.float64) * _TO_UNIT
+        block = self._blocks.get(stream)
+        if block is None or len(block) < offset + count:
+            # One hash pass per stream and reset: ask for the first slots and a margin, so the
+            # task's and the plant's few requests share it.
+            size = max(offset + count, _BLOCK)
+            block = (self._bits(stream, size, 0) >> _S11).astype(np.float64) * _TO_UNIT
+            self._blocks[stream] = block
+        return block[offset:offset + count]
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) standard normals (Box–Muller on uniform slots ``offset + 2k, + 2k + 1``).
