@@ -73,7 +73,8 @@ class Track(Task):
     WeightsType: ClassVar[type] = TrackWeights
     success_terminates: ClassVar[bool] = False
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_step_conj": "c4",
-                                    "omega_target_W": "c3", "q_err": "c4", "angle": "f",
+                                    "omega_target_W": "c3", "omega_target_B": "c3",
+                                    "q_err": "c4", "angle": "f", "rate_error": "f",
                                     "on_steps": "i"}
     reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4, "omega_target_W": 3}
     OPTIONS: ClassVar[dict] = {"max_target_rate_fraction": 0.3, "max_initial_angle_deg": 30.0,
@@ -127,8 +128,12 @@ class Track(Task):
         q_target_conj = conj(start.pop("q_target"))
         step = k.exp(k.scale(start["omega_target_W"], self.plant.control_dt))
         e, angle = error_quaternion(q_target_conj, start["q"], xp)
+        w_t = k.rotate_inverse(start["q"], start["omega_target_W"])
+        w = start["omega_B"]
+        e_w = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
         start.update(q_target_conj=q_target_conj, q_step_conj=conj(step), q_err=e,
-                     angle=angle, on_steps=0 * angle)
+                     angle=angle, omega_target_B=w_t, rate_error=xp.sqrt(k.dot(e_w, e_w)),
+                     on_steps=0 * angle)
 
     # ------------------------------------------------------------------- per step
 
@@ -138,8 +143,11 @@ class Track(Task):
 
     def observe(self, st, q, w, xp) -> tuple:
         """q_err (4), (ω − ω_t_B)/L (3) and ω_t_B/L (3), rates clipped to [-1, 1]."""
-        e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
-        w_t = k.rotate_inverse(q, st.omega_target_W)
+        if q is st.q:
+            e, w_t = st.q_err, st.omega_target_B
+        else:  # a noisy measurement
+            e = error_quaternion(st.q_target_conj, q, xp)[0]
+            w_t = k.rotate_inverse(q, st.omega_target_W)
         s = self.inv_rate_limit
         clip = xp.clip
         return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
@@ -149,9 +157,9 @@ class Track(Task):
         wt = self.weights
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
         w = st.w
-        w_t = k.rotate_inverse(st.q, st.omega_target_W)
+        st.omega_target_B = w_t = k.rotate_inverse(st.q, st.omega_target_W)
         e0, e1, e2 = w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2]
-        rate_err = xp.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        st.rate_error = rate_err = xp.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         on = (angle < self.success_angle) & (rate_err < self.success_rate)
         st.on_steps = st.on_steps + (on & (st.steps > self.scored_from))
@@ -173,12 +181,10 @@ class Track(Task):
     def info(self, st, xp) -> dict:
         """attitude_error_deg, rate_dps, rate_error_dps and track_fraction (the on-target
         share so far of the scored second half)."""
-        w, w_t = st.w, k.rotate_inverse(st.q, st.omega_target_W)
-        e = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
         scored = xp.maximum(st.steps - self.scored_from, 1)
         return {"attitude_error_deg": st.angle * _DEG,
                 "rate_dps": self.rate_info(st, xp),
-                "rate_error_dps": xp.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) * _DEG,
+                "rate_error_dps": st.rate_error * _DEG,
                 "track_fraction": st.on_steps / scored}
 
     def target(self, st) -> tuple:
