@@ -26,6 +26,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from benchmarks import common
+
 PROBE = r"""
 import json, time
 import gymnasium as gym
@@ -82,13 +84,14 @@ def _probe(tree: Path) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def main(argv=None) -> dict:
+def main(argv=()) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--baseline", required=True, help="source tree of the old revision")
     p.add_argument("--new", default=str(Path(__file__).resolve().parents[1]),
                    help="source tree of the new revision (default: this one)")
     p.add_argument("--rounds", type=int, default=5)
-    p.add_argument("--out", default="benchmarks/results", help="folder for ab_speed.json")
+    p.add_argument("--out", default=None,
+                   help="folder for ab_speed.json (default: the benchmark results folder)")
     args = p.parse_args(argv)
     trees = {"old": Path(args.baseline).resolve(), "new": Path(args.new).resolve()}
     best: dict = {name: {} for name in trees}
@@ -106,7 +109,7 @@ def main(argv=None) -> dict:
     data = {"trees": {k: str(v) for k, v in trees.items()}, "rounds": args.rounds,
             "best": best, "new_over_old": ratios,
             "notes": "µs figures: lower is better; steps/s figures: higher is better"}
-    out = Path(args.out)
+    out = Path(args.out) if args.out else common.RESULTS
     out.mkdir(parents=True, exist_ok=True)
     (out / "ab_speed.json").write_text(json.dumps(data, indent=2) + "\n")
     print(json.dumps(ratios, indent=2))
@@ -114,4 +117,4 @@ def main(argv=None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import rbenv
 from agents.controllers import BASELINES
 from agents.evaluate import evaluate
+from benchmarks import common
 
 TASK_OF = {rbenv.ENV_ID: "reorient", rbenv.DETUMBLE_ID: "detumble", rbenv.TRACK_ID: "track"}
 
@@ -52,14 +54,15 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv=None) -> list[dict]:
+def main(argv=()) -> list[dict]:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--seed", type=int, default=1_000_000)
-    p.add_argument("--out", default="benchmarks/results", help="folder for the JSON and table")
+    p.add_argument("--out", default=None,
+                   help="folder for the JSON and table (default: the benchmark results folder)")
     args = p.parse_args(argv)
     rows = run(args.episodes, args.seed)
-    out = Path(args.out)
+    out = Path(args.out) if args.out else common.RESULTS
     out.mkdir(parents=True, exist_ok=True)
     (out / "baselines.json").write_text(json.dumps(
         {"episodes": args.episodes, "seed": args.seed, "rows": rows}, indent=2) + "\n")
@@ -70,4 +73,4 @@ def main(argv=None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])
