@@ -239,7 +239,14 @@ class Plant:
             if st.x is not None:
                 self._translate(st, body, k.rotate(q, wrench.force_B))
             q, w = advance(body, q, w, h, tau, None)
-        if not xp.all_finite((*q, *w) if st.x is None else (*q, *w, *st.x, *st.v)):
+        # Squares, not components: a rate or speed whose square overflows is caught too, so
+        # no task ever computes |ω| = inf from a "finite" state.
+        sq = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        if st.x is not None:
+            x, v = st.x, st.v
+            sq = sq + (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) + (v[0] * v[0] + v[1] * v[1]
+                                                                   + v[2] * v[2])
+        if not xp.all_finite((*q, sq)):
             self._raise_non_finite(q, w)
         st.q, st.w = q, w
         impulse = wrench.thrust_N * self.control_dt
@@ -255,13 +262,14 @@ class Plant:
         st.v = tuple(m[1] for m in moved)
 
     def _raise_non_finite(self, q, w) -> None:
-        """Raise NonFiniteError naming the integrator and step (some component is not finite)."""
+        """Raise NonFiniteError naming the integrator and step: some state component, or the
+        square of the rate, position or speed, is not finite."""
         name = self.scene.physics.integrator
         check_finite_state(q, w, name, self.h)
         raise NonFiniteError(
-            f"simulation diverged: the centre-of-mass state (position, velocity) became "
-            f"non-finite with integrator={name!r}, dt={self.h!r}; the net force or the step "
-            "is too large for float64")
+            f"simulation diverged: the body rate, or the centre-of-mass position or velocity, "
+            f"is beyond float64 (its square overflows) after a step with integrator={name!r}, "
+            f"dt={self.h!r}; the torque, force or step is too large")
 
     # ------------------------------------------------------------------- sensing
 
