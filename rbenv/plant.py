@@ -197,8 +197,7 @@ class Plant:
             u = u * st.health
         if st.pending is not None:
             delayed = st.model.delayed
-            fired = np.where(delayed[..., None], st.pending, u) if np.ndim(delayed) else \
-                (st.pending if delayed else u)
+            fired = np.where(np.expand_dims(delayed, -1), st.pending, u)  # bool or (N,)
             st.pending = u
             u = fired
         return u

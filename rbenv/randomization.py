@@ -29,7 +29,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import quaternion
+from core import quaternion, validation
 from core.body import RigidBody
 from core.errors import InvalidParameterError
 from core.vec import cross
@@ -58,13 +58,9 @@ class Randomization:
 
     def __post_init__(self):
         for f in fields(self):
-            value, high = getattr(self, f.name), self._LIMITS[f.name]
-            ok = isinstance(value, (int, float, np.integer, np.floating)) \
-                and not isinstance(value, bool)
-            if not ok or not math.isfinite(value) or not 0.0 <= value <= high:
-                raise InvalidParameterError(
-                    f"randomization.{f.name} must be a number in [0, {high}], got {value!r}")
-            object.__setattr__(self, f.name, float(value))
+            value = validation.number(f"randomization.{f.name}", getattr(self, f.name),
+                                      low=0.0, high=self._LIMITS[f.name])
+            object.__setattr__(self, f.name, value)
 
     @property
     def enabled(self) -> bool:

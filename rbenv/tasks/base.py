@@ -30,9 +30,11 @@ from typing import ClassVar
 import numpy as np
 
 from core import kernels as k
+from core import validation
 from core.errors import InvalidParameterError
 
 _DEG = 180.0 / math.pi
+MAX_WEIGHT = 1e6  # a reward weight above this only risks overflow in the return
 
 
 @dataclass(frozen=True)
@@ -44,14 +46,9 @@ class Weights:
 
     def __post_init__(self):
         for f in fields(self):
-            value = getattr(self, f.name)
-            ok = isinstance(value, (int, float, np.integer, np.floating)) \
-                and not isinstance(value, bool)
-            if not ok or not math.isfinite(value) or not 0.0 <= value <= 1e6:
-                raise InvalidParameterError(
-                    f"reward_weights[{f.name!r}] must be a finite number in [0, 1e6], got "
-                    f"{value!r}")
-            object.__setattr__(self, f.name, float(value))
+            value = validation.number(f"reward_weights[{f.name!r}]", getattr(self, f.name),
+                                      low=0.0, high=MAX_WEIGHT)
+            object.__setattr__(self, f.name, value)
 
     @classmethod
     def from_mapping(cls, mapping):
