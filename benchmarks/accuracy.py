@@ -5,6 +5,7 @@ Dzhanibekov flip), both against the exact Jacobi-elliptic solution (``core.refer
 thruster-driven slew with piecewise-constant body torque against a tight SciPy DOP853 solution.
 Error: geodesic attitude angle at the final time, plus relative drift of energy and L_W.
 Cost: wall time per simulated second, for one body and per body in a batch of N = 4096.
+``dominance`` says where ``splitting`` is cheaper than ``rk4`` and ``midpoint`` at equal error.
 Run: ``python -m benchmarks.accuracy`` or ``rbenv bench accuracy``.
 """
 
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks.common import (
-    best_time,
+    best_times,
     components,
     fit_order,
     pyplot,
@@ -78,19 +79,22 @@ def run(body, scene: dict, integrator: str, dt: float):
 
 
 def step_costs(body) -> dict:
-    """Seconds per step: one body (float path) and per body at N = BATCH, per integrator."""
+    """Seconds per step: one body (float path) and per body at N = BATCH, per integrator.
+
+    All timings interleaved in rounds, best of rounds (:func:`benchmarks.common.best_times`).
+    """
     rng = np.random.default_rng(0)
     qb = components(quaternion.random(rng, (BATCH,)))
     wb = components(rng.normal(0, 1, (BATCH, 3)))
     tb = components(rng.normal(0, 1, (BATCH, 3)))
     q1, w1, t1 = tuple(Q0.tolist()), (0.2, 0.3, 2.0), (0.1, 0.2, 0.3)
-    out = {}
+    fns = {}
     for name, it in INTEGRATORS.items():
-        out[name] = {
-            "single": best_time(lambda it=it: it.advance(body, q1, w1, 0.01, t1)),
-            "batch_per_body": best_time(lambda it=it: it.advance(body, qb, wb, 0.01, tb)) / BATCH,
-        }
-    return out
+        fns[(name, "single")] = lambda it=it: it.advance(body, q1, w1, 0.01, t1)
+        fns[(name, "batch")] = lambda it=it: it.advance(body, qb, wb, 0.01, tb)
+    t = best_times(fns)
+    return {name: {"single": t[(name, "single")], "batch_per_body": t[(name, "batch")] / BATCH}
+            for name in INTEGRATORS}
 
 
 def sweep(body) -> dict:
@@ -146,30 +150,75 @@ def recommendations(results: dict, costs: dict) -> list[dict]:
     return out
 
 
+def _curve(res: dict, step_cost: float):
+    """(log error, log cost per simulated second) of one integrator, sorted by error.
+
+    Only the converged part (1e-12 < error < 1 rad) is kept: round-off plateaus and diverged
+    points say nothing about cost at equal accuracy.
+    """
+    pts = sorted((np.log(r["attitude_error_rad"]), np.log(step_cost / r["dt"]))
+                 for r in res["rows"] if r["attitude_error_rad"] is not None
+                 and np.isfinite(r["attitude_error_rad"]) and 1e-12 < r["attitude_error_rad"] < 1.0)
+    return np.array([p[0] for p in pts]), np.array([p[1] for p in pts])
+
+
+def dominance(results: dict, costs: dict, candidate: str = "splitting",
+              rivals: tuple = ("rk4", "midpoint")) -> list[dict]:
+    """Where ``candidate`` is cheaper than each rival at equal attitude error.
+
+    For every dt of the candidate, the rival's cost at the same error is interpolated on its
+    own work–precision curve (log–log); ``ratio`` = rival cost / candidate cost (> 1: the
+    candidate dominates there). Done for one body and per body in a batch of N = BATCH.
+    """
+    rows = []
+    for label, per in results.items():
+        if candidate not in per:
+            continue
+        for rival in rivals:
+            for mode in ("single", "batch_per_body"):
+                ce, cc = _curve(per[candidate], costs[candidate][mode])
+                re_, rc = _curve(per[rival], costs[rival][mode])
+                inside = (ce >= re_.min()) & (ce <= re_.max()) if len(re_) else ce < 0
+                ratio = np.exp(np.interp(ce[inside], re_, rc) - cc[inside])
+                errs = np.exp(ce[inside])
+                wins = errs[ratio > 1.0]
+                rows.append({"scene": label, "rival": rival, "cost": mode,
+                             "best_ratio": float(ratio.max()) if ratio.size else None,
+                             "dominates_from_rad": float(wins.min()) if wins.size else None,
+                             "dominates_to_rad": float(wins.max()) if wins.size else None,
+                             "points": [{"error_rad": float(e), "ratio": float(r)}
+                                        for e, r in zip(errs, ratio, strict=True)]})
+    return rows
+
+
 def plot(results: dict, costs: dict):
     plt = pyplot()
-    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
+    fig, axes = plt.subplots(3, 3, figsize=(15, 12.5))
     for col, (label, per) in enumerate(results.items()):
-        wp, conv = axes[0, col], axes[1, col]
+        wp, wpn, conv = axes[0, col], axes[1, col], axes[2, col]
         for k, (name, res) in enumerate(per.items()):
             dt = np.array([r["dt"] for r in res["rows"]])
             err = np.array([r["attitude_error_rad"] if r["attitude_error_rad"] is not None
                             else np.nan for r in res["rows"]], dtype=float)
             err = np.where(np.isfinite(err), np.maximum(err, 1e-16), np.nan)
-            cost = costs[name]["single"] / dt
-            wp.loglog(err, cost, "o-", color=f"C{k}", ms=3, label=name)
+            style = {"color": f"C{k}", "ms": 3, "lw": 2.5 if name == "splitting" else 1.2}
+            wp.loglog(err, costs[name]["single"] / dt, "o-", label=name, **style)
+            wpn.loglog(err, costs[name]["batch_per_body"] / dt, "o-", label=name, **style)
             order = res["order"]
             tag = f"{name} (p = {order:.2f})" if order is not None else f"{name} (no convergence)"
-            conv.loglog(dt, err, "o-", color=f"C{k}", ms=3, label=tag)
+            conv.loglog(dt, err, "o-", label=tag, **style)
         wp.set_title(label, fontsize=10)
-        wp.set_xlabel("attitude error at final time (rad)")
         wp.set_ylabel("wall time per simulated second, one body (s)")
+        wpn.set_ylabel(f"per body at N = {BATCH} (s per simulated s)")
+        for ax in (wp, wpn):
+            ax.set_xlabel("attitude error at final time (rad)")
         conv.set_xlabel("dt (s)")
         conv.set_ylabel("attitude error (rad)")
-        for ax in (wp, conv):
+        for ax in (wp, wpn, conv):
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=7)
-    fig.suptitle("Work–precision (top) and error vs dt with fitted order p (bottom)")
+    fig.suptitle("Work–precision, one body (top) and batched (middle); error vs dt with fitted "
+                 "order p (bottom)")
     fig.tight_layout()
     return fig
 
@@ -186,10 +235,14 @@ def main() -> dict:
     print(table(cost_rows, ["integrator", "one body (us/step)", "N=4096 (ns/body-step)"]))
     rec = recommendations(results, costs)
     print(table(rec, ["use", "integrator", "dt", "error_rad", "cost_per_sim_second_us"]))
+    dom = dominance(results, costs)
+    print("splitting against rk4 and midpoint: rival cost / splitting cost at equal error")
+    print(table(dom, ["scene", "rival", "cost", "best_ratio", "dominates_from_rad",
+                      "dominates_to_rad"]))
     write_json("accuracy", {"dts": DTS, "costs": costs, "results": results,
-                            "recommendations": rec})
+                            "recommendations": rec, "dominance": dom})
     save_figure(plot(results, costs), "accuracy")
-    return {"costs": costs, "results": results, "recommendations": rec}
+    return {"costs": costs, "results": results, "recommendations": rec, "dominance": dom}
 
 
 if __name__ == "__main__":

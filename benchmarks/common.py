@@ -41,6 +41,40 @@ def best_time(fn: Callable[[], object], *, repeats: int = 5, min_time: float = 0
     return best
 
 
+def _loops_for(fn: Callable[[], object], min_time: float) -> int:
+    loops = 1
+    while True:
+        t0 = time.perf_counter()
+        for _ in range(loops):
+            fn()
+        if time.perf_counter() - t0 >= min_time:
+            return loops
+        loops *= 2
+
+
+def best_times(fns: dict[str, Callable[[], object]], *, rounds: int = 9,
+               min_time: float = 0.02) -> dict[str, float]:
+    """Seconds per call of each function: the minimum over ``rounds`` interleaved rounds.
+
+    Each round times every function once (a batch of calls lasting at least ``min_time``), so a
+    burst of load on a shared machine hits all of them alike; ratios between the results of
+    one call are the figures to quote.
+    """
+    loops = {}
+    for name, fn in fns.items():
+        fn()  # warm caches, lazy imports and JIT compilation
+        loops[name] = _loops_for(fn, min_time)
+    best = dict.fromkeys(fns, float("inf"))
+    for _ in range(rounds):
+        for name, fn in fns.items():
+            n = loops[name]
+            t0 = time.perf_counter()
+            for _ in range(n):
+                fn()
+            best[name] = min(best[name], (time.perf_counter() - t0) / n)
+    return best
+
+
 def components(arr) -> tuple:
     """Kernel components of an array: floats for a (k,) vector, contiguous (N,) arrays for (N, k).
 

@@ -170,7 +170,8 @@ def main(horizon_steps: int = 1_000_000) -> dict:
     print(table(masses, ["integrator", "mass_kg", "finite", "energy_drift", "L_W_drift"]))
     print(table([{"integrator": k, **{x: v for x, v in r.items() if x != "history"}}
                  for k, r in horizon.items()],
-                ["integrator", "finite", "diverged_at_step", "energy_drift", "L_W_drift"]))
+                ["integrator", "finite", "diverged_at_step", "energy_drift", "momentum_drift",
+                 "L_W_drift"]))
     if env:
         print(table(env, ["case", "outcome", "detail"]))
     data = {"step_size": steps, "inertia_ratio": ratios, "mass": masses,
