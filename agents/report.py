@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+import rbenv
+from agents.controllers import BASELINES
 from agents.evaluate import SB3Policy, evaluate, format_table, plot_episodes
 from agents.runs import atomic_write, write_json
 
@@ -43,15 +45,28 @@ def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
     return path
 
 
+def task_name(env_id: str) -> str:
+    """The task of a registered rbenv id ("reorient", "detumble", "track"): BASELINES' key."""
+    import gymnasium as gym
+
+    env = gym.make(env_id)
+    try:
+        return env.unwrapped.task.name
+    finally:
+        env.close()
+
+
 def write_report(run_dir, cfg, summary: dict) -> Path:
-    """Evaluate model.zip, PD and bang-bang on the same seeded episodes; write report.md."""
+    """Evaluate model.zip and the task's scripted baselines on the same seeded episodes; write
+    report.md."""
     run_dir = Path(run_dir)
     trained = SB3Policy(run_dir / "model.zip", run_dir / "vecnormalize.pkl")
+    env_id = getattr(cfg, "env_id", rbenv.ENV_ID)
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
-              "env_kwargs": cfg.env_kwargs}
+              "env_kwargs": cfg.env_kwargs, "env_id": env_id}
     label = "trained" if summary.get("trained", True) else "UNTRAINED: no gradient step"
     results = [evaluate(trained, name=f"{cfg.algo} ({label})", **kwargs),
-               evaluate("pd", **kwargs), evaluate("bangbang", **kwargs)]
+               *(evaluate(name, **kwargs) for name in BASELINES[task_name(env_id)])]
     table = format_table(results)
     plot_episodes(results, run_dir / "episode.png")
     curve = plot_training_curve(run_dir, run_dir / "training_curve.png")

@@ -59,6 +59,7 @@ class TrainConfig:
     n_envs: int | None = None
     seed: int = 0
     scene: str = "cubesat-12u"
+    env_id: str = rbenv.ENV_ID  # the task: any id in rbenv.ENV_IDS
     out: str | None = None
     env_kwargs: dict = field(default_factory=dict)
     hyperparams: dict = field(default_factory=dict)
@@ -71,6 +72,9 @@ class TrainConfig:
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
+        if self.env_id not in rbenv.ENV_IDS:
+            raise InvalidParameterError(f"env_id must be one of {sorted(rbenv.ENV_IDS)}, got "
+                                        f"{self.env_id!r}")
         if self.algo not in DEFAULT_HYPERPARAMS:
             raise InvalidParameterError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
         if self.timesteps is None:
@@ -99,7 +103,7 @@ class TrainConfig:
 
 def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> VecMonitor:
     """SB3 view of the native vector env (same-step autoreset), monitored."""
-    venv = gym.make_vec(rbenv.ENV_ID, num_envs=n_envs, vectorization_mode="vector_entry_point",
+    venv = gym.make_vec(cfg.env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode=AutoresetMode.SAME_STEP, scene=cfg.scene,
                         **cfg.env_kwargs)
     env = VecMonitor(SB3VecEnv(venv), info_keywords=("is_success",))

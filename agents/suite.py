@@ -1,0 +1,413 @@
+"""``rbenv suite``: the learning suite, algorithm × task × scene × seed, with reference results.
+
+Each cell of the grid is one training run (:mod:`agents.train`, resumable) in
+``OUT/cells/<cell.name>/run``, then one held-out evaluation: the trained policy and every
+scripted baseline of the task on the same seeded episodes (episode i seeded ``eval_seed + i``).
+The cell's outcome is written atomically to ``OUT/cells/<cell.name>/result.json``; a cell whose
+result is complete is not trained again, so a killed suite resumes where it stopped.
+:func:`aggregate` turns the results into ``suite.json``, ``suite.md`` (mean ± spread over seeds
+beside the baselines) and ``learning_curves.png``.
+
+The grid API (:class:`Cell`, :func:`grid`, :func:`run_cell`, :func:`aggregate`) is what any
+runner uses: :func:`run_serial` here, or a runner that places cells on other processes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+import rbenv
+from agents.runs import RunFolderError, read_json, write_json
+
+RESULT_VERSION = 1
+# Short task names (the keys of agents.controllers.BASELINES) of the registered ids.
+TASKS = {"reorient": rbenv.ENV_ID, "detumble": rbenv.DETUMBLE_ID, "track": rbenv.TRACK_ID}
+TASK_OF = {env_id: task for task, env_id in TASKS.items()}
+# Training budget (timesteps) per algorithm and task for the full suite.
+BUDGETS = {"ppo": {"reorient": 1_000_000, "detumble": 300_000, "track": 1_000_000},
+           "sac": {"reorient": 200_000, "detumble": 100_000, "track": 200_000}}
+EVAL_EPISODES, EVAL_SEED = 500, 1_000_000
+CURVE_POINTS = 10  # periodic evaluations per training run (the learning curve)
+CURVE_EPISODES = 50
+QUICK = {"algos": ["ppo"], "tasks": ["detumble", "reorient"], "scenes": ["cubesat-12u"],
+         "seeds": 1, "timesteps": 8192, "episodes": 20}
+
+
+def task_of(env_id: str) -> str:
+    """Short name of a registered id ("reorient", "detumble", "track")."""
+    if env_id in TASK_OF:
+        return TASK_OF[env_id]
+    return re.sub(r"[^a-z0-9]+", "-", env_id.lower()).strip("-")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One training run of the grid."""
+
+    algo: str
+    env_id: str
+    scene: str
+    seed: int
+    timesteps: int
+
+    @property
+    def task(self) -> str:
+        return task_of(self.env_id)
+
+    @property
+    def name(self) -> str:
+        """Folder name, stable across runs: ``<algo>-<task>-<scene>-seed<seed>-<timesteps>``."""
+        return f"{self.algo}-{self.task}-{self.scene}-seed{self.seed}-{self.timesteps}"
+
+
+def default_timesteps(algo: str, env_id: str, scene: str) -> int:
+    """The full suite's budget for ``algo`` on ``env_id`` (the same on every scene)."""
+    return BUDGETS[algo][task_of(env_id)]
+
+
+def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],
+         seeds: Iterable[int], timesteps_for: Callable[[str, str, str], int] | int
+         ) -> list[Cell]:
+    """Every cell, seed-major (all of seed 0 first, so a partial run covers the grid once).
+
+    ``timesteps_for(algo, env_id, scene)`` gives each cell's budget (or one int for all).
+    """
+    budget = timesteps_for if callable(timesteps_for) else (lambda *_: int(timesteps_for))
+    return [Cell(algo, env_id, scene, int(seed), int(budget(algo, env_id, scene)))
+            for seed in seeds for env_id in env_ids for scene in scenes for algo in algos]
+
+
+# --- one cell ---------------------------------------------------------------------------------
+
+def cell_dir(cell: Cell, out: Path) -> Path:
+    return Path(out) / "cells" / cell.name
+
+
+def read_result(path: Path, cell: Cell | None = None) -> dict | None:
+    """A complete result.json (for ``cell`` if given), else None."""
+    try:
+        data = read_json(path, "cell result")
+    except RunFolderError:
+        return None
+    if not data.get("complete") or data.get("version") != RESULT_VERSION:
+        return None
+    if cell is not None and data.get("cell") != asdict(cell):
+        return None
+    return data
+
+
+def train_config(cell: Cell, run: Path, threads: int):
+    """The TrainConfig of ``cell``: the algorithm's shipped defaults, periodic evaluations."""
+    from agents.train import TrainConfig
+
+    every = max(cell.timesteps // CURVE_POINTS, 1)
+    return TrainConfig(algo=cell.algo, env_id=cell.env_id, scene=cell.scene, seed=cell.seed,
+                       timesteps=cell.timesteps, out=str(run), threads=threads,
+                       eval_every=every, checkpoint_every=every,
+                       eval_episodes=CURVE_EPISODES)
+
+
+def train_cell(cell: Cell, run: Path, threads: int) -> dict:
+    """Train ``cell`` in ``run`` (resuming what is there); returns training.json."""
+    from agents import runs
+    from agents.train import train
+
+    cfg = train_config(cell, run, threads)
+    resume = (run / runs.CONFIG).is_file()
+    train(cfg, resume=resume, force=not resume, progress_bar=False, report=False)
+    return read_json(run / runs.SUMMARY, "training summary")
+
+
+def learning_curve(run: Path) -> dict:
+    """Periodic evaluations of the run: timesteps and success rate at each."""
+    from agents import runs
+
+    log = run / runs.EVAL_LOG
+    if not log.is_file():
+        return {"timesteps": [], "success_rate": []}
+    with np.load(log) as data:
+        steps = data["timesteps"].tolist()
+        success = [float(np.mean(s)) if len(s) else 0.0 for s in data["successes"]]
+    return {"timesteps": steps, "success_rate": success}
+
+
+def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
+    """The trained policy and every scripted baseline of the task on the same episodes."""
+    from agents.controllers import BASELINES
+    from agents.evaluate import SB3Policy, evaluate
+
+    common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
+              "record": 0}
+    policy = evaluate(SB3Policy(run), name=cell.algo, **common).summary()
+    baselines = {name: evaluate(name, **common).summary() for name in BASELINES[cell.task]}
+    return {"policy": policy, "baselines": baselines}
+
+
+def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
+             threads: int = 1) -> dict:
+    """Train, evaluate beside the baselines, write ``cells/<name>/result.json``; return it.
+
+    A complete result.json for the same cell is returned as is (nothing is retrained).
+    """
+    from agents.train import set_threads
+
+    folder = cell_dir(cell, out)
+    path = folder / "result.json"
+    done = read_result(path, cell)
+    if done is not None and done["eval"] == {"episodes": eval_episodes, "seed": eval_seed}:
+        return done
+    folder.mkdir(parents=True, exist_ok=True)
+    run = folder / "run"
+    summary = train_cell(cell, run, threads)
+    set_threads(threads)
+    started = time.perf_counter()
+    evaluation = evaluate_cell(cell, run, eval_episodes, eval_seed)
+    result = {"version": RESULT_VERSION, "complete": True, "cell": asdict(cell),
+              "name": cell.name, "task": cell.task,
+              "eval": {"episodes": eval_episodes, "seed": eval_seed},
+              "training": {k: summary.get(k) for k in ("timesteps", "wall_time_s",
+                                                       "gradient_updates", "threads")},
+              "eval_wall_time_s": time.perf_counter() - started,
+              "learning_curve": learning_curve(run), **evaluation}
+    write_json(path, result)
+    return result
+
+
+# --- aggregate --------------------------------------------------------------------------------
+
+def _stats(values: list[float]) -> dict:
+    """mean, std (population), min, max and n of finite values (None when there are none)."""
+    v = np.array([x for x in values if x is not None and math.isfinite(x)], float)
+    if not len(v):
+        return {"mean": None, "std": None, "min": None, "max": None, "n": 0}
+    return {"mean": float(v.mean()), "std": float(v.std()), "min": float(v.min()),
+            "max": float(v.max()), "n": len(v)}
+
+
+def _metrics(summary: dict) -> dict:
+    return {"success_rate": summary["success_rate"], "fuel_g": 1000 * summary["fuel"]["mean"],
+            "settle_median_s": summary["settle_time_s"]["median"]}
+
+
+def group_results(results: list[dict]) -> list[dict]:
+    """One row per algorithm × task × scene: stats over seeds, and the task's baselines."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in results:
+        c = r["cell"]
+        groups.setdefault((c["algo"], r["task"], c["scene"]), []).append(r)
+    rows = []
+    for (algo, task, scene), rs in sorted(groups.items(), key=lambda kv: (kv[0][1], kv[0][2],
+                                                                           kv[0][0])):
+        per_seed = [_metrics(r["policy"]) for r in rs]
+        stats = {k: _stats([m[k] for m in per_seed]) for k in per_seed[0]}
+        baselines = {}
+        for name in rs[0]["baselines"]:
+            runs_b = {(r["eval"]["seed"], r["eval"]["episodes"]): _metrics(r["baselines"][name])
+                      for r in rs}
+            baselines[name] = next(iter(runs_b.values()))
+            baselines[name]["same_episodes_in_every_seed"] = len(runs_b) == 1
+        best = max(b["success_rate"] for b in baselines.values())
+        rows.append({"algo": algo, "task": task, "scene": scene,
+                     "seeds": sorted(r["cell"]["seed"] for r in rs),
+                     "timesteps": sorted({r["training"]["timesteps"] for r in rs}),
+                     "train_wall_time_s": _stats([r["training"]["wall_time_s"] for r in rs]),
+                     **stats, "baselines": baselines, "best_baseline_success": best,
+                     "target": _target(stats["success_rate"]["mean"], best)})
+    return rows
+
+
+def _target(success: float, best_baseline: float) -> dict:
+    """The suite's target: ≥ 95 %, or at least the best scripted baseline where it is < 95 %."""
+    goal = min(0.95, best_baseline)
+    return {"goal": goal, "met": bool(success >= goal)}
+
+
+def _pct(s: dict) -> str:
+    if s["mean"] is None:
+        return "—"
+    spread = f" ± {100 * s['std']:.1f}" if s["n"] > 1 else ""
+    return f"{100 * s['mean']:.1f}{spread} %"
+
+
+def _num(s: dict, spec: str = ".2f") -> str:
+    if s["mean"] is None:
+        return "—"
+    spread = f" ± {format(s['std'], spec)}" if s["n"] > 1 else ""
+    return f"{format(s['mean'], spec)}{spread}"
+
+
+def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
+    lines = [f"Held-out evaluation: {info['episodes']} episodes seeded {info['seed']} + i, the "
+             "same episodes for every policy; learned policies deterministic. Learned rows: "
+             "mean ± standard deviation over seeds.", "",
+             "| task | scene | policy | seeds | timesteps | success | fuel (g) | "
+             "settle median (s) | train (min) | target |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        goal = row["target"]
+        mark = ("met" if goal["met"] else "**missed**") + f" (≥ {100 * goal['goal']:.1f} %)"
+        wall = row["train_wall_time_s"]
+        minutes = {k: (v / 60 if isinstance(v, float) else v) for k, v in wall.items()}
+        steps = "/".join(f"{t:,}" for t in row["timesteps"])
+        lines.append(f"| {row['task']} | {row['scene']} | **{row['algo']}** | "
+                     f"{len(row['seeds'])} | {steps} | {_pct(row['success_rate'])} | "
+                     f"{_num(row['fuel_g'])} | {_num(row['settle_median_s'], '.1f')} | "
+                     f"{_num(minutes, '.1f')} | {mark} |")
+        for name, b in row["baselines"].items():
+            settle = "—" if b["settle_median_s"] is None else f"{b['settle_median_s']:.1f}"
+            lines.append(f"| {row['task']} | {row['scene']} | {name} (scripted) | | | "
+                         f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | |")
+    if missing:
+        lines += ["", f"Missing cells ({len(missing)}, not run or not finished): "
+                  + ", ".join(f"`{m}`" for m in missing) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def plot_curves(results: list[dict], rows: list[dict], path: Path) -> Path | None:
+    """Success rate of the periodic evaluations against timesteps, one panel per task × scene."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = sorted({(r["task"], r["cell"]["scene"]) for r in results})
+    if not panels:
+        return None
+    tasks = sorted({t for t, _ in panels})
+    scenes = sorted({s for _, s in panels})
+    fig, axes = plt.subplots(len(tasks), len(scenes), figsize=(3.6 * len(scenes),
+                                                              2.8 * len(tasks)),
+                             squeeze=False, sharey=True)
+    best = {(row["task"], row["scene"]): row["best_baseline_success"] for row in rows}
+    for r in results:
+        ax = axes[tasks.index(r["task"])][scenes.index(r["cell"]["scene"])]
+        curve = r["learning_curve"]
+        ax.plot(curve["timesteps"], curve["success_rate"], marker=".", lw=1,
+                label=f"{r['cell']['algo']} seed {r['cell']['seed']}")
+    for i, task in enumerate(tasks):
+        for j, scene in enumerate(scenes):
+            ax = axes[i][j]
+            if (task, scene) in best:
+                ax.axhline(best[(task, scene)], color="k", ls="--", lw=0.8,
+                           label="best scripted")
+                ax.legend(fontsize=6, loc="lower right")
+            ax.set_title(f"{task} · {scene}", fontsize=9)
+            ax.set_ylim(-0.02, 1.02)
+            if j == 0:
+                ax.set_ylabel("success rate")
+            if i == len(tasks) - 1:
+                ax.set_xlabel("timesteps")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return Path(path)
+
+
+def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None = None
+              ) -> dict:
+    """Write ``suite.json``, ``suite.md`` and ``learning_curves.png`` in ``out``; return the JSON.
+
+    ``expected``: the whole grid, so that cells without a result are listed as missing.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    results = sorted(results, key=lambda r: r["name"])
+    have = {r["name"] for r in results}
+    missing = sorted(c.name for c in (expected or []) if c.name not in have)
+    evals = sorted({(r["eval"]["episodes"], r["eval"]["seed"]) for r in results})
+    info = ({"episodes": evals[0][0], "seed": evals[0][1]} if len(evals) == 1
+            else {"episodes": "/".join(str(e) for e, _ in evals),
+                  "seed": "/".join(str(s) for _, s in evals)})
+    rows = group_results(results)
+    data = {"version": RESULT_VERSION, "eval": info, "rows": rows, "missing": missing,
+            "cells": [{k: r[k] for k in ("name", "cell", "task", "eval", "training",
+                                         "policy", "baselines", "learning_curve")}
+                      for r in results]}
+    write_json(out / "suite.json", data)
+    (out / "suite.md").write_text(format_markdown(rows, missing, info))
+    plot_curves(results, rows, out / "learning_curves.png")
+    return data
+
+
+def collect(out: Path) -> list[dict]:
+    """Every complete result.json under ``out/cells``."""
+    found = [read_result(p) for p in sorted((Path(out) / "cells").glob("*/result.json"))]
+    return [r for r in found if r is not None]
+
+
+def run_serial(cells: list[Cell], out: Path, **kw) -> dict:
+    """:func:`run_cell` for each cell in order, then :func:`aggregate` over all of them."""
+    results = []
+    for i, cell in enumerate(cells):
+        print(f"[{i + 1}/{len(cells)}] {cell.name}", flush=True)
+        started = time.perf_counter()
+        result = run_cell(cell, out, **kw)
+        pol = result["policy"]
+        print(f"    {cell.algo} success {100 * pol['success_rate']:.1f} % "
+              f"({time.perf_counter() - started:.0f} s)", flush=True)
+        results.append(result)
+    return aggregate(results, out, expected=cells)
+
+
+# --- command line -----------------------------------------------------------------------------
+
+def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    p.add_argument("--quick", action="store_true",
+                   help=f"smoke form for CI: {QUICK['tasks']} on {QUICK['scenes']}, "
+                   f"{QUICK['timesteps']} timesteps, {QUICK['episodes']} episodes")
+    p.add_argument("--out", default=None, help="output folder (default runs/suite, "
+                   "runs/suite-quick with --quick)")
+    p.add_argument("--algos", nargs="+", default=None, help="default: ppo")
+    p.add_argument("--tasks", nargs="+", default=None, choices=sorted(TASKS),
+                   help="default: every task")
+    p.add_argument("--scenes", nargs="+", default=None, help="default: every shipped scene")
+    p.add_argument("--seeds", type=int, default=None, help="seeds 0..N-1 (default 3)")
+    p.add_argument("--timesteps", type=int, default=None,
+                   help="one budget for every cell (default: per task, "
+                   "agents.suite.BUDGETS)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help=f"held-out episodes (default {EVAL_EPISODES})")
+    p.add_argument("--eval-seed", type=int, default=EVAL_SEED)
+    p.add_argument("--threads", type=int, default=1, help="torch threads per training run")
+    p.add_argument("--aggregate-only", action="store_true",
+                   help="write the tables from the results present; train nothing")
+    return p
+
+
+def cells_from_args(args) -> list[Cell]:
+    quick = QUICK if args.quick else {}
+    algos = args.algos or quick.get("algos", ["ppo"])
+    tasks = args.tasks or quick.get("tasks", list(TASKS))
+    scenes = args.scenes or quick.get("scenes", rbenv.list_scenes())
+    seeds = args.seeds if args.seeds is not None else quick.get("seeds", 3)
+    budget = args.timesteps or quick.get("timesteps") or default_timesteps
+    return grid(algos, [TASKS[t] for t in tasks], scenes, range(seeds), budget)
+
+
+def main(args) -> dict:
+    out = Path(args.out or ("runs/suite-quick" if args.quick else "runs/suite"))
+    episodes = args.episodes or (QUICK["episodes"] if args.quick else EVAL_EPISODES)
+    cells = cells_from_args(args)
+    if args.aggregate_only:
+        data = aggregate(collect(out), out, expected=cells)
+    else:
+        started = time.perf_counter()
+        data = run_serial(cells, out, eval_episodes=episodes, eval_seed=args.eval_seed,
+                          threads=args.threads)
+        print(f"suite of {len(cells)} cells: {(time.perf_counter() - started) / 60:.1f} min")
+    print((out / "suite.md").read_text())
+    print(f"written: {out / 'suite.json'}, {out / 'suite.md'}, {out / 'learning_curves.png'}")
+    return data
+
+
+if __name__ == "__main__":
+    main(add_arguments(argparse.ArgumentParser(prog="python -m agents.suite",
+                                               description=__doc__.split("\n")[0])).parse_args())
