@@ -62,6 +62,7 @@ def _v(algo, steps, hp, n_envs=8, action_map="clip", curriculum=None, env_kwargs
 _CUR = {"start_deg": 20.0, "frac": 0.5}
 _UTD1 = {**_SAC, "gradient_steps": 8, "policy_kwargs": {"net_arch": [128, 128]}}
 _FIX = {**_UTD1, "n_steps": 3}
+_TORQUE = {"action_mode": "torque", "allocator": "nnls"}
 
 VARIANTS = {
     # ---- SAC, 50k env steps: one change at a time from the shipped defaults
@@ -73,6 +74,12 @@ VARIANTS = {
     # ---- candidate fix: one gradient step per env step, curriculum, 3-step returns
     "sac-fix": _v("sac", 40_000, _FIX, curriculum=_CUR),
     "td3-fix": _v("td3", 40_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, study="td3"),
+    # ---- action design: 3 torque actions in [-1, 1], NNLS allocation (no dead zone, no
+    # redundant thrusters, zero action = no firing)
+    "sac-torque": _v("sac", 40_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
+    "td3-torque": _v("td3", 40_000, {**_TD3, "n_steps": 3}, curriculum=_CUR,
+                     env_kwargs=_TORQUE, study="td3"),
+    "ppo-torque": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo", env_kwargs=_TORQUE),
     # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
     **{f"ppo-fuel{w:g}": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo",
                            env_kwargs={"reward_weights": {"fuel": w}})
@@ -197,6 +204,9 @@ def _callback(spec: dict, curve: list, eval_every: int):
                          "train_success": float(w[:, 0].mean()),
                          "train_loss_of_control": float(w[:, 1].mean()),
                          "train_episode_s": float(w[:, 2].mean())}
+                log_ent = getattr(self.model, "log_ent_coef", None)
+                if log_ent is not None:
+                    point["ent_coef"] = float(log_ent.exp().item())
                 vn = self.model.get_vec_normalize_env()
                 point["eval_success"] = evaluate(self.model, vn, spec, CURVE_EPISODES,
                                                  CURVE_SEED)["success_rate"]
@@ -230,6 +240,11 @@ def train_and_evaluate(name: str, spec: dict, seed: int = 0) -> dict:
     model.learn(spec["timesteps"], callback=_callback(spec, curve, eval_every))
     wall = time.time() - start
     result = evaluate(model, env, spec, EVAL_EPISODES, EVAL_SEED)
+    keep = os.environ.get("RL_STUDY_MODELS")  # optional: keep the policy for inspection
+    if keep:
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        model.save(Path(keep) / f"{name}.zip")
+        env.save(str(Path(keep) / f"{name}-vecnormalize.pkl"))
     env.close()
     return {"variant": name, "spec": spec, "train_seed": seed, "train_wall_s": round(wall, 1),
             "result": result, "curve": curve,
@@ -264,7 +279,8 @@ _SHOWN = {"gradient_steps", "policy_kwargs", "buffer_size", "batch_size", "train
 def _extra(hp: dict) -> str:
     """Hyperparameters that differ from the family's base dict (for the table)."""
     extra = {k: v for k, v in hp.items() if k not in _SHOWN and not _is_base(k, v)}
-    pk = {k: v for k, v in hp.get("policy_kwargs", {}).items() if k != "net_arch"}
+    pk = {k: v for k, v in hp.get("policy_kwargs", {}).items()
+          if k != "net_arch" and not (k == "use_sde" and v is False)}
     extra.update(pk)
     return ", ".join(f"{k}={v}" for k, v in extra.items()) or "—"
 
