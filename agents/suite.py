@@ -64,8 +64,12 @@ class Cell:
 
     @property
     def name(self) -> str:
-        """Folder name, stable across runs: ``<algo>-<task>-<scene>-seed<seed>-<timesteps>``."""
-        return f"{self.algo}-{self.task}-{self.scene}-seed{self.seed}-{self.timesteps}"
+        """Folder name, stable across runs: ``<algo>-<task>-<scene>-seed<seed>``.
+
+        The budget is not part of it: a cell given a larger budget resumes its run there and
+        trains on to the new total.
+        """
+        return f"{self.algo}-{self.task}-{self.scene}-seed{self.seed}"
 
 
 def default_timesteps(algo: str, env_id: str, scene: str) -> int:
