@@ -14,9 +14,9 @@ from gymnasium.utils.env_checker import check_env
 import rbenv
 from core import quaternion
 from core.errors import InvalidParameterError, NonFiniteError
+from rbenv.scene import load_scene
 from rbenv.tasks.base import restricted_haar_angle
 from rbenv.tasks.reorient import ReorientTerms
-from rbenv.scene import load_scene
 
 ID = rbenv.ENV_ID
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])

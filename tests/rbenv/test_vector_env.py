@@ -13,7 +13,6 @@ from gymnasium.vector.utils import batch_space
 
 import rbenv
 from core import quaternion
-from rbenv.tasks.base import restricted_haar_angle
 from rbenv.tasks.reorient import ReorientTerms
 
 ID = rbenv.ENV_ID
