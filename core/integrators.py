@@ -7,7 +7,7 @@ frame; either may be ``None``. States are component tuples (see :mod:`core.kerne
 one body, (N,) arrays for a batch. The single env, the vector env, ``core.step`` and
 ``core.simulate`` all call these functions: the dynamics exist once.
 
-Equations (correcting the lecture, see DESIGN.md "Physics notes"):
+Equations (correcting the lecture, see docs/design.md, "Where the lecture is wrong"):
     q̇ = ½ q ⊗ (0, ω_B),    I ω̇_B = τ_B − ω_B × I ω_B   (Euler's equations)
 """
 
@@ -48,7 +48,7 @@ def angular_acceleration(body: RigidBody, w, tau):
     """``ω̇_B = I⁻¹(τ_B − ω_B × I ω_B)`` (rad/s²); the gyroscopic term vanishes when isotropic."""
     if body.is_isotropic:
         return body.inverse_times(tau)
-    return body.inverse_times(k.add(tau, k.cross(w, body.inertia_times(w)), -1.0))
+    return body.inverse_times(k.sub(tau, k.cross(w, body.inertia_times(w))))
 
 
 def euler_seed(body, q, w, h, tau_B=None, tau_W=None):
@@ -100,10 +100,21 @@ def _qadd(q, dq, s):
     return (q[0] + s * dq[0], q[1] + s * dq[1], q[2] + s * dq[2], q[3] + s * dq[3])
 
 
+def _rk4_sum(y, k1, k2, k3, k4, s, i):
+    """Component i of ``y + s (k1 + 2(k2 + k3) + k4)``."""
+    return y[i] + s * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+
 def _rk4_combine(y, k1, k2, k3, k4, h):
+    """The RK4 update of a 3-vector (components written out: the compiled path needs them)."""
     s = h / 6.0
-    rows = zip(y, k1, k2, k3, k4, strict=True)
-    return tuple(a + s * (b + 2.0 * (c + d) + e) for a, b, c, d, e in rows)
+    return (_rk4_sum(y, k1, k2, k3, k4, s, 0), _rk4_sum(y, k1, k2, k3, k4, s, 1),
+            _rk4_sum(y, k1, k2, k3, k4, s, 2))
+
+
+def _rk4_combine_q(y, k1, k2, k3, k4, h):
+    """The RK4 update of a quaternion."""
+    return (*_rk4_combine(y, k1, k2, k3, k4, h), _rk4_sum(y, k1, k2, k3, k4, h / 6.0, 3))
 
 
 def rk4(body, q, w, h, tau_B=None, tau_W=None):
@@ -115,7 +126,7 @@ def rk4(body, q, w, h, tau_B=None, tau_W=None):
     k2q, k2w = _rk4_rate(body, _qadd(q, k1q, 0.5 * h), k.add(w, k1w, 0.5 * h), tau_B, tau_W)
     k3q, k3w = _rk4_rate(body, _qadd(q, k2q, 0.5 * h), k.add(w, k2w, 0.5 * h), tau_B, tau_W)
     k4q, k4w = _rk4_rate(body, _qadd(q, k3q, h), k.add(w, k3w, h), tau_B, tau_W)
-    q_new = _rk4_combine(q, k1q, k2q, k3q, k4q, h)
+    q_new = _rk4_combine_q(q, k1q, k2q, k3q, k4q, h)
     w_new = _rk4_combine(w, k1w, k2w, k3w, k4w, h)
     return k.qnormalize(q_new), w_new
 

@@ -41,7 +41,8 @@ def test_fitted_convergence_order(integrator, order, dts):
 
 def test_euler_seed_fails_the_precession_test():
     # Without −ω × Iω the lecture's body spins about a fixed world axis: it never precesses,
-    # so its attitude error stays O(1) however small dt is. docs/design.md: the missing gyroscopic term.
+    # so its attitude error stays O(1) however small dt is (docs/design.md: the missing
+    # gyroscopic term).
     errors = [attitude_error("euler_seed", dt) for dt in (0.02, 0.01, 0.005)]
     assert min(errors) > 0.1
     assert errors[-1] > 0.5 * errors[0]
