@@ -111,8 +111,20 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "checkpoint_every", "eval_every",
+                "hyperparams", "env_kwargs")
+
+
 def _train(args) -> int:
     from agents.train import TrainConfig, train
+
+    if args.resume:
+        defaults = _parser().parse_args(["train"])
+        ignored = [f"--{k.replace('_', '-')}" for k in FIXED_BY_RUN
+                   if getattr(args, k) != getattr(defaults, k)]
+        if ignored:
+            print(f"--resume continues the run with its saved config.json; ignoring "
+                  f"{', '.join(ignored)}")
 
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
                       seed=args.seed, scene=args.scene, out=args.out,

@@ -131,6 +131,7 @@ def is_finished(run_dir: Path) -> dict | None:
 def prepare_new_run(run_dir: Path, force: bool) -> None:
     """Refuse a non-empty folder unless ``force``; with ``force`` remove the old run's files."""
     run_dir = Path(run_dir)
+    remove_temporaries(run_dir)  # left by a writer killed before the run had a config.json
     present = sorted(p.name for p in run_dir.iterdir() if p.name != LOCK)
     if not present:
         return

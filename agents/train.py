@@ -260,10 +260,18 @@ def load_checkpoint(cfg: TrainConfig, directory: Path, base) -> tuple:
     """(model, env, checkpoint) from the newest checkpoint that loads, or None if none exists.
 
     A checkpoint that fails (missing or corrupt file) is reported, naming the file, and the next
-    older one is tried. Raises :class:`RunFolderError` if checkpoints exist but none loads.
+    older one is tried. Raises :class:`RunFolderError` if complete checkpoints exist but none
+    loads; only incomplete ones (a kill during the first checkpoint) mean starting from 0.
     """
-    tried = []
+    tried, incomplete = [], []
     for ckpt in runs.checkpoints(directory):
+        if not (ckpt.model.is_file() and ckpt.stats.is_file()):
+            # A kill between the two writes of a checkpoint; never pointed to by latest.json.
+            missing = ckpt.stats if ckpt.model.is_file() else ckpt.model
+            print(f"checkpoint at {ckpt.steps} timesteps is incomplete ({str(missing)!r} is "
+                  "missing); skipping it")
+            incomplete.append(ckpt.model.name)
+            continue
         try:
             runs.check_model_file(ckpt.model)
             env = runs.load_stats(ckpt.stats, base)
@@ -272,7 +280,7 @@ def load_checkpoint(cfg: TrainConfig, directory: Path, base) -> tuple:
             print(f"checkpoint at {ckpt.steps} timesteps is unusable: {e}")
             tried.append(ckpt.model.name)
             continue
-        if tried:
+        if tried or incomplete:
             print(f"falling back to the last complete checkpoint: {ckpt.model} "
                   f"({ckpt.steps} timesteps)")
         return model, env, ckpt
@@ -399,9 +407,11 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
                                    ["stdout", "tensorboard"] if verbose else ["tensorboard"]))
     eval_env = VecNormalize(make_vec_env(cfg, min(cfg.eval_episodes, 50), cfg.seed + 10_000),
                             training=False, norm_reward=False)
-    callbacks = [AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock),
-                 PeriodicEval(eval_env, out / runs.EVAL_LOG, cfg.eval_every, cfg.eval_episodes,
-                              done)]
+    # Evaluation before checkpoint: a checkpoint at step N implies the evaluation due at N is
+    # logged, so a kill between the two never loses an entry of the history.
+    callbacks = [PeriodicEval(eval_env, out / runs.EVAL_LOG, cfg.eval_every, cfg.eval_episodes,
+                              done),
+                 AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
     if progress_bar:
         callbacks.append(RateProgress())
     remaining = max(cfg.timesteps - done, 0)

@@ -148,7 +148,7 @@ def test_resume_falls_back_past_a_corrupt_checkpoint_and_names_the_file(copy, ca
     run(TrainConfig(out=str(copy), timesteps=640), resume=True)
     out = capsys.readouterr().out
     named = "vecnormalize_512.pkl" if corrupt.startswith("stats") else "model_512.zip"
-    assert named in out and "unusable" in out
+    assert named in out and ("incomplete" if corrupt.endswith("missing") else "unusable") in out
     assert "falling back to the last complete checkpoint" in out and "model_384.zip" in out
     assert summary(copy)["resumed_from"] == 384 and summary(copy)["timesteps"] == 640
 
@@ -414,3 +414,50 @@ def test_progress_bar_counts_this_sessions_steps_at_the_average_rate(copy, monke
     (bar,) = bars
     assert bar.total == 256 and bar.n == 256  # resumed at 512: only the new steps
     assert bar.smoothing == 0  # the rate shown is steps / elapsed, updates included
+
+
+# Kill moments: during imports, then right after each of these files appears (so the kill lands
+# between the writes of a checkpoint, an evaluation, or the final files).
+KILL_WHEN = ("1 s after start", "config.json", "checkpoints/model_128.zip",
+             "checkpoints/vecnormalize_256.pkl", "eval/evaluations.npz",
+             "checkpoints/model_768.zip", "checkpoints/model_1536.zip", "model.zip",
+             "training.json")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("when", KILL_WHEN)
+def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
+    """A real SIGKILL at a spread of moments; resuming always completes the run."""
+    import signal
+    import time
+
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "1536", "--n-envs", "4",
+           "--out", str(out), "--checkpoint-every", "128", "--eval-every", "256",
+           "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
+           "--no-report", "--no-progress"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        if when.endswith("after start"):
+            time.sleep(1.0)
+        else:
+            deadline = time.time() + 240
+            while not (out / when).exists() and proc.poll() is None and time.time() < deadline:
+                time.sleep(0.005)
+            assert proc.poll() is None or (out / when).exists(), proc.stderr.read()[-2000:]
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    cfg = TrainConfig(out=str(out), timesteps=1536)
+    try:
+        run(cfg, resume=True)
+    except RunFolderError as e:  # killed before config.json existed: start it anew, no --force
+        assert "is not a training run" in str(e) or "does not exist" in str(e)
+        run(tiny(out, timesteps=1536, eval_every=256))
+    assert summary(out)["timesteps"] == 1536
+    assert not list(out.rglob("*.tmp"))
+    evals = np.load(out / "eval" / "evaluations.npz")["timesteps"].tolist()
+    assert evals == list(range(256, 1537, 256))
+    assert load_policy(out).predict(np.zeros(7, np.float32))[0].shape == (12,)
