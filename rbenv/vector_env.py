@@ -125,10 +125,12 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         self._prev_done[idx] = False
         terms = transition.zero_terms(self.task, np.zeros(n))
         obs = self._observation()
-        if self._obs is not None and not mask.all():
+        info = self._info(terms, np.zeros(n, dtype=bool))
+        if self._obs is not None and not mask.all():  # a partial reset (DISABLED mode)
             obs = np.where(mask[:, None], obs, self._obs)
+            info.update({key: mask for key in info if key.startswith("_")})
         self._obs = obs
-        return obs, self._info(terms, np.zeros(n, dtype=bool))
+        return obs, info
 
     def _seed_list(self, seed):
         if seed is None:
@@ -167,6 +169,11 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         a = self._actions(actions)
+        if self.autoreset_mode is AutoresetMode.DISABLED and self._prev_done.any():
+            raise gym.error.ResetNeeded(
+                f"sub-envs {np.flatnonzero(self._prev_done).tolist()} have ended; with "
+                "autoreset_mode DISABLED reset them with reset(options={'reset_mask': mask}) "
+                "before the next step")
         out = transition.step(self.plant, self.task, st, a,
                               self.plant.draw_step_noise(self.np_random, self.num_envs), NUMPY,
                               own_action=True)
@@ -179,6 +186,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         if mode is AutoresetMode.NEXT_STEP:
             if self._prev_done.any():
                 self._restart(np.flatnonzero(self._prev_done), obs, terms, flags)
+            self._prev_done = terminated | truncated
+        elif mode is AutoresetMode.DISABLED:
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.SAME_STEP:
             done = terminated | truncated
