@@ -41,6 +41,7 @@ def test_disabled_mode_with_reset_mask_matches_sync_vector_env():
         o_s, r_s, te_s, tr_s, _ = sync.step(a)
         np.testing.assert_allclose(o_n, o_s, atol=1e-6)
         np.testing.assert_allclose(r_n, r_s, atol=1e-9)
+        np.testing.assert_array_equal(te_n | tr_n, te_s | tr_s)
         ended |= te_n | tr_n
         if ended.any() and not ended.all():
             break
