@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core import INTEGRATORS
+from core import INTEGRATORS, validation
 from core import kernels as k
 from core.backend import FLOAT
 from core.dynamics import check_finite_state, translate
@@ -26,7 +26,7 @@ from core.errors import InvalidParameterError, NonFiniteError
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import G0, Scene
 
-__all__ = ["ACTION_MODES", "Plant", "PlantState", "StepNoise", "Wrench", "make_plant"]
+__all__ = ["ACTION_MODES", "STATE_FIELDS", "Plant", "StepNoise", "Wrench", "make_plant"]
 
 ACTION_MODES = ("throttle", "on_off", "torque")
 ALLOCATORS = ("pinv", "nnls", "lp")
@@ -53,30 +53,16 @@ class StepNoise(NamedTuple):
     sensor: tuple | None
 
 
-class PlantState:
-    """Mutable plant state; components are floats (one satellite) or (N,) arrays.
-
-    q: body→world quaternion (4). w: ω_B, rad/s (3). x, v: centre-of-mass position (m) and
-    velocity (m/s) (3 each) or None. bias: disturbance bias, N·m (3) or None. health: (n,) or
-    (N, n) of 1 (working) / 0 (failed), or None. fuel_kg, impulse_Ns: cumulative. throttle:
-    throttles applied in the last step, (n,) or (N, n). steps: control steps taken. model:
-    the episode's :class:`rbenv.randomization.EpisodeModel` (domain randomization) or None.
-    pending: with a control delay, the throttles commanded last step, else None.
-    """
-
-    __slots__ = ("bias", "fuel_kg", "health", "impulse_Ns", "model", "pending", "q", "steps",
-                 "throttle", "v", "w", "x")
-
-    def __init__(self, **values):
-        for name in self.__slots__:
-            setattr(self, name, values.get(name))
-
-    def __getstate__(self):
-        return {name: getattr(self, name) for name in self.__slots__}
-
-    def __setstate__(self, values):
-        for name in self.__slots__:
-            setattr(self, name, values[name])
+# The plant's state fields and their storage kinds (rbenv.state). q: body→world quaternion.
+# w: ω_B, rad/s. x, v: centre-of-mass position (m) and velocity (m/s), with translation only.
+# bias: disturbance bias torque, N·m (random model only). health: 1 (working) / 0 (failed) per
+# thruster (fault model only). fuel_kg, impulse_Ns: cumulative. throttle: the throttles applied
+# in the last step. steps: control steps taken. model: the episode's randomized physics
+# (rbenv.randomization.EpisodeModel) or None. pending: throttles commanded last step, with a
+# control delay only.
+STATE_FIELDS = {"q": "c4", "w": "c3", "x": "c3", "v": "c3", "bias": "c3", "health": "row",
+                "fuel_kg": "f", "impulse_Ns": "f", "throttle": "row", "steps": "i",
+                "model": "obj", "pending": "row"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,54 +97,34 @@ class Plant:
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
     def __post_init__(self):
-        sc, thr = self.scene, self.scene.thrusters
-        if self.action_mode not in ACTION_MODES:
-            raise InvalidParameterError(
-                f"action_mode must be one of {list(ACTION_MODES)}, got {self.action_mode!r}")
-        if self.allocator_name not in ALLOCATORS:
-            raise InvalidParameterError(
-                f"allocator must be one of {list(ALLOCATORS)}, got {self.allocator_name!r}")
-        dist, faults, sensor = sc.disturbance, sc.faults, sc.sensor_noise
-        values = {
-            "n": thr.n, "h": sc.physics.h, "substeps": sc.physics.substeps,
-            "control_dt": sc.physics.control_dt, "fuel_per_impulse": 1.0 / (sc.isp * G0),
-            "inv_total_thrust": 1.0 / float(thr.max_force.sum()),
-            "disturbance_torque": tuple(dist.torque.tolist()) if dist.model == "constant"
-            else None,
-            "p_fault": faults.p_step if faults.model == "random" else 0.0,
-            "dist_noise": dist.noise_sigma if dist.model == "random" else 0.0,
-            "sensor_noise": (sensor.attitude, sensor.rate) if sensor.model == "gaussian"
-            else None,
-            "advance": INTEGRATORS[sc.physics.integrator].advance,
-            "action_matrix": action_matrix(thr.torque_matrix_B, thr.max_force,
-                                           thr.force_matrix_B if sc.physics.translation
-                                           else None),
-            "randomization": sc.randomization if sc.randomization.enabled else None,
-        }
+        validation.choice("action_mode", self.action_mode, ACTION_MODES)
+        validation.choice("allocator", self.allocator_name, ALLOCATORS)
+        values = {**_scene_scalars(self.scene), **self._actuation()}
         values["noisy"] = bool(values["p_fault"] or values["dist_noise"]
                                or values["sensor_noise"] is not None)
-        rnd = values["randomization"]
-        if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg) \
-                and sc.physics.integrator == "splitting":
-            raise InvalidParameterError(
-                "integrator 'splitting' rotates about the principal axes of one fixed inertia, "
-                "so it cannot step randomized inertias (randomization.inertia_scale or "
-                "inertia_rotation_deg > 0); use 'rk4' or 'midpoint'")
+        _check_integrator_supports(self.scene, values["randomization"])
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    def _actuation(self) -> dict:
+        """Action shape and bounds, throttle→wrench matrix, and the torque-mode allocator."""
+        sc, thr = self.scene, self.scene.thrusters
         torque = self.action_mode == "torque"
-        values["action_shape"] = (3,) if torque else (thr.n,)
-        low = np.full(values["action_shape"], -1.0 if torque else 0.0)
-        high = np.ones(values["action_shape"])
-        for arr in (low, high):
+        shape = (3,) if torque else (thr.n,)
+        low, high = np.full(shape, -1.0 if torque else 0.0), np.ones(shape)
+        for arr in (low, high):  # arrays: clipping against them is cheaper than scalars
             arr.setflags(write=False)
-        values["action_bounds"] = (low, high)
-        values["allocator"], values["torque_authority"] = None, None
+        values = {"n": thr.n, "action_shape": shape, "action_bounds": (low, high),
+                  "allocator": None, "torque_authority": None,
+                  "action_matrix": action_matrix(thr.torque_matrix_B, thr.max_force,
+                                                 thr.force_matrix_B if sc.physics.translation
+                                                 else None)}
         if torque:
             from rbenv.allocation import axis_authority, make_allocator
 
             values["allocator"] = make_allocator(self.allocator_name, thr.torque_matrix_B)
             values["torque_authority"] = axis_authority(thr.torque_matrix_B)
-        for name, value in values.items():
-            object.__setattr__(self, name, value)
+        return values
 
     @property
     def translation(self) -> bool:
@@ -189,7 +155,7 @@ class Plant:
             return (a > 0.0).astype(float)
         return self.allocator(np.minimum(np.maximum(a, low), high) * self.torque_authority)
 
-    def apply_faults_and_delay(self, st: PlantState, u: np.ndarray, fault_draw) -> np.ndarray:
+    def apply_faults_and_delay(self, st, u: np.ndarray, fault_draw) -> np.ndarray:
         """Throttles that actually fire: mid-episode faults, failed thrusters, control delay."""
         if st.health is not None:
             if fault_draw is not None:
@@ -202,7 +168,7 @@ class Plant:
             u = fired
         return u
 
-    def wrench(self, st: PlantState, u: np.ndarray, xp) -> Wrench:
+    def wrench(self, st, u: np.ndarray, xp) -> Wrench:
         """The body wrench of throttles u, (n,) or (N, n), held over the step."""
         matrix = self.action_matrix if st.model is None else st.model.action_matrix
         if xp is FLOAT:
@@ -216,7 +182,7 @@ class Plant:
 
     # ------------------------------------------------------------------- motion
 
-    def advance_state(self, st: PlantState, wrench: Wrench, dist_noise, xp) -> None:
+    def advance_state(self, st, wrench: Wrench, dist_noise, xp) -> None:
         """Advance ``st`` over one control step under ``wrench`` and the disturbance.
 
         The thruster torque plus the disturbance (constant torque, or bias + ``dist_noise``)
@@ -253,7 +219,7 @@ class Plant:
         st.fuel_kg = st.fuel_kg + impulse * self.fuel_per_impulse
         st.steps = st.steps + 1
 
-    def _translate(self, st: PlantState, body, force_W: tuple) -> None:
+    def _translate(self, st, body, force_W: tuple) -> None:
         """Move the centre of mass one integrator step under force_W (N, world frame)."""
         name, h = self.scene.physics.integrator, self.h
         moved = [translate(name, body, st.x[i], st.v[i], h, force_W[i]) for i in range(3)]
@@ -272,7 +238,7 @@ class Plant:
 
     # ------------------------------------------------------------------- sensing
 
-    def measure(self, st: PlantState, noise) -> tuple[tuple, tuple]:
+    def measure(self, st, noise) -> tuple[tuple, tuple]:
         """Measured (q, ω_B): the true state, or with noise ``q ⊗ exp(σ_att·n[:3])`` and
         ``ω_B + σ_rate·n[3:]`` (noise: 6 standard-normal components)."""
         if noise is None:
@@ -323,6 +289,32 @@ class Plant:
 
 
 _NO_NOISE = StepNoise(None, None, None)
+
+
+def _scene_scalars(sc: Scene) -> dict:
+    """The scene's per-step scalars, flattened for the hot path (one attribute lookup)."""
+    dist, faults, sensor = sc.disturbance, sc.faults, sc.sensor_noise
+    return {
+        "h": sc.physics.h, "substeps": sc.physics.substeps, "control_dt": sc.physics.control_dt,
+        "fuel_per_impulse": 1.0 / (sc.isp * G0),
+        "inv_total_thrust": 1.0 / float(sc.thrusters.max_force.sum()),
+        "disturbance_torque": tuple(dist.torque.tolist()) if dist.model == "constant" else None,
+        "p_fault": faults.p_step if faults.model == "random" else 0.0,
+        "dist_noise": dist.noise_sigma if dist.model == "random" else 0.0,
+        "sensor_noise": (sensor.attitude, sensor.rate) if sensor.model == "gaussian" else None,
+        "advance": INTEGRATORS[sc.physics.integrator].advance,
+        "randomization": sc.randomization if sc.randomization.enabled else None,
+    }
+
+
+def _check_integrator_supports(sc: Scene, rnd: Randomization | None) -> None:
+    """Refuse integrator and randomization pairs that cannot run together."""
+    if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg) \
+            and sc.physics.integrator == "splitting":
+        raise InvalidParameterError(
+            "integrator 'splitting' rotates about the principal axes of one fixed inertia, "
+            "so it cannot step randomized inertias (randomization.inertia_scale or "
+            "inertia_rotation_deg > 0); use 'rk4' or 'midpoint'")
 
 
 def _components(rng: np.random.Generator, count: int, batch: int | None) -> tuple:

@@ -18,14 +18,10 @@ import numpy as np
 
 from core import validation
 from core.errors import InvalidParameterError
-from rbenv.plant import Plant, StepNoise, nan_action_error
+from rbenv.plant import STATE_FIELDS, Plant, StepNoise, nan_action_error
 
-__all__ = ["PLANT_FIELDS", "Outcome", "info", "observe", "start", "state_kinds", "step"]
+__all__ = ["Outcome", "info", "observe", "start", "state_kinds", "step"]
 
-# Plant state fields and their storage kinds (see rbenv.state).
-PLANT_FIELDS = {"q": "c4", "w": "c3", "x": "c3", "v": "c3", "bias": "c3", "health": "row",
-                "fuel_kg": "f", "impulse_Ns": "f", "throttle": "row", "steps": "i",
-                "model": "obj", "pending": "row"}
 MAX_RESET_RATE = 1e6  # rad/s: |ω_B| allowed in reset options (squares stay far from overflow)
 
 
@@ -43,7 +39,7 @@ class Outcome(NamedTuple):
 
 def state_kinds(task) -> dict:
     """Field name → storage kind for the plant and ``task`` together."""
-    return {**PLANT_FIELDS, **task.state_fields}
+    return {**STATE_FIELDS, **task.state_fields}
 
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
