@@ -130,6 +130,14 @@ def train_cell(cell: Cell, run: Path, threads: int) -> dict:
     return read_json(run / runs.SUMMARY, "training summary")
 
 
+def _settings(run: Path) -> dict:
+    """What the run was trained with (from its config.json): n_envs and hyperparameters."""
+    from agents import runs
+
+    config = runs.read_config(run)
+    return {"n_envs": config.get("n_envs"), "hyperparams": config.get("hyperparams")}
+
+
 def learning_curve(run: Path) -> dict:
     """Periodic evaluations of the run: timesteps and success rate at each."""
     from agents import runs
@@ -177,8 +185,9 @@ def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
     result = {"version": RESULT_VERSION, "complete": True, "cell": asdict(cell),
               "name": cell.name, "task": cell.task,
               "eval": {"episodes": eval_episodes, "seed": eval_seed},
-              "training": {k: summary.get(k) for k in ("timesteps", "wall_time_s",
-                                                       "gradient_updates", "threads")},
+              "training": {**{k: summary.get(k) for k in ("timesteps", "wall_time_s",
+                                                          "gradient_updates", "threads")},
+                           **_settings(run)},
               "eval_wall_time_s": time.perf_counter() - started,
               "learning_curve": learning_curve(run), **evaluation}
     write_json(path, result)

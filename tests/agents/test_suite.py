@@ -100,3 +100,15 @@ def test_a_finished_cell_is_not_trained_again(quick_suite):
     again = run_cell(cell, out, eval_episodes=suite.QUICK["episodes"], eval_seed=suite.EVAL_SEED)
     assert again == json.loads((out / "cells" / cell.name / "result.json").read_text())
     assert model.stat().st_mtime_ns == before
+
+
+def test_a_larger_budget_resumes_the_cell_and_trains_on(quick_suite):
+    out, data = quick_suite
+    first = data["cells"][0]
+    cell = Cell(**{**first["cell"], "timesteps": 2 * first["cell"]["timesteps"]})
+    assert cell.name == first["name"]
+    result = run_cell(cell, out, eval_episodes=suite.QUICK["episodes"], eval_seed=suite.EVAL_SEED)
+    assert result["training"]["timesteps"] >= cell.timesteps
+    steps = result["learning_curve"]["timesteps"]
+    assert steps == sorted(steps) and steps[-1] > first["learning_curve"]["timesteps"][-1]
+    assert result["training"]["hyperparams"]["n_steps"] > 0
