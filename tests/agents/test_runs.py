@@ -391,6 +391,17 @@ def test_training_is_reproducible_given_seed_and_threads(tmp_path, base_run):
     assert not all(torch.equal(a[k], c[k]) for k in a)  # the comparison can fail
 
 
+def test_threads_option_sets_torch_and_is_recorded(tmp_path):
+    try:
+        run(tiny(tmp_path / "two", timesteps=128, checkpoint_every=128, threads=2))
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(1)
+    config = json.loads((tmp_path / "two" / "config.json").read_text())
+    assert config["threads"] == 2 and config["versions"]["cpu"]
+    assert summary(tmp_path / "two")["threads"] == 2
+
+
 def test_tensorboard_logs_through_sb3(tmp_path):
     pytest.importorskip("tensorboard")
     run(tiny(tmp_path / "tbrun", timesteps=256), tensorboard=str(tmp_path / "tb"))
