@@ -6,7 +6,8 @@ Every probe is one call with one bad, extreme or unusual input. It is classified
 * ``unclear error``: any other exception (``TypeError``, ``OverflowError``, ``LinAlgError``,
   ``RecursionError``, a numpy broadcasting message, or a named error that omits the field);
 * ``silently accepted``: an input the documentation forbids came back without an error;
-* ``non-finite out``: the call returned NaN or inf somewhere in its output;
+* ``non-finite out``: the call returned NaN or inf somewhere in its output, or an orientation
+  that is not a unit quaternion (overflow turned into a plausible zero);
 * ``hang or crash``: no answer within the per-probe time limit, or ``MemoryError`` under the
   address-space cap;
 * ``accepted, finite``: a legal (or extreme but legal) input gave finite output, as it should;
@@ -77,6 +78,10 @@ def _all_finite(value, depth=0) -> bool:
         return all(_all_finite(v, depth + 1) for v in list(value.values())[:200])
     if isinstance(value, (list, tuple)):
         return all(_all_finite(v, depth + 1) for v in value[:200])
+    if hasattr(value, "orientation") and hasattr(value, "angular_velocity"):
+        q = np.asarray(value.orientation, dtype=float)
+        if q.size and not np.allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-6):
+            return False  # a zero or non-unit quaternion is overflow, not an attitude
     fields = getattr(value, "__dataclass_fields__", None)
     if fields:
         return all(_all_finite(getattr(value, f, None), depth + 1) for f in fields)
@@ -521,7 +526,8 @@ def toml_mutations(scenes: dict, n: int, rng: random.Random):
             yield f"{name}: {'.'.join(map(str, path))} = {new!r}", fields, dump_toml(data), expect
         elif kind == "delete":
             _set(data, path, _DELETE)
-            yield f"{name}: del {'.'.join(map(str, path))}", fields, dump_toml(data), EITHER
+            # any named error will do: the message names what is now missing
+            yield f"{name}: del {'.'.join(map(str, path))}", ("",), dump_toml(data), EITHER
         elif kind == "unknown":
             table = rng.choice([k for k, v in data.items() if isinstance(v, dict)] + [None])
             target = data if table is None else data[table]
@@ -555,7 +561,7 @@ def toml_mutations(scenes: dict, n: int, rng: random.Random):
                     EITHER if big <= 1000 else INVALID)
 
 
-def toml_probes(n: int, seed: int, tmp: Path):
+def toml_probes(n: int, seed: int, tmp: Path, names: list[str]):
     import rbenv
 
     tomllib = __import__("tomllib") if sys.version_info >= (3, 11) else __import__("tomli")
@@ -563,7 +569,7 @@ def toml_probes(n: int, seed: int, tmp: Path):
 
     folder = resources.files("rbenv") / "scenes"
     scenes = {}
-    for name in rbenv.list_scenes():
+    for name in names:
         scenes[name] = tomllib.loads((folder / f"{name}.toml").read_text())
     rng = random.Random(seed)
     probes = []
@@ -589,6 +595,8 @@ def main(argv=None) -> dict:
                         help="JSON file to write (default: ./fuzz.json)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--toml", type=int, default=1500, help="mutated TOML probes")
+    parser.add_argument("--scenes", default="boom-sat,cubesat-12u,microsat-100kg",
+                        help="shipped scenes to mutate (fixed, so runs on old checkouts compare)")
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds per probe")
     parser.add_argument("--memory-gb", type=float, default=4.0, help="address-space cap")
     parser.add_argument("--budget", type=float, default=900.0, help="total seconds, at most")
@@ -604,7 +612,8 @@ def main(argv=None) -> dict:
         tmp = Path(tmp_name)
         groups = [("core API", lambda: core_probes(tmp)), ("env options", env_probes),
                   ("env at numerical extremes", extreme_probes),
-                  ("mutated scene TOML", lambda: toml_probes(args.toml, args.seed, tmp))]
+                  ("mutated scene TOML",
+                   lambda: toml_probes(args.toml, args.seed, tmp, args.scenes.split(",")))]
         counts = {row: dict.fromkeys(COLUMNS, 0) for row in ROWS}
         records = []
         skipped = 0

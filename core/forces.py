@@ -67,6 +67,9 @@ class ThrusterLayout:
             i = int(np.argmax(fmax <= 0))
             raise InvalidParameterError(f"max_force[{i}] must be > 0 N, got {fmax[i]!r}")
         lengths = np.linalg.norm(dirs, axis=1)
+        if not np.isfinite(lengths).all():  # |d|² overflowed: only the direction matters
+            dirs = dirs / np.abs(dirs).max(axis=1, keepdims=True)
+            lengths = np.linalg.norm(dirs, axis=1)
         if (lengths < 1e-12).any() or not np.isfinite(lengths).all():
             i = int(np.argmax((lengths < 1e-12) | ~np.isfinite(lengths)))
             raise InvalidParameterError(
