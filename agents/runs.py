@@ -12,7 +12,7 @@ Loading a trained policy for plain ``gym.make`` code::
 
     from agents.runs import load_policy
     policy = load_policy("runs/ppo-cubesat-12u-seed0")       # or .../checkpoints/model_N.zip
-    env = policy.make_env()                                   # the run's scene and env kwargs
+    env = policy.make_env()                                   # the run's task, scene and env kwargs
     obs, _ = env.reset(seed=0)
     action, _ = policy.predict(obs)                           # observations normalised inside
 
@@ -432,13 +432,18 @@ class RunPolicy:
         """The ``gym.make`` options the policy was trained with (scene, action mode, ...)."""
         return env_kwargs_of(self.config)
 
+    @property
+    def env_id(self) -> str:
+        """The registered id (task) the policy was trained on; reorientation if unknown."""
+        import rbenv
+
+        return (self.config or {}).get("env_id") or rbenv.ENV_ID
+
     def make_env(self, **overrides):
         """``gym.make`` of the env this policy was trained on (``overrides`` win)."""
         import gymnasium as gym
 
-        import rbenv
-
-        return gym.make(rbenv.ENV_ID, **{**self.env_kwargs, **overrides})
+        return gym.make(self.env_id, **{**self.env_kwargs, **overrides})
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         """Observations as the policy saw them in training."""
