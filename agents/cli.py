@@ -63,6 +63,9 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--n-envs", type=_positive, default=None, help="default: ppo 64, sac 8")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--scene", default="cubesat-12u")
+    t.add_argument("--env-id", default=None,
+                   help="the task, a registered id (default rbenv/SatelliteReorient-v0; "
+                        "also rbenv/SatelliteDetumble-v0, rbenv/SatelliteTrack-v0)")
     t.add_argument("--out", default=None,
                    help="run folder (default ./runs/ALGO-SCENE-seedS); must be empty or new "
                         "unless --resume or --force")
@@ -94,6 +97,8 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--episodes", type=_positive, default=100)
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--scene", default=None)
+    e.add_argument("--env-id", default=None,
+                   help="the task (default: a run's own, else rbenv/SatelliteReorient-v0)")
     e.add_argument("--env-kwargs", type=_json_arg, default={}, help="JSON of gym.make options")
     e.add_argument("--json", default=None, help="write the summary as JSON to this file")
     e.add_argument("--plot", default=None, metavar="PATH",
@@ -108,10 +113,14 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
                    help=f"results folder (default ./{BENCH_OUT} in the current directory; "
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
+    from agents.suite import add_arguments
+
+    add_arguments(sub.add_parser(
+        "suite", help="learning suite: algorithm x task x scene x seed beside the baselines"))
     return p
 
 
-FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "checkpoint_every", "eval_every",
+FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "env_id", "checkpoint_every", "eval_every",
                 "hyperparams", "env_kwargs")
 
 
@@ -128,6 +137,7 @@ def _train(args) -> int:
 
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
                       seed=args.seed, scene=args.scene, out=args.out,
+                      **({"env_id": args.env_id} if args.env_id else {}),
                       checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
                       hyperparams=args.hyperparams, env_kwargs=args.env_kwargs,
                       threads=args.threads or (None if args.resume else 1))
@@ -140,7 +150,7 @@ def _evaluate(args) -> int:
     from agents.evaluate import evaluate, format_table, record_video, write_json
 
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
-                      env_kwargs=args.env_kwargs)
+                      env_kwargs=args.env_kwargs, env_id=_env_id(args))
     print(format_table([result]))
     json_path, plot_path = args.json, args.plot
     if args.out:
@@ -155,6 +165,26 @@ def _evaluate(args) -> int:
         print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
         print(f"video: {record_video(args.policy, args.video, seed=args.seed, scene=args.scene)}")
+    return 0
+
+
+def _env_id(args) -> str:
+    """--env-id, else the task a run folder was trained on, else reorientation."""
+    import rbenv
+
+    if args.env_id:
+        return args.env_id
+    if args.policy not in ("pd", "bangbang", "zero", "random") and Path(args.policy).exists():
+        from agents.runs import locate
+
+        return (locate(args.policy).config or {}).get("env_id", rbenv.ENV_ID)
+    return rbenv.ENV_ID
+
+
+def _suite(args) -> int:
+    from agents.suite import main as suite_main
+
+    suite_main(args)
     return 0
 
 
@@ -175,7 +205,8 @@ def main(argv: list[str] | None = None) -> int:
     ``ValueError`` subclass of :mod:`core.errors`, such as a corrupt run file) is printed as
     ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
     args = _parser().parse_args(argv)
-    command = {"train": _train, "evaluate": _evaluate, "bench": _bench}[args.command]
+    command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
+               "suite": _suite}[args.command]
     if argv is not None:
         return command(args)
     from core.errors import RbenvValueError

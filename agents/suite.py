@@ -337,8 +337,8 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
     missing = sorted(c.name for c in (expected or []) if c.name not in have)
     evals = sorted({(r["eval"]["episodes"], r["eval"]["seed"]) for r in results})
     info = ({"episodes": evals[0][0], "seed": evals[0][1]} if len(evals) == 1
-            else {"episodes": "/".join(str(e) for e, _ in evals),
-                  "seed": "/".join(str(s) for _, s in evals)})
+            else {"episodes": "/".join(str(e) for e, _ in evals) or "—",
+                  "seed": "/".join(str(s) for _, s in evals) or "—"})
     rows = group_results(results)
     data = {"version": RESULT_VERSION, "eval": info, "rows": rows, "missing": missing,
             "cells": [{k: r[k] for k in ("name", "cell", "task", "eval", "training",

@@ -112,3 +112,31 @@ def test_a_larger_budget_resumes_the_cell_and_trains_on(quick_suite):
     steps = result["learning_curve"]["timesteps"]
     assert steps == sorted(steps) and steps[-1] > first["learning_curve"]["timesteps"][-1]
     assert result["training"]["hyperparams"]["n_steps"] > 0
+
+
+def test_cli_suite_aggregate_only_lists_every_cell_as_missing(tmp_path, capsys):
+    from agents.cli import main
+
+    main(["suite", "--out", str(tmp_path), "--tasks", "track", "--scenes", "boom-sat",
+          "--seeds", "2", "--aggregate-only"])
+    data = json.loads((tmp_path / "suite.json").read_text())
+    assert data["rows"] == []
+    assert data["missing"] == ["ppo-track-boom-sat-seed0", "ppo-track-boom-sat-seed1"]
+
+
+def test_cli_train_and_evaluate_take_the_task(tmp_path, capsys):
+    from agents.cli import main
+
+    run = tmp_path / "run"
+    main(["train", "--env-id", rbenv.DETUMBLE_ID, "--timesteps", "512", "--n-envs", "4",
+          "--out", str(run), "--checkpoint-every", "256", "--eval-every", "256",
+          "--hyperparams", '{"n_steps": 32, "batch_size": 64, "n_epochs": 1}',
+          "--no-report", "--no-progress"])
+    assert json.loads((run / "config.json").read_text())["env_id"] == rbenv.DETUMBLE_ID
+    # The run's own task is used: its 3-entry observation (omega_B) fits only detumble.
+    main(["evaluate", "--policy", str(run), "--episodes", "3"])
+    main(["evaluate", "--policy", "pd", "--env-id", rbenv.DETUMBLE_ID, "--episodes", "3"])
+    assert "100.0%" in capsys.readouterr().out.splitlines()[-1]
+    with pytest.raises(ValueError, match="bangbang"):
+        main(["evaluate", "--policy", "bangbang", "--env-id", rbenv.DETUMBLE_ID,
+              "--episodes", "3"])
