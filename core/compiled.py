@@ -194,11 +194,15 @@ def _make_loop(kernel):
     return loop
 
 
+def _array(c, n: int) -> np.ndarray:
+    if type(c) is np.ndarray and c.shape == (n,) and c.dtype == np.float64 and c.flags.c_contiguous:
+        return c
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(c, dtype=np.float64), (n,)))
+
+
 def _arrays(components, n: int):
-    if components is None:
-        return None
-    return tuple(np.ascontiguousarray(np.broadcast_to(np.asarray(c, dtype=float), (n,)))
-                 for c in components)
+    """(N,) float64 contiguous arrays (as they are when they already are; floats broadcast)."""
+    return None if components is None else tuple(_array(c, n) for c in components)
 
 
 @dataclass(frozen=True)
@@ -210,7 +214,7 @@ class CompiledIntegrator:
 
     def advance(self, body, q, w, h, tau_B=None, tau_W=None):
         """One step of every body; components are (N,) arrays (floats broadcast)."""
-        n = max(np.size(c) for c in (*q, *w))
+        n = max(1 if type(c) is float else np.size(c) for c in (*q, *w))
         return self.loop(_compiled_body(body), _arrays(q, n), _arrays(w, n), float(h),
                          _arrays(tau_B, n), _arrays(tau_W, n))
 
