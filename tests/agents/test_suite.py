@@ -72,6 +72,7 @@ def quick_suite(tmp_path_factory):
     return out, suite.main(args)
 
 
+@pytest.mark.slow  # trains (CI runs it: the --quick suite)
 def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episodes(
         quick_suite):
     out, data = quick_suite
@@ -92,6 +93,7 @@ def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episo
     assert row["baselines"]["pd"]["success_rate"] > 0.9  # the rate damper detumbles
 
 
+@pytest.mark.slow  # trains (CI runs it: the --quick suite)
 def test_a_finished_cell_is_not_trained_again(quick_suite):
     out, data = quick_suite
     cell = Cell(**data["cells"][0]["cell"])
@@ -102,6 +104,7 @@ def test_a_finished_cell_is_not_trained_again(quick_suite):
     assert model.stat().st_mtime_ns == before
 
 
+@pytest.mark.slow  # trains (CI runs it: the --quick suite)
 def test_a_larger_budget_resumes_the_cell_and_trains_on(quick_suite):
     out, data = quick_suite
     first = data["cells"][0]
@@ -124,6 +127,7 @@ def test_cli_suite_aggregate_only_lists_every_cell_as_missing(tmp_path, capsys):
     assert data["missing"] == ["ppo-track-boom-sat-seed0", "ppo-track-boom-sat-seed1"]
 
 
+@pytest.mark.slow  # trains
 def test_cli_train_and_evaluate_take_the_task(tmp_path, capsys):
     from agents.cli import main
 
