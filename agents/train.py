@@ -246,9 +246,38 @@ def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | Non
     stats_path = directory / f"vecnormalize_{steps}.pkl"
     atomic_write(model_path, lambda p: _save_to(model, p))
     atomic_write(stats_path, model.get_vec_normalize_env().save)
+    buffer = directory / f"replay_buffer_{steps}.pkl"
+    if getattr(model, "replay_buffer", None) is not None:  # off-policy: keep the latest only
+        atomic_write(buffer, lambda p: _save_buffer(model, p))
     write_json(directory / runs.LATEST, {"timesteps": steps, "model": model_path.name,
                                          "vecnormalize": stats_path.name,
                                          "wall_time_s": wall_time_s})
+    for old in directory.glob("replay_buffer_*.pkl"):
+        if old != buffer:
+            old.unlink(missing_ok=True)
+
+
+def _save_buffer(model, path: Path) -> None:
+    with open(path, "wb") as f:
+        model.save_replay_buffer(f)
+
+
+def load_replay_buffer(model, directory: Path, steps: int) -> None:
+    """Restore an off-policy model's replay buffer saved with checkpoint ``steps``, if any."""
+    if getattr(model, "replay_buffer", None) is None:
+        return
+    path = Path(directory) / f"replay_buffer_{steps}.pkl"
+    if not path.is_file():
+        print(f"no replay buffer saved with checkpoint {steps}; {type(model).__name__} refills "
+              "it from the resumed policy")
+        return
+    try:
+        model.load_replay_buffer(str(path))
+    except Exception as e:  # a corrupt pickle can raise almost anything
+        print(f"replay buffer {str(path)!r} is unreadable ({type(e).__name__}: {e}); "
+              f"{type(model).__name__} refills it from the resumed policy")
+        return
+    print(f"replay buffer restored: {model.replay_buffer.size()} transitions ({path.name})")
 
 
 def latest_checkpoint(directory: Path) -> dict | None:
@@ -392,6 +421,7 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
         model, env, ckpt = loaded
         done, clock = ckpt.steps, WallClock(ckpt.wall_time_s or 0.0)
         print(f"resuming {cfg.algo} in {str(out)!r} from {done} timesteps ({ckpt.model.name})")
+        load_replay_buffer(model, ckpt_dir, done)
     else:
         if resume:
             print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 "
