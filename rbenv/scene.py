@@ -385,6 +385,8 @@ class Scene:
     @classmethod
     def from_dict(cls, data: dict, *, name: str | None = None) -> Scene:
         """Build a scene from a TOML-shaped dict (see the module docstring for the schema)."""
+        if not isinstance(data, dict):
+            raise InvalidParameterError(f"a scene must be a table (dict), got {describe(data)}")
         data = dict(data)
         _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
                                     "physics", "disturbance", "faults", "sensor_noise",
