@@ -285,3 +285,27 @@ def test_thruster_layout_gives_named_error_or_finite_matrices(positions, directi
         return layout.force_matrix_B, layout.torque_matrix_B
 
     named_error_or_finite(build)
+
+
+OBJ_LINES = st.lists(st.one_of(
+    st.builds(lambda xs: "v " + " ".join(xs), st.lists(st.sampled_from(
+        ["0", "1", "-1", "0.5", "1e308", "nan", "inf", "x", "1e-310"]), min_size=0, max_size=4)),
+    st.builds(lambda xs: "f " + " ".join(xs), st.lists(st.sampled_from(
+        ["1", "2", "3", "4", "-1", "0", "9", "1/1", "2//3", "a"]), min_size=0, max_size=5)),
+    st.sampled_from(["# comment", "", "vn 0 0 1", "\x00\xff"]),
+), max_size=20)
+
+
+@CORE
+@given(lines=OBJ_LINES, suffix=st.sampled_from([".obj", ".stl"]), raw=st.binary(max_size=200))
+def test_mesh_files_give_named_error_or_finite_mass_properties(tmp_path_factory, lines, suffix,
+                                                              raw):
+    path = tmp_path_factory.mktemp("mesh") / f"m{suffix}"
+    path.write_bytes(("\n".join(lines)).encode("utf-8", "surrogateescape") if suffix == ".obj"
+                     else b"solid x\n" + raw)
+
+    def load_and_integrate():
+        v, f = inertia.load_mesh(path)
+        return inertia.from_mesh(v, f, mass=1.0)
+
+    named_error_or_finite(load_and_integrate)
