@@ -125,7 +125,14 @@ def is_finished(run_dir: Path) -> dict | None:
     run_dir = Path(run_dir)
     if not ((run_dir / SUMMARY).is_file() and (run_dir / FINAL_MODEL).is_file()):
         return None
-    return read_json(run_dir / SUMMARY, "training summary")
+    try:
+        summary = read_json(run_dir / SUMMARY, "training summary")
+        int(summary["timesteps"])
+    except (RunFolderError, KeyError, TypeError, ValueError) as e:
+        print(f"ignoring the training summary {str(run_dir / SUMMARY)!r} ({e}); the run "
+              "continues from its checkpoints")
+        return None
+    return summary
 
 
 def prepare_new_run(run_dir: Path, force: bool) -> None:

@@ -489,3 +489,13 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     printed = capsys.readouterr().out
     assert "replay_buffer_384.pkl" in printed and "unreadable" in printed
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
+
+
+@pytest.mark.parametrize("text", ["{", '{"wall_time_s": 1}', '{"timesteps": "x"}'])
+def test_a_corrupt_training_summary_is_named_and_the_run_rewrites_it(copy, capsys, text):
+    (copy / "training.json").write_text(text)
+    run(TrainConfig(out=str(copy)), resume=True)  # same total: only the final files are redone
+    printed = capsys.readouterr().out
+    assert "ignoring the training summary" in printed and "training.json" in printed
+    assert summary(copy)["timesteps"] == 512 and summary(copy)["resumed_from"] == 512
+    assert summary(copy)["wall_time_s"] > 0
