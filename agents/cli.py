@@ -26,11 +26,39 @@ from pathlib import Path
 BENCH_OUT = "bench-results"
 
 
-def benchmarks() -> list[str]:
-    """Benchmark modules (each with a ``main()``) in the ``benchmarks`` package."""
+def _benchmarks_package():
+    """rbenv's own ``benchmarks`` package, or None if it is not installed.
+
+    Some wheels (torchrl) ship a top-level ``benchmarks`` folder into site-packages. That
+    namespace package wins over an editable install of ours, so ours is loaded from beside
+    ``agents`` when the import finds someone else's.
+    """
+    import importlib.util
+
+    init = Path(__file__).resolve().parent.parent / "benchmarks" / "__init__.py"
     try:
-        import benchmarks as package
+        package = importlib.import_module("benchmarks")
     except ImportError:
+        package = None
+    if package is not None and getattr(package, "__file__", None) and \
+            Path(package.__file__).resolve() == init:
+        return package
+    if not init.is_file():
+        return None
+    for name in [m for m in sys.modules if m == "benchmarks" or m.startswith("benchmarks.")]:
+        del sys.modules[name]  # the foreign package and anything imported from it
+    spec = importlib.util.spec_from_file_location("benchmarks", init,
+                                                  submodule_search_locations=[str(init.parent)])
+    package = importlib.util.module_from_spec(spec)
+    sys.modules["benchmarks"] = package
+    spec.loader.exec_module(package)
+    return package
+
+
+def benchmarks() -> list[str]:
+    """Benchmark modules (each with a ``main()``) in rbenv's ``benchmarks`` package."""
+    package = _benchmarks_package()
+    if package is None:
         return []
     return sorted(m.name for m in pkgutil.iter_modules(package.__path__)
                   if not m.name.startswith("_") and m.name != "common")
@@ -189,6 +217,7 @@ def _suite(args) -> int:
 
 
 def _bench(args) -> int:
+    _benchmarks_package()
     import benchmarks.common as common
 
     module = importlib.import_module(f"benchmarks.{args.name}")

@@ -1,6 +1,7 @@
 """The rbenv command: writes only what is asked, imports torch only for models, named errors."""
 
 import json
+import os
 import subprocess
 import sys
 import types
@@ -73,3 +74,14 @@ def test_help_states_where_files_go(capsys):
             cli.main([command, "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "current directory" in text and "--plot PATH" in text and "--threads" in text
+
+
+def test_bench_finds_rbenv_benchmarks_when_another_benchmarks_folder_shadows_it(tmp_path):
+    # torchrl's wheel installs a top-level `benchmarks` folder (a namespace package).
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "benchmarks" / "foreign_bench.py").write_text("def main(): pass\n")
+    code = "from agents.cli import benchmarks; print(benchmarks())"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=60, env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    assert done.returncode == 0, done.stderr
+    assert "train_speed" in done.stdout and "foreign_bench" not in done.stdout
