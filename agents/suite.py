@@ -27,7 +27,7 @@ import numpy as np
 import rbenv
 from agents.runs import RunFolderError, read_json, write_json
 
-RESULT_VERSION = 1
+RESULT_VERSION = 2  # 2: the selected checkpoint beside the final model
 # Short task names (the keys of agents.controllers.BASELINES) of the registered ids.
 TASKS = {"reorient": rbenv.ENV_ID, "detumble": rbenv.DETUMBLE_ID, "track": rbenv.TRACK_ID}
 TASK_OF = {env_id: task for task, env_id in TASKS.items()}
@@ -151,16 +151,38 @@ def learning_curve(run: Path) -> dict:
     return {"timesteps": steps, "success_rate": success}
 
 
+def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
+    """The checkpoint with the best periodic (validation) success, the latest among equals.
+
+    The periodic evaluations run on episodes of their own (seeded from the training seed +
+    10,000), never on the held-out ones, so choosing by them is model selection on a validation
+    set. Without a checkpoint at that step, the final model.
+    """
+    from agents import runs
+
+    if curve["success_rate"]:
+        best = max(curve["success_rate"])
+        steps = max(t for t, x in zip(curve["timesteps"], curve["success_rate"], strict=True)
+                    if x == best)
+        model = run / runs.CHECKPOINTS / f"model_{steps}.zip"
+        if model.is_file():
+            return model, steps
+    return run / runs.FINAL_MODEL, int(read_json(run / runs.SUMMARY, "summary")["timesteps"])
+
+
 def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
-    """The trained policy and every scripted baseline of the task on the same episodes."""
+    """The selected and the final policy, and every scripted baseline of the task, on the same
+    held-out episodes."""
     from agents.controllers import BASELINES
     from agents.evaluate import SB3Policy, evaluate
 
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
-    policy = evaluate(SB3Policy(run), name=cell.algo, **common).summary()
+    model, steps = select_checkpoint(run, learning_curve(run))
+    policy = evaluate(SB3Policy(model), name=cell.algo, **common).summary()
+    final = evaluate(SB3Policy(run), name=f"{cell.algo} (final)", **common).summary()
     baselines = {name: evaluate(name, **common).summary() for name in BASELINES[cell.task]}
-    return {"policy": policy, "baselines": baselines}
+    return {"policy": {**policy, "timesteps": steps}, "final": final, "baselines": baselines}
 
 
 def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
@@ -232,7 +254,10 @@ def group_results(results: list[dict]) -> list[dict]:
                      "seeds": sorted(r["cell"]["seed"] for r in rs),
                      "timesteps": sorted({r["training"]["timesteps"] for r in rs}),
                      "train_wall_time_s": _stats([r["training"]["wall_time_s"] for r in rs]),
-                     **stats, "baselines": baselines, "best_baseline_success": best,
+                     **stats, "final_success_rate": _stats([r["final"]["success_rate"]
+                                                             for r in rs]),
+                     "selected_timesteps": [r["policy"]["timesteps"] for r in rs],
+                     "baselines": baselines, "best_baseline_success": best,
                      "target": _target(stats["success_rate"]["mean"], best)})
     return rows
 
@@ -260,10 +285,12 @@ def _num(s: dict, spec: str = ".2f") -> str:
 def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
     lines = [f"Held-out evaluation: {info['episodes']} episodes seeded {info['seed']} + i, the "
              "same episodes for every policy; learned policies deterministic. Learned rows: "
-             "mean ± standard deviation over seeds.", "",
+             "mean ± standard deviation over seeds. The learned policy is the checkpoint with "
+             "the best periodic success on validation episodes of its own (not the held-out "
+             "ones); the last column is the final model's held-out success.", "",
              "| task | scene | policy | seeds | timesteps | success | fuel (g) | "
-             "settle median (s) | train (min) | target |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "settle median (s) | train (min) | target | final model |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         goal = row["target"]
         mark = ("met" if goal["met"] else "**missed**") + f" (≥ {100 * goal['goal']:.1f} %)"
@@ -273,11 +300,13 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
         lines.append(f"| {row['task']} | {row['scene']} | **{row['algo']}** | "
                      f"{len(row['seeds'])} | {steps} | {_pct(row['success_rate'])} | "
                      f"{_num(row['fuel_g'])} | {_num(row['settle_median_s'], '.1f')} | "
-                     f"{_num(minutes, '.1f')} | {mark} |")
+                     f"{_num(minutes, '.1f')} | {mark} | "
+                     f"{_pct(row['final_success_rate'])} |")
         for name, b in row["baselines"].items():
             settle = "—" if b["settle_median_s"] is None else f"{b['settle_median_s']:.1f}"
             lines.append(f"| {row['task']} | {row['scene']} | {name} (scripted) | | | "
-                         f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | |")
+                         f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | "
+                         "| |")
     if missing:
         lines += ["", f"Missing cells ({len(missing)}, not run or not finished): "
                   + ", ".join(f"`{m}`" for m in missing) + "."]
@@ -342,7 +371,7 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
     rows = group_results(results)
     data = {"version": RESULT_VERSION, "eval": info, "rows": rows, "missing": missing,
             "cells": [{k: r[k] for k in ("name", "cell", "task", "eval", "training",
-                                         "policy", "baselines", "learning_curve")}
+                                         "policy", "final", "baselines", "learning_curve")}
                       for r in results]}
     write_json(out / "suite.json", data)
     (out / "suite.md").write_text(format_markdown(rows, missing, info))

@@ -39,7 +39,8 @@ def _fake_result(algo, task, scene, seed, success, fuel_kg=0.001):
             "name": cell.name, "task": task, "eval": {"episodes": 4, "seed": 7},
             "training": {"timesteps": 1000, "wall_time_s": 60.0},
             "learning_curve": {"timesteps": [500, 1000], "success_rate": [0.1, success]},
-            "policy": {**summary, "policy": algo},
+            "policy": {**summary, "policy": algo, "timesteps": 1000},
+            "final": {**summary, "policy": algo, "success_rate": success / 2},
             "baselines": {"pd": {**summary, "policy": "pd", "success_rate": 0.9}}}
 
 
@@ -54,6 +55,7 @@ def test_aggregate_statistics_targets_and_missing(tmp_path):
     assert reorient["success_rate"]["mean"] == pytest.approx(0.9)
     assert reorient["success_rate"]["std"] == pytest.approx((0.02 / 3) ** 0.5)
     assert reorient["seeds"] == [0, 1, 2]
+    assert reorient["final_success_rate"]["mean"] == pytest.approx(0.45)
     # Best scripted baseline is 90 % < 95 %: the goal is to match it.
     assert reorient["target"] == {"goal": 0.9, "met": True}
     assert rows[("detumble", "boom-sat")]["target"]["met"] is False
@@ -84,7 +86,7 @@ def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episo
     assert result["complete"] and result["training"]["timesteps"] >= suite.QUICK["timesteps"]
     assert set(result["baselines"]) == {"pd"}
     episodes, seed = suite.QUICK["episodes"], suite.EVAL_SEED
-    for summary in [result["policy"], *result["baselines"].values()]:
+    for summary in [result["policy"], result["final"], *result["baselines"].values()]:
         assert (summary["episodes"], summary["seed"]) == (episodes, seed)
     # The periodic evaluations during training make the learning curve.
     assert len(result["learning_curve"]["timesteps"]) >= 1
@@ -144,3 +146,14 @@ def test_cli_train_and_evaluate_take_the_task(tmp_path, capsys):
     with pytest.raises(ValueError, match="bangbang"):
         main(["evaluate", "--policy", "bangbang", "--env-id", rbenv.DETUMBLE_ID,
               "--episodes", "3"])
+
+
+def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path):
+    ckpts = tmp_path / "checkpoints"
+    ckpts.mkdir()
+    for steps in (100, 200, 300):
+        (ckpts / f"model_{steps}.zip").write_bytes(b"")
+    curve = {"timesteps": [100, 200, 300], "success_rate": [0.5, 1.0, 0.3]}
+    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
+    curve["success_rate"] = [1.0, 1.0, 0.3]  # ties: the latest
+    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
