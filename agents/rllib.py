@@ -47,7 +47,11 @@ MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
 DEFAULT_HYPERPARAMS = {"train_batch_size_per_learner": 4096, "minibatch_size": 1024,
                        "num_epochs": 5, "lr": 5e-4, "gamma": 0.99, "lambda_": 0.95,
                        "clip_param": 0.2, "vf_clip_param": 1e6, "entropy_coeff": 0.0}
-DEFAULT_MODEL = {"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh", "vf_share_layers": False}
+# Separate policy and value networks; a state-independent log std (set to log_std_init at the
+# start, SB3's -1.0): with a state-dependent one the policy learns to act through its noise and
+# its mean (the deterministic policy) fails.
+DEFAULT_MODEL = {"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh",
+                 "vf_share_layers": False, "free_log_std": True}
 
 
 @dataclass
@@ -72,6 +76,7 @@ class RLlibConfig:
     report_episodes: int = 500
     report_seed: int = 1_000_000
     threads: int = 1  # torch threads of the learner (the driver)
+    log_std_init: float = -1.0  # initial log standard deviation of the Gaussian policy
 
     @property
     def n_envs(self) -> int:
@@ -348,6 +353,8 @@ def _train_locked(cfg: RLlibConfig, out: Path, resume: bool, progress: bool) -> 
         done, folder, before = found
         algo.restore_from_path(str(folder.resolve()))
         print(f"resuming rllib ppo in {str(out)!r} from {done} timesteps ({folder.name})")
+    else:
+        set_log_std(algo, cfg.log_std_init)
     from agents.train import load_eval_history
 
     history = load_eval_history(log, done)
@@ -394,6 +401,21 @@ def _train_locked(cfg: RLlibConfig, out: Path, resume: bool, progress: bool) -> 
                "trained": done > 0}
     write_json(out / runs.SUMMARY, summary)
     return summary
+
+
+def set_log_std(algo, value: float) -> None:
+    """Set the policy's free log std parameter in the learner, then sync it to the runners."""
+    import torch
+
+    def fill(learner):
+        for name, param in learner.module["default_policy"].named_parameters():
+            if name.endswith("log_std"):
+                with torch.no_grad():
+                    param.fill_(float(value))
+
+    algo.learner_group.foreach_learner(fill)
+    algo.env_runner_group.sync_weights(from_worker_or_learner_group=algo.learner_group,
+                                       inference_only=True, timeout_seconds=60.0)
 
 
 class _LivePolicy(RLlibPolicy):
