@@ -185,6 +185,28 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     return {"policy": {**policy, "timesteps": steps}, "final": final, "baselines": baselines}
 
 
+def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
+                        seed: int = EVAL_SEED) -> list[dict]:
+    """Held-out success and median final error of every checkpoint of a cell's run.
+
+    The evidence for a cell that misses its target: whether the policy was still improving
+    when its budget ran out, and how far from the success thresholds it ends.
+    """
+    from agents import runs
+    from agents.evaluate import SB3Policy, evaluate
+
+    rows = []
+    ckpts = sorted(runs.checkpoints(cell_dir(cell, out) / "run" / runs.CHECKPOINTS,
+                                    report=lambda _: None), key=lambda c: c.steps)
+    for ckpt in ckpts:
+        s = evaluate(SB3Policy(ckpt.model), episodes=episodes, seed=seed, scene=cell.scene,
+                     env_id=cell.env_id, record=0).summary()
+        rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
+                     "final_error_deg_median": s["final_error_deg"]["median"],
+                     "fuel_g": 1000 * s["fuel"]["mean"]})
+    return rows
+
+
 def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
              threads: int = 1) -> dict:
     """Train, evaluate beside the baselines, write ``cells/<name>/result.json``; return it.
