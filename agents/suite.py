@@ -318,7 +318,8 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
         mark = ("met" if goal["met"] else "**missed**") + f" (≥ {100 * goal['goal']:.1f} %)"
         wall = row["train_wall_time_s"]
         minutes = {k: (v / 60 if isinstance(v, float) else v) for k, v in wall.items()}
-        steps = "/".join(f"{t:,}" for t in row["timesteps"])
+        steps = "/".join(f"{t:,}" for t in row["timesteps"]) + " (selected: " + ", ".join(
+            f"{t / 1000:.0f}k" for t in row["selected_timesteps"]) + ")"
         lines.append(f"| {row['task']} | {row['scene']} | **{row['algo']}** | "
                      f"{len(row['seeds'])} | {steps} | {_pct(row['success_rate'])} | "
                      f"{_num(row['fuel_g'])} | {_num(row['settle_median_s'], '.1f')} | "
@@ -330,8 +331,8 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
                          f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | "
                          "| |")
     if missing:
-        lines += ["", f"Missing cells ({len(missing)}, not run or not finished): "
-                  + ", ".join(f"`{m}`" for m in missing) + "."]
+        lines += ["", f"**Missing cells** ({info['missing']}, not run or not finished): "
+                  + "; ".join(missing) + "."]
     return "\n".join(lines) + "\n"
 
 
@@ -385,7 +386,13 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
     out.mkdir(parents=True, exist_ok=True)
     results = sorted(results, key=lambda r: r["name"])
     have = {r["name"] for r in results}
-    missing = sorted(c.name for c in (expected or []) if c.name not in have)
+    missing = [c for c in (expected or []) if c.name not in have]
+    by_group: dict[str, list[int]] = {}
+    for c in missing:
+        by_group.setdefault(f"{c.algo} {c.task} {c.scene}", []).append(c.seed)
+    missing_md = [f"{k} seed{'s' if len(v) > 1 else ''} {', '.join(map(str, sorted(v)))}"
+                  for k, v in sorted(by_group.items())]
+    missing = sorted(c.name for c in missing)
     evals = sorted({(r["eval"]["episodes"], r["eval"]["seed"]) for r in results})
     info = ({"episodes": evals[0][0], "seed": evals[0][1]} if len(evals) == 1
             else {"episodes": "/".join(str(e) for e, _ in evals) or "—",
@@ -396,7 +403,8 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
                                          "policy", "final", "baselines", "learning_curve")}
                       for r in results]}
     write_json(out / "suite.json", data)
-    (out / "suite.md").write_text(format_markdown(rows, missing, info))
+    (out / "suite.md").write_text(format_markdown(rows, missing_md,
+                                                  {**info, "missing": len(missing)}))
     plot_curves(results, rows, out / "learning_curves.png")
     return data
 

@@ -61,7 +61,7 @@ def test_aggregate_statistics_targets_and_missing(tmp_path):
     assert rows[("detumble", "boom-sat")]["target"]["met"] is False
     assert data["missing"] == ["ppo-track-x-seed0"]
     md = (tmp_path / "suite.md").read_text()
-    assert "90.0 ± 8.2 %" in md and "ppo-track-x-seed0" in md
+    assert "90.0 ± 8.2 %" in md and "ppo track x seed 0" in md
     assert (tmp_path / "learning_curves.png").stat().st_size > 0
     assert json.loads((tmp_path / "suite.json").read_text())["rows"] == data["rows"]
 
