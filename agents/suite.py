@@ -337,7 +337,8 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
 
 
 def plot_curves(results: list[dict], rows: list[dict], path: Path) -> Path | None:
-    """Success rate of the periodic evaluations against timesteps, one panel per task × scene."""
+    """Success rate of the periodic (validation) evaluations against timesteps, one panel per
+    task × scene; a star marks the selected checkpoint's held-out success."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -355,8 +356,10 @@ def plot_curves(results: list[dict], rows: list[dict], path: Path) -> Path | Non
     for r in results:
         ax = axes[tasks.index(r["task"])][scenes.index(r["cell"]["scene"])]
         curve = r["learning_curve"]
-        ax.plot(curve["timesteps"], curve["success_rate"], marker=".", lw=1,
-                label=f"{r['cell']['algo']} seed {r['cell']['seed']}")
+        (line,) = ax.plot(curve["timesteps"], curve["success_rate"], marker=".", lw=1,
+                          label=f"{r['cell']['algo']} seed {r['cell']['seed']}")
+        ax.plot([r["policy"]["timesteps"]], [r["policy"]["success_rate"]], marker="*", ms=9,
+                color=line.get_color(), ls="none")
     for i, task in enumerate(tasks):
         for j, scene in enumerate(scenes):
             ax = axes[i][j]
