@@ -51,7 +51,8 @@ def check_finite_state(q, w_B, integrator: str, h: float, *extra) -> None:
     """Raise :class:`NonFiniteError` unless a simulated state (components) is finite and unit.
 
     q: quaternion components, w_B: body-rate components (floats for one body, (N,) arrays for
-    a batch); ``extra``: arrays (position, velocity) that must be finite too. An orientation
+    a batch); ``extra``: position, velocity ... that must be finite too, each an (..., 3) array
+    or a tuple of components. An orientation
     whose |q| has left 1 (a zero quaternion after ``h·|ω|`` overflowed, say) counts as
     non-finite: it is overflow, not an attitude. One sum per group on floats, a few
     reductions on arrays (``benchmarks/validation_cost.py`` measures the cost).
@@ -65,8 +66,7 @@ def check_finite_state(q, w_B, integrator: str, h: float, *extra) -> None:
         d = np.ravel(n2) - 1.0
         ok = float(np.dot(d, d)) <= _UNIT_TOL2 and math.isfinite(float(np.sum(w0 + w1 + w2)))
     if ok and extra:
-        ok = all(math.isfinite(sum(a.tolist())) if a.ndim == 1 else bool(np.isfinite(a).all())
-                 for a in extra)
+        ok = all(_finite(a) for a in extra)
     if ok:
         return
     raise NonFiniteError(
@@ -75,6 +75,14 @@ def check_finite_state(q, w_B, integrator: str, h: float, *extra) -> None:
         "'rk4') are unstable once dt·|ω| is large (≳ 0.5 for the Euler schemes); use "
         "'midpoint' or a smaller dt, and keep dt·|ω| and the torques far from overflow"
     )
+
+
+def _finite(a) -> bool:
+    """An (..., 3) array, or a tuple of components (floats or (N,) arrays), is all finite."""
+    if isinstance(a, tuple):
+        total = sum(a)
+        return math.isfinite(total) if type(total) is float else bool(np.isfinite(total).all())
+    return math.isfinite(sum(a.tolist())) if a.ndim == 1 else bool(np.isfinite(a).all())
 
 
 # What kernel arithmetic raises on overflow (math.ceil(inf), int(nan), 1.0 / 0.0, ...).
