@@ -499,3 +499,19 @@ def test_a_corrupt_training_summary_is_named_and_the_run_rewrites_it(copy, capsy
     assert "ignoring the training summary" in printed and "training.json" in printed
     assert summary(copy)["timesteps"] == 512 and summary(copy)["resumed_from"] == 512
     assert summary(copy)["wall_time_s"] > 0
+
+
+def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path):
+    from stable_baselines3 import PPO
+
+    from agents.sb3 import SB3VecEnv
+    from agents.train import make_vec_env
+
+    env = make_vec_env(TrainConfig().resolve(), 2, 0)
+    assert isinstance(env.venv, SB3VecEnv)
+    PPO("MlpPolicy", env, n_steps=8, batch_size=16, seed=0, device="cpu").save(
+        tmp_path / "model.zip")
+    with pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):
+        policy = load_policy(tmp_path / "model.zip")
+    assert policy.vecnormalize is None and policy.config is None
+    assert policy.predict(np.zeros((3, 7), np.float32))[0].shape == (3, 12)
