@@ -12,6 +12,7 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
+from core import validation
 from core.errors import InvalidParameterError
 from rbenv import transition
 from rbenv.tasks import build
@@ -19,6 +20,22 @@ from rbenv.tasks import build
 ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "reward_weights",
                "max_initial_angle_deg", "max_initial_rate", "allocator", "randomize",
                "task_options")
+
+
+def action_array(value, shape: tuple, *, copy: bool = False) -> np.ndarray:
+    """An action as float64 of ``shape``; a named error for anything else.
+
+    copy: always return a new array (the caller may clip it in place).
+    """
+    try:
+        a = np.array(value, dtype=np.float64) if copy else np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(
+            f"action must be real numbers of shape {shape}, got {validation.show(value)} of "
+            f"type {type(value).__name__}") from None
+    if a.shape != shape:
+        raise InvalidParameterError(f"action must have shape {shape}, got shape {a.shape}")
+    return a
 
 
 class TaskAdapter:

@@ -15,7 +15,7 @@ import numpy as np
 
 from core.backend import FLOAT
 from rbenv import transition
-from rbenv.adapter import ENV_OPTIONS, TaskAdapter
+from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
 from rbenv.draws import EpisodeDraws
 from rbenv.state import from_start
 
@@ -67,9 +67,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         st = self._st
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != self.plant.action_shape:
-            raise ValueError(f"action must have shape {self.plant.action_shape}, got {a.shape}")
+        a = action_array(action, self.plant.action_shape)
         out = transition.step(self.plant, self.task, st, a,
                               self.plant.draw_step_noise(self._np_random, None), FLOAT)
         if self.render_mode == "human":

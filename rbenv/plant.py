@@ -22,7 +22,7 @@ from core import INTEGRATORS, validation
 from core import kernels as k
 from core.backend import FLOAT
 from core.dynamics import check_finite_state, translate
-from core.errors import InvalidParameterError, NonFiniteError
+from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import G0, Scene
 
@@ -200,10 +200,15 @@ class Plant:
         body = self.scene.body if st.model is None else st.model.body
         h, advance = self.h, self.advance
         q, w = st.q, st.w
-        for _ in range(self.substeps):
-            if st.x is not None:
-                self._translate(st, body, k.rotate(q, wrench.force_B))
-            q, w = advance(body, q, w, h, tau, None)
+        try:
+            for _ in range(self.substeps):
+                if st.x is not None:
+                    self._translate(st, body, k.rotate(q, wrench.force_B))
+                q, w = advance(body, q, w, h, tau, None)
+        except RbenvValueError:
+            raise
+        except (OverflowError, ZeroDivisionError, ValueError):  # e.g. int() of an inf or NaN
+            self._raise_non_finite((float("nan"),) * 4, w)
         # Squares, not components: a rate or speed whose square overflows is caught too, so
         # no task ever computes |ω| = inf from a "finite" state.
         sq = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]

@@ -141,6 +141,9 @@ def _override(task, s: dict, options, rows, draws) -> None:
     """Replace sampled start values by reset options (validated, named in errors)."""
     if not options:
         return
+    if not isinstance(options, dict):
+        raise InvalidParameterError(
+            f"reset options must be a dict of name -> value, got {validation.show(options)}")
     allowed = task.reset_options
     unknown = sorted(set(options) - set(allowed) - {"reset_mask"})
     if unknown:

@@ -18,7 +18,7 @@ from core import validation
 from core.backend import NUMPY
 from core.errors import InvalidParameterError
 from rbenv import transition
-from rbenv.adapter import ENV_OPTIONS, TaskAdapter
+from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
 from rbenv.draws import EpisodeDraws
 from rbenv.state import State, assign, from_start
 
@@ -217,10 +217,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         if np.isscalar(actions) or actions is None:
             raise TypeError(f"actions must be an array of shape {self.action_space.shape}, got "
                             f"{type(actions).__name__} {actions!r}")
-        a = np.array(actions, dtype=np.float64)  # a copy: the plant may clip it in place
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
-        return a
+        return action_array(actions, self.action_space.shape, copy=True)  # clipped in place
 
     def _final(self, done, obs, info) -> dict:
         """SAME_STEP: the finished sub-envs' last observation and info, masked by ``done``."""
