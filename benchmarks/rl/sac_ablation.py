@@ -79,6 +79,10 @@ VARIANTS = {
     "sac-torque": _v("sac", 40_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "td3-torque": _v("td3", 40_000, {**_TD3, "n_steps": 3}, curriculum=_CUR,
                      env_kwargs=_TORQUE, study="td3"),
+    # ---- full runs of the best recipe (torque actions), as long as the 30-min budget allows
+    "td3-final": _v("td3", 55_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, env_kwargs=_TORQUE,
+                    study="td3"),
+    "sac-final": _v("sac", 55_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "ppo-torque": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo", env_kwargs=_TORQUE),
     # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
     **{f"ppo-fuel{w:g}": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo",
@@ -123,12 +127,44 @@ def make_env(spec: dict, n_envs: int, seed: int):
 # --------------------------------------------------------------------------- evaluation
 
 
-def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int) -> dict:
-    """Deterministic policy on ``episodes`` seeded episodes (episode i: seed + i), first done."""
+def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+    """E[clip(mean + std·ε, 0, 1)], ε ~ N(0, 1): the mean throttle of a clipped Gaussian policy.
+
+    With ``throttle = clip(a, 0, 1)`` the deterministic action clip(mean, 0, 1) is *not* the
+    mean throttle of the stochastic policy: a mean below 0 gives 0, while the policy it was
+    trained as fires that thruster a fraction of the time.
+    """
+    from scipy.stats import norm
+
+    lo, hi = -mean / std, (1.0 - mean) / std
+    return (mean * (norm.cdf(hi) - norm.cdf(lo)) + std * (norm.pdf(lo) - norm.pdf(hi))
+            + norm.sf(hi))
+
+
+def _act(model, obs: np.ndarray, mode: str) -> np.ndarray:
+    """Policy action: ``deterministic`` (SB3's mean), ``stochastic``, or ``expected`` (PPO)."""
+    if mode != "expected":
+        return model.predict(obs, deterministic=mode == "deterministic")[0]
+    import torch
+
+    with torch.no_grad():
+        dist = model.policy.get_distribution(torch.as_tensor(obs, dtype=torch.float32))
+        mean = dist.distribution.mean.numpy()
+        std = dist.distribution.stddev.numpy()
+    return expected_throttle(mean, std)
+
+
+def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int,
+             mode: str = "deterministic") -> dict:
+    """The policy (see :func:`_act`) on ``episodes`` seeded episodes (i: seed + i), first done."""
     envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
                         **{k: v for k, v in spec["env_kwargs"].items()
                            if k not in ("max_initial_angle_deg",)})
     cfg = envs.config
+    if mode == "stochastic":
+        import torch
+
+        torch.manual_seed(seed)  # the policy's samples come from torch's global generator
     obs, _ = envs.reset(seed=seed)
     alive = np.ones(episodes, bool)
     success = np.zeros(episodes, bool)
@@ -137,7 +173,7 @@ def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int) -> dict:
     t_end = np.zeros(episodes)
     err = np.zeros(episodes)
     while alive.any():
-        action, _ = model.predict(vecnorm.normalize_obs(obs), deterministic=True)
+        action = _act(model, vecnorm.normalize_obs(obs), mode)
         obs, _, term, trunc, info = envs.step(throttle_action(action, spec["action_map"]))
         done = (term | trunc) & alive
         idx = np.flatnonzero(done)
@@ -150,7 +186,8 @@ def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int) -> dict:
     envs.close()
     hold, dt = cfg.scene.episode.hold_time, cfg.control_dt
     settle = t_end[success] - hold + dt
-    return {"episodes": episodes, "seed": seed, "success_rate": float(success.mean()),
+    return {"mode": mode, "episodes": episodes, "seed": seed,
+            "success_rate": float(success.mean()),
             "loss_of_control_rate": float(lost.mean()),
             "fuel_mean_g": float(1000 * fuel.mean()),
             "settle_time_median_s": float(np.median(settle)) if len(settle) else None,
@@ -240,6 +277,8 @@ def train_and_evaluate(name: str, spec: dict, seed: int = 0) -> dict:
     model.learn(spec["timesteps"], callback=_callback(spec, curve, eval_every))
     wall = time.time() - start
     result = evaluate(model, env, spec, EVAL_EPISODES, EVAL_SEED)
+    other = {m: evaluate(model, env, spec, EVAL_EPISODES, EVAL_SEED, m)
+             for m in (("stochastic", "expected") if spec["algo"] == "ppo" else ())}
     keep = os.environ.get("RL_STUDY_MODELS")  # optional: keep the policy for inspection
     if keep:
         Path(keep).mkdir(parents=True, exist_ok=True)
@@ -247,7 +286,7 @@ def train_and_evaluate(name: str, spec: dict, seed: int = 0) -> dict:
         env.save(str(Path(keep) / f"{name}-vecnormalize.pkl"))
     env.close()
     return {"variant": name, "spec": spec, "train_seed": seed, "train_wall_s": round(wall, 1),
-            "result": result, "curve": curve,
+            "result": result, "result_other_modes": other, "curve": curve,
             "versions": {"python": platform.python_version(),
                          "stable_baselines3": stable_baselines3.__version__,
                          "torch": torch.__version__, "torch_threads": torch.get_num_threads()}}
@@ -299,6 +338,8 @@ def summary(directory: Path = RESULTS) -> Path:
         data = json.loads(path.read_text())
         if "variant" in data:
             lines.append(_row(data["variant"], data))
+            for mode, result in data.get("result_other_modes", {}).items():
+                lines.append(_row(f"{data['variant']} [{mode}]", {**data, "result": result}))
         elif "baseline" in data:
             r = data["result"]
             base.append(f"| {data['baseline']} | {json.dumps(data['env_kwargs'])} | "
@@ -317,6 +358,26 @@ def summary(directory: Path = RESULTS) -> Path:
     return out
 
 
+def _modes(name: str, models: Path) -> None:
+    import pickle
+
+    import torch
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    spec = VARIANTS[name]
+    out = RESULTS / spec["study"] / f"{name}.json"
+    data = json.loads(out.read_text())
+    model = PPO.load(models / f"{name}.zip", device="cpu")
+    with open(models / f"{name}-vecnormalize.pkl", "rb") as f:
+        vecnorm = pickle.load(f)
+    data["result_other_modes"] = {m: evaluate(model, vecnorm, spec, EVAL_EPISODES, EVAL_SEED, m)
+                                  for m in ("stochastic", "expected")}
+    out.write_text(json.dumps(data, indent=2) + "\n")
+    print(json.dumps(data["result_other_modes"]))
+    summary()
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
@@ -325,6 +386,10 @@ def main(argv=None) -> None:
     run.add_argument("--seed", type=int, default=0)
     sub.add_parser("list")
     sub.add_parser("summary")
+    modes = sub.add_parser("modes", help="re-evaluate a saved PPO model in every action mode")
+    modes.add_argument("variant")
+    modes.add_argument("models", help="directory holding <variant>.zip and "
+                                      "<variant>-vecnormalize.pkl (RL_STUDY_MODELS)")
     base = sub.add_parser("baseline")
     base.add_argument("policy")
     base.add_argument("--env-kwargs", default="{}")
@@ -335,6 +400,9 @@ def main(argv=None) -> None:
         return
     if args.cmd == "summary":
         print(summary().read_text())
+        return
+    if args.cmd == "modes":
+        _modes(args.variant, Path(args.models))
         return
     if args.cmd == "baseline":
         kw = json.loads(args.env_kwargs)
