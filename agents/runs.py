@@ -30,6 +30,7 @@ import re
 import socket
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -402,6 +403,13 @@ def locate(path) -> RunFiles:
         raise RunFolderError(f"policy {str(path)!r} is neither a run folder nor a model file")
     m = _MODEL_RE.fullmatch(path.name)
     stats = path.with_name(f"vecnormalize_{m.group(1)}.pkl" if m else FINAL_STATS)
+    zoo_stats = path.with_suffix("") / FINAL_STATS  # RL Zoo keeps them in a folder named so
+    if not m and not stats.is_file() and zoo_stats.is_file():
+        stats = zoo_stats
+    if not m and not stats.is_file():
+        warnings.warn(f"no {FINAL_STATS} beside {str(path)!r} (nor in the RL Zoo's "
+                      f"{str(zoo_stats)!r}): the policy sees raw observations, which is right "
+                      "only for a model trained without VecNormalize", stacklevel=2)
     if m and not stats.is_file():
         raise RunFolderError(f"checkpoint {str(path)!r} has no statistics file {str(stats)!r}; "
                              "without them the policy sees unnormalised observations")

@@ -515,3 +515,16 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
         policy = load_policy(tmp_path / "model.zip")
     assert policy.vecnormalize is None and policy.config is None
     assert policy.predict(np.zeros((3, 7), np.float32))[0].shape == (3, 12)
+
+
+def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
+    """RL Zoo keeps vecnormalize.pkl in a folder named like the model; without any, a warning."""
+    from agents.runs import FINAL_STATS, locate
+
+    model = tmp_path / "rbenv-SatelliteReorient-v0.zip"
+    model.write_bytes(b"zip")
+    with pytest.warns(UserWarning, match="raw observations"):
+        assert locate(model).stats is None
+    (tmp_path / "rbenv-SatelliteReorient-v0").mkdir()
+    (tmp_path / "rbenv-SatelliteReorient-v0" / FINAL_STATS).write_bytes(b"stats")
+    assert locate(model).stats == tmp_path / "rbenv-SatelliteReorient-v0" / FINAL_STATS
