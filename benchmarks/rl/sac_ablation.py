@@ -308,7 +308,8 @@ def _row(name: str, data: dict) -> str:
             f"{json.dumps(s['env_kwargs']) if s['env_kwargs'] else '—'} | "
             f"{_extra(hp)} | {100 * r['success_rate']:.1f}% | "
             f"{100 * r['loss_of_control_rate']:.1f}% | {r['fuel_mean_g']:.2f} | "
-            f"{'—' if settle is None else f'{settle:.1f}'} | {data['train_wall_s'] / 60:.1f} |")
+            f"{'—' if settle is None else f'{settle:.1f}'} | {r['final_error_median_deg']:.3g} | "
+            f"{data['train_wall_s'] / 60:.1f} |")
 
 
 _SHOWN = {"gradient_steps", "policy_kwargs", "buffer_size", "batch_size", "train_freq", "gamma",
@@ -331,8 +332,8 @@ def _is_base(key, value) -> bool:
 def summary(directory: Path = RESULTS) -> Path:
     lines = ["| variant | algo | env steps | action map | grad steps / env step | net | "
              "curriculum | env kwargs | other | success | loss of control | fuel (g) | "
-             "settle median (s) | train wall (min) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "settle median (s) | final error median (deg) | train wall (min) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     base = []
     for path in sorted(directory.glob("*/*.json")):
         data = json.loads(path.read_text())
@@ -355,6 +356,43 @@ def summary(directory: Path = RESULTS) -> Path:
     text += "\n".join(lines) + "\n"
     out = directory / "summary.md"
     out.write_text(text)
+    return out
+
+
+def explore(episodes: int = EVAL_EPISODES) -> dict:
+    """Loss of control under the random exploration SAC/TD3 start with (no training).
+
+    Uniform actions on [-1, 1] (SB3's warm-up before ``learning_starts``) and SAC's initial
+    policy, tanh(N(0, 1)), through each action design; TD3's N(0, 0.1) noise around zero.
+    """
+    rng = np.random.default_rng(0)
+    draws = {"uniform": lambda shape: rng.uniform(-1.0, 1.0, shape),
+             "tanh_normal": lambda shape: np.tanh(rng.standard_normal(shape)),
+             "normal_0.1": lambda shape: np.clip(0.1 * rng.standard_normal(shape), -1, 1)}
+    designs = {"throttle clip": ({}, "clip"), "throttle affine": ({}, "affine"),
+               "torque nnls": (_TORQUE, "clip")}
+    out = {}
+    for design, (kw, action_map) in designs.items():
+        for draw_name, draw in draws.items():
+            envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes,
+                                vectorization_mode="vector_entry_point", **kw)
+            envs.reset(seed=EVAL_SEED)
+            shape = (episodes, envs.single_action_space.shape[0])
+            alive, lost = np.ones(episodes, bool), np.zeros(episodes, bool)
+            fuel, t_end = np.zeros(episodes), np.zeros(episodes)
+            while alive.any():
+                _, _, term, trunc, info = envs.step(throttle_action(draw(shape), action_map))
+                done = (term | trunc) & alive
+                idx = np.flatnonzero(done)
+                lost[idx] = np.asarray(info["rate_dps"])[idx] > np.degrees(envs.config.rate_limit)
+                fuel[idx] = np.asarray(info["fuel_kg"])[idx]
+                t_end[idx] = np.asarray(info["time_s"])[idx]
+                alive &= ~done
+            envs.close()
+            out[f"{design} / {draw_name}"] = {
+                "loss_of_control_rate": float(lost.mean()),
+                "time_to_loss_median_s": float(np.median(t_end[lost])) if lost.any() else None,
+                "fuel_mean_g": float(1000 * fuel.mean())}
     return out
 
 
@@ -385,6 +423,7 @@ def main(argv=None) -> None:
     run.add_argument("variants", nargs="+")
     run.add_argument("--seed", type=int, default=0)
     sub.add_parser("list")
+    sub.add_parser("explore")
     sub.add_parser("summary")
     modes = sub.add_parser("modes", help="re-evaluate a saved PPO model in every action mode")
     modes.add_argument("variant")
@@ -400,6 +439,12 @@ def main(argv=None) -> None:
         return
     if args.cmd == "summary":
         print(summary().read_text())
+        return
+    if args.cmd == "explore":
+        data = explore()
+        path = RESULTS / "explore.json"
+        path.write_text(json.dumps(data, indent=2) + "\n")
+        print(json.dumps(data, indent=1))
         return
     if args.cmd == "modes":
         _modes(args.variant, Path(args.models))
