@@ -116,6 +116,11 @@ def _parser() -> argparse.ArgumentParser:
                    help='JSON of gym.make options, e.g. \'{"action_mode": "torque"}\'')
     t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
+    t.add_argument("--engine", choices=("sb3", "rllib"), default="sb3",
+                   help="sb3 (default) or rllib: PPO on Ray RLlib (needs the ray extra)")
+    from agents.rllib import add_arguments as add_rllib_arguments
+
+    add_rllib_arguments(t)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
@@ -142,9 +147,10 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"results folder (default ./{BENCH_OUT} in the current directory; "
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
     from agents.suite import add_arguments
+    from agents.tune import add_arguments as add_ray_arguments
 
-    add_arguments(sub.add_parser(
-        "suite", help="learning suite: algorithm x task x scene x seed beside the baselines"))
+    add_ray_arguments(add_arguments(sub.add_parser(
+        "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
     return p
 
 
@@ -155,6 +161,13 @@ FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "env_id", "checkpoint_every",
 def _train(args) -> int:
     from agents.train import TrainConfig, train
 
+    if args.engine == "rllib":
+        from agents.rllib import train_from_args
+
+        train_from_args(args)
+        return 0
+    if args.address or args.env_runners:
+        raise SystemExit("rbenv train: --address and --env-runners need --engine rllib")
     if args.resume:
         defaults = _parser().parse_args(["train"])
         ignored = [f"--{k.replace('_', '-')}" for k in FIXED_BY_RUN
@@ -212,6 +225,11 @@ def _env_id(args) -> str:
 def _suite(args) -> int:
     from agents.suite import main as suite_main
 
+    if args.ray or args.address:
+        from agents.tune import main as tune_main
+
+        tune_main(args)
+        return 0
     suite_main(args)
     return 0
 

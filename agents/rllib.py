@@ -3,7 +3,9 @@
 Each env runner steps the native rbenv vector env (``num_envs_per_env_runner`` satellites in
 one NumPy call) through Gymnasium's vector entry point. Env runners are separate processes in
 which the plain env id is unknown until ``rbenv`` is imported, so the env is registered with
-Tune as a creator that imports rbenv itself (:func:`make_env`).
+Tune as a creator that imports rbenv itself (:func:`make_env`). Rewards are scaled in each
+runner by a running estimate of the return's spread (Gymnasium's ``NormalizeReward``, as SB3's
+VecNormalize does for ``rbenv train``); evaluation and reports use the raw env.
 
 ``env_runners=0`` samples in the driver process; ``N`` runs N runner processes on the local Ray
 instance (all cores) or, with ``address``, on a running cluster. The run folder::
@@ -42,14 +44,16 @@ ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every 
 POLICY_DIR = "policy"
 MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
 # RLlib PPO settings matched to `rbenv train`'s SB3 PPO: 4096 steps per update in minibatches
-# of 1024, 5 epochs, the same learning rate, discount and clipping; value loss unclipped (the
-# SB3 run normalises rewards, here returns keep their scale).
+# of 1024, 5 epochs, the same learning rate, discount, clipping and gradient-norm limit; the
+# value loss unclipped.
 DEFAULT_HYPERPARAMS = {"train_batch_size_per_learner": 4096, "minibatch_size": 1024,
                        "num_epochs": 5, "lr": 5e-4, "gamma": 0.99, "lambda_": 0.95,
-                       "clip_param": 0.2, "vf_clip_param": 1e6, "entropy_coeff": 0.0}
+                       "clip_param": 0.2, "vf_clip_param": 1e6, "entropy_coeff": 0.0,
+                       "grad_clip": 0.5, "grad_clip_by": "global_norm"}
 # Separate policy and value networks; a state-independent log std (set to log_std_init at the
 # start, SB3's -1.0): with a state-dependent one the policy learns to act through its noise and
 # its mean (the deterministic policy) fails.
+DEFAULT_TIMESTEPS = 2_000_000
 DEFAULT_MODEL = {"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh",
                  "vf_share_layers": False, "free_log_std": True}
 
@@ -60,7 +64,7 @@ class RLlibConfig:
 
     engine: str = "rllib"
     algo: str = "ppo"
-    timesteps: int = 2_000_000
+    timesteps: int | None = None  # default DEFAULT_TIMESTEPS
     env_runners: int = 0  # runner processes; 0 samples in the driver
     envs_per_runner: int = 64  # satellites in each runner's native vector env
     seed: int = 0
@@ -77,6 +81,7 @@ class RLlibConfig:
     report_seed: int = 1_000_000
     threads: int = 1  # torch threads of the learner (the driver)
     log_std_init: float = -1.0  # initial log standard deviation of the Gaussian policy
+    normalize_reward: bool = True  # scale rewards by the running spread of the return
 
     @property
     def n_envs(self) -> int:
@@ -87,6 +92,8 @@ class RLlibConfig:
         if self.env_id not in rbenv.ENV_IDS:
             raise InvalidParameterError(f"env_id must be one of {sorted(rbenv.ENV_IDS)}, got "
                                         f"{self.env_id!r}")
+        if self.timesteps is None:
+            self.timesteps = DEFAULT_TIMESTEPS
         if self.algo != "ppo":
             raise InvalidParameterError(f"algo must be 'ppo' with engine rllib, got "
                                         f"{self.algo!r}")
@@ -124,10 +131,14 @@ def make_env(config: dict):
     options = dict(config)
     num_envs = options.pop("num_envs", None)
     env_id = options.pop("env_id", rbenv.ENV_ID)
+    reward_gamma = options.pop("normalize_reward_gamma", None)
     if num_envs is None:
         return gym.make(env_id, **options)
-    return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
+    envs = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
                         **options)
+    if reward_gamma is not None:
+        envs = gym.wrappers.vector.NormalizeReward(envs, gamma=reward_gamma)
+    return envs
 
 
 def register_env() -> None:
@@ -142,6 +153,8 @@ def algorithm_config(cfg: RLlibConfig):
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 
     env_config = {"env_id": cfg.env_id, "scene": cfg.scene, **cfg.env_kwargs}
+    if cfg.normalize_reward:
+        env_config["normalize_reward_gamma"] = cfg.hyperparams["gamma"]
     return (PPOConfig()
             .environment(ENV_NAME, env_config=env_config)
             .env_runners(num_env_runners=cfg.env_runners,
@@ -489,13 +502,20 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
 
 
 def config_from_args(args) -> RLlibConfig:
-    return RLlibConfig(timesteps=args.timesteps or RLlibConfig.timesteps,
+    return RLlibConfig(algo=getattr(args, "algo", "ppo"), timesteps=args.timesteps,
                        env_runners=args.env_runners, envs_per_runner=args.envs_per_runner,
                        seed=args.seed, scene=args.scene, env_id=getattr(args, "env_id", None)
                        or rbenv.ENV_ID, out=args.out,
                        env_kwargs=args.env_kwargs, hyperparams=args.hyperparams,
                        checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
                        threads=args.threads or 1)
+
+
+def train_from_args(args) -> Path:
+    """``rbenv train --engine rllib``: the train command's arguments plus add_arguments'."""
+    cfg = config_from_args(args)
+    return train(cfg, resume=args.resume, force=args.force, address=args.address,
+                 report=not args.no_report, progress=not getattr(args, "no_progress", False))
 
 
 def main(argv: list[str] | None = None) -> Path:

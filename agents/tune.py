@@ -62,15 +62,15 @@ def run_tune(cells: list, out: Path, *, eval_episodes: int, eval_seed: int, thre
     ``address``: None for a private Ray instance on this machine (``num_cpus`` caps it),
     ``"auto"`` or ``HOST:PORT`` for a running cluster.
     """
-    from ray import tune
-
     from agents import suite
     from agents.runs import write_json
 
     out = Path(out).resolve()
+    started = connect(address, num_cpus=num_cpus, feature="--ray")  # before ray is imported
     out.mkdir(parents=True, exist_ok=True)
-    started = connect(address, num_cpus=num_cpus, feature="--ray")
     try:
+        from ray import tune
+
         trainable = tune.with_resources(_trial, {"cpu": cpus_per_trial})
         space = {"cell": tune.grid_search([asdict(c) for c in cells]), "out": str(out),
                  "eval_episodes": eval_episodes, "eval_seed": eval_seed, "threads": threads}
