@@ -13,7 +13,7 @@ from functools import partial
 
 import numpy as np
 
-from benchmarks.common import best_time, components, pyplot, save_figure, table, write_json
+from benchmarks.common import best_times, components, pyplot, save_figure, table, write_json
 from core import INTEGRATORS, BodyState, RigidBody, inertia, quaternion, simulate
 
 STEPS = 200
@@ -28,12 +28,17 @@ def _states(n: int):
     return q, w, tau
 
 
-def kernel_cost(body: RigidBody, integrator: str, n: int) -> float:
-    """Seconds per body-step of one integrator kernel at batch size n (1 = float path)."""
+def kernel_costs(bodies: dict, integrator: str, n: int) -> dict:
+    """Seconds per body-step of one integrator for each body at batch size n (1 = float path).
+
+    The bodies are timed in interleaved rounds (best of rounds), so their ratio is fair.
+    """
     q, w, tau = _states(n)
     qc, wc, tc = components(q), components(w), components(tau)
     advance = INTEGRATORS[integrator].advance
-    return best_time(lambda: advance(body, qc, wc, H, tc, None)) / n
+    t = best_times({label: (lambda b=b: advance(b, qc, wc, H, tc, None))
+                    for label, b in bodies.items()})
+    return {label: v / n for label, v in t.items()}
 
 
 def agreement(specialised: RigidBody, general: RigidBody, integrator: str) -> float:
@@ -53,9 +58,10 @@ def inertia_cases() -> list[dict]:
     for label, tensor in (("isotropic (cube)", cube), ("diagonal (12U box)", cubesat)):
         fast = RigidBody(mass=24.0, inertia=tensor)
         full = RigidBody(mass=24.0, inertia=tensor, specialize=False)
-        for integrator in ("euler_seed", "semi_implicit", "rk4", "midpoint"):
+        for integrator in ("euler_seed", "semi_implicit", "rk4", "midpoint", "splitting"):
             for n in (1, 4096):
-                t_fast, t_full = kernel_cost(fast, integrator, n), kernel_cost(full, integrator, n)
+                t = kernel_costs({"fast": fast, "full": full}, integrator, n)
+                t_fast, t_full = t["fast"], t["full"]
                 rows.append({"case": label, "integrator": integrator, "N": n,
                              "specialised_us": 1e6 * t_fast, "general_us": 1e6 * t_full,
                              "speedup": t_full / t_fast,
@@ -70,9 +76,10 @@ def translation_cases() -> list[dict]:
         q, w, tau = _states(n)
         state = BodyState(orientation=q, angular_velocity=w)
         force = np.full(w.shape, 0.01)
-        t_on = best_time(partial(simulate, body, state, H, 20, force=force, torque=tau)) / 20
-        t_off = best_time(partial(simulate, body, state, H, 20, torque=tau,
-                                  translation=False)) / 20
+        t = best_times({"on": partial(simulate, body, state, H, 20, force=force, torque=tau),
+                        "off": partial(simulate, body, state, H, 20, torque=tau,
+                                       translation=False)})
+        t_on, t_off = t["on"] / 20, t["off"] / 20
         on = simulate(body, state, H, STEPS, force=force, torque=tau)
         off = simulate(body, state, H, STEPS, torque=tau, translation=False)
         rows.append({"case": "attitude-only (no translation)", "integrator": "midpoint", "N": n,
