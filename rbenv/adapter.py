@@ -19,7 +19,7 @@ from rbenv.tasks import build
 
 ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "reward_weights",
                "max_initial_angle_deg", "max_initial_rate", "allocator", "randomize",
-               "task_options")
+               "task_options", "compiled")
 
 
 def action_array(value, shape: tuple, *, copy: bool = False) -> np.ndarray:

@@ -76,6 +76,7 @@ class Plant:
     scene: Scene
     action_mode: str = "throttle"
     allocator_name: str = "pinv"
+    compiled: bool = False  # step with core.compiled (numba) instead of NumPy (vector env)
     n: int = field(init=False)
     action_shape: tuple = field(init=False)
     action_matrix: np.ndarray = field(init=False, repr=False)
@@ -103,6 +104,8 @@ class Plant:
         values["noisy"] = bool(values["p_fault"] or values["dist_noise"]
                                or values["sensor_noise"] is not None)
         _check_integrator_supports(self.scene, values["randomization"])
+        if validation.flag("compiled", self.compiled):
+            values["advance"] = _compiled_advance(self.scene, values["randomization"])
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
@@ -322,6 +325,17 @@ def _check_integrator_supports(sc: Scene, rnd: Randomization | None) -> None:
             "inertia_rotation_deg > 0); use 'rk4' or 'midpoint'")
 
 
+def _compiled_advance(sc: Scene, rnd: Randomization | None):
+    """The numba-compiled kernel of the scene's integrator (the extra ``rbenv[fast]``)."""
+    from core import compiled
+
+    if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg):
+        raise InvalidParameterError(
+            "compiled=True compiles one fixed inertia into the loop, so it cannot step "
+            "randomized inertias; use compiled=False")
+    return compiled.get(sc.physics.integrator).advance
+
+
 def _components(rng: np.random.Generator, count: int, batch: int | None) -> tuple:
     if batch is None:
         return tuple(rng.standard_normal(count).tolist())
@@ -353,13 +367,16 @@ def nan_action_error(action) -> ValueError:
 
 
 def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
-               action_mode="throttle", allocator="pinv", randomize=None) -> Plant:
+               action_mode="throttle", allocator="pinv", randomize=None,
+               compiled=False) -> Plant:
     """Resolve env options against a scene (name, path or Scene) into a :class:`Plant`.
 
     integrator, control_dt (s), substeps: override the scene's physics. action_mode:
     "throttle" | "on_off" | "torque". allocator: "pinv" | "nnls" | "lp" (torque mode).
     randomize: None keeps the scene's domain randomization; a dict overrides its fields
-    (see :class:`rbenv.randomization.Randomization`); False turns it off.
+    (see :class:`rbenv.randomization.Randomization`); False turns it off. compiled: step the
+    batch with the numba-compiled kernels (``rbenv[fast]``; rk4, euler, semi_implicit,
+    euler_seed).
     """
     from rbenv.scene import load_scene
 
@@ -367,5 +384,5 @@ def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
     sc = sc.with_physics(integrator=integrator, control_dt=control_dt, substeps=substeps)
     if randomize is not None:
         sc = sc.with_randomization(randomize)
-    return Plant(scene=sc, action_mode=action_mode, allocator_name=allocator)
+    return Plant(scene=sc, action_mode=action_mode, allocator_name=allocator, compiled=compiled)
 

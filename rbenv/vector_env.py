@@ -39,7 +39,9 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
     ``max_episode_steps`` (``make_vec`` passes the registered value; the scene's duration also
-    applies, whichever is shorter) and ``autoreset_mode``.
+    applies, whichever is shorter), ``autoreset_mode``, and ``compiled`` (True: step with the
+    numba-compiled kernels of :mod:`core.compiled`, from the extra ``rbenv[fast]``; the first
+    step pays a few seconds of compilation).
 
     **Autoreset** (``self.autoreset_mode``, also in ``metadata``). NEXT_STEP (default): a
     sub-env that ended is reset by the following ``step``; its action is ignored, its reward is
@@ -68,7 +70,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None):
+                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False):
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(

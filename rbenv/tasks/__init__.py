@@ -21,13 +21,14 @@ TASKS = {"reorient": make_reorient, "detumble": make_detumble, "track": make_tra
 
 def build(task_name: str, scene=None, *, integrator=None, control_dt=None, substeps=None,
           action_mode="throttle", allocator="pinv", randomize=None, reward_weights=None,
-          max_initial_angle_deg=None, max_initial_rate=None,
-          task_options=None) -> tuple[Plant, Task]:
+          max_initial_angle_deg=None, max_initial_rate=None, task_options=None,
+          compiled=False) -> tuple[Plant, Task]:
     """The plant and the task named ``task_name`` for these env options (validated)."""
     if task_name not in TASKS:
         raise InvalidParameterError(f"task must be one of {sorted(TASKS)}, got {task_name!r}")
     plant = make_plant(scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
-                       action_mode=action_mode, allocator=allocator, randomize=randomize)
+                       action_mode=action_mode, allocator=allocator, randomize=randomize,
+                       compiled=compiled)
     task = TASKS[task_name](plant, reward_weights=reward_weights,
                             max_initial_angle_deg=max_initial_angle_deg,
                             max_initial_rate=max_initial_rate, task_options=task_options)
