@@ -4,7 +4,8 @@
 
 A redesign must not lose speed, and on a shared machine only figures taken side by side mean
 anything. This runs the same probe in a fresh interpreter for each tree (``PYTHONPATH`` set to
-the tree), alternating trees round by round, and keeps the best of the rounds for each figure:
+the tree), alternating trees round by round, and keeps the best of the rounds for each figure.
+Times are process CPU time, so other programs on a shared machine inflate them little:
 
 * ``single_us``: µs per step of the default env through ``gym.make`` (random throttles,
   resets inline), and ``pendulum_us`` for ``Pendulum-v1`` in the same process;
@@ -37,7 +38,7 @@ import rbenv
 def best(fn, n, rounds=3):
     out = []
     for _ in range(rounds):
-        t = time.perf_counter(); fn(n); out.append((time.perf_counter() - t) / n)
+        t = time.process_time(); fn(n); out.append((time.process_time() - t) / n)
     return min(out)
 
 def single(env_id):
