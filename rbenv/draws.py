@@ -68,24 +68,25 @@ class EpisodeDraws:
     """The random numbers of one episode start for each of N envs.
 
     seeds, episodes: (N,) integer arrays, or one int each with ``single=True`` (the single
-    env), which hands out numbers as Python floats instead of (N,) arrays; ``xp`` is the matching
-    :mod:`core.backend` namespace, so task code written on components serves both. The bits
-    are the same in both cases (integer arithmetic is exact; one env's key is mixed on Python
-    ints, cheaper than NumPy calls on one-element arrays), and the Box–Muller step is NumPy's
-    in both, so a single env and a sub-env draw the same numbers. Slot ``j`` of a
-    stream is always the same number for the same (seed, episode), whatever else was drawn.
+    env), which hands out numbers as Python floats instead of (N,) arrays; ``xp`` is the
+    matching :mod:`core.backend` namespace, so task code written on components serves both.
+    Both cases run the same NumPy arithmetic on the same bits (one env is a batch of one), so a
+    single env and a sub-env draw the same numbers. Each stream is hashed once per reset, in a
+    block of slots, and its normals are made once from the block's aligned slot pairs. Slot
+    ``j`` of a stream is always the same number for the same (seed, episode), whatever else
+    was drawn.
     """
 
-    __slots__ = ("_blocks", "_keys", "n", "single", "xp")
+    __slots__ = ("_blocks", "_keys", "_normals", "n", "single", "xp")
 
     def __init__(self, seeds, episodes, single: bool = False):
         self.single = bool(single)
         self.xp = FLOAT if self.single else NUMPY
-        self._blocks = {}  # stream -> (slots, N) uniforms computed so far (batch path)
-        if self.single:  # seeds, episodes: one int each
+        self._blocks, self._normals = {}, {}  # stream -> (slots, N) uniforms, (slots/2, N)
+        if self.single:  # one int each: mixed on Python ints, cheaper than one-element arrays
             key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
                             + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
-            self._keys, self.n = key, 1
+            self._keys, self.n = np.array([key], dtype=np.uint64), 1
             return
         # uint64 array arithmetic wraps silently (only NumPy scalars warn on overflow).
         self._keys = _mix(_mix(np.asarray(seeds, dtype=np.uint64) ^ _GOLDEN)
@@ -102,40 +103,39 @@ class EpisodeDraws:
         slots = (np.arange(offset, offset + count, dtype=np.uint64) + np.uint64(1)) * _GOLDEN
         return _mix(base[None, :] + slots[:, None])
 
-    def _single_uniforms(self, stream: str, count: int, offset: int) -> list:
-        """The one env's uniforms of slots offset… as Python floats (Python-int hashing)."""
-        base = self._keys + _STREAM_INTS[stream]
-        return [(_mix_int((base + (j + 1) * _GOLDEN_INT) & _MASK) >> 11) * _TO_UNIT
-                for j in range(offset, offset + count)]
+    def _block(self, stream: str, size: int) -> np.ndarray:
+        """(≥ size, N) uniforms of the stream's first slots, hashed once per reset."""
+        block = self._blocks.get(stream)
+        if block is None or len(block) < size:
+            size = max(size, _BLOCK)
+            block = (self._bits(stream, size, 0) >> _S11).astype(np.float64) * _TO_UNIT
+            self._blocks[stream] = block
+            self._normals.pop(stream, None)
+        return block
 
     def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
-        if self.single:
-            return np.array(self._single_uniforms(stream, count, offset))[:, None]
-        block = self._blocks.get(stream)
-        if block is None or len(block) < offset + count:
-            # One hash pass per stream and reset: ask for the first slots and a margin, so the
-            # task's and the plant's few requests share it.
-            size = max(offset + count, _BLOCK)
-            block = (self._bits(stream, size, 0) >> _S11).astype(np.float64) * _TO_UNIT
-            self._blocks[stream] = block
-        return block[offset:offset + count]
+        return self._block(stream, offset + count)[offset:offset + count]
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
-        """(count, N) standard normals (Box–Muller on uniform slots ``offset + 2k, + 2k + 1``).
+        """(count, N) standard normals, Box–Muller on uniform slots ``offset + 2k, + 2k + 1``.
 
-        Uses ``2·count`` uniform slots starting at ``offset``.
+        Uses ``2·count`` uniform slots from ``offset``, which must be even (slot pairs are
+        aligned, so every request of a stream shares one transform of its block).
         """
-        u = self.uniform_array(stream, 2 * count, offset)
-        radius = np.sqrt(-2.0 * np.log1p(-u[0::2]))  # 1 − u in (0, 1]: finite
-        return radius * np.cos(_TWO_PI * u[1::2])
+        if offset % 2:
+            raise ValueError(f"normal draws start at an even slot, got offset {offset}")
+        block = self._block(stream, offset + 2 * count)
+        normals = self._normals.get(stream)
+        if normals is None:
+            radius = np.sqrt(-2.0 * np.log1p(-block[0::2]))  # 1 − u in (0, 1]: finite
+            normals = self._normals[stream] = radius * np.cos(_TWO_PI * block[1::2])
+        return normals[offset // 2:offset // 2 + count]
 
     def uniform(self, stream: str, count: int, offset: int = 0) -> tuple:
         """``count`` uniform components (floats or (N,) arrays), slots ``offset…``."""
-        if self.single:
-            return tuple(self._single_uniforms(stream, count, offset))
-        return tuple(self.uniform_array(stream, count, offset))
+        return self.components(self.uniform_array(stream, count, offset))
 
     def normal(self, stream: str, count: int, offset: int = 0) -> tuple:
-        """``count`` standard-normal components, from uniform slots ``offset…``."""
+        """``count`` standard-normal components, from uniform slots ``offset…`` (even)."""
         return self.components(self.normal_array(stream, count, offset))

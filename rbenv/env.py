@@ -17,6 +17,7 @@ from core.backend import FLOAT
 from rbenv import transition
 from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
 from rbenv.draws import EpisodeDraws
+from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
 
 RENDER_MODES = ("human", "rgb_array")
@@ -67,9 +68,15 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         st = self._st
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        a = action_array(action, self.plant.action_shape)
-        out = transition.step(self.plant, self.task, st, a,
-                              self.plant.draw_step_noise(self._np_random, None), FLOAT)
+        plant = self.plant
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.shape != plant.action_shape:
+            action_array(action, plant.action_shape)  # raises the named error
+        noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
+        out = transition.step(plant, self.task, st, a, noise, FLOAT)
         if self.render_mode == "human":
             self.render()
         terminated = bool(out.failure or (out.success and self.task.success_terminates))

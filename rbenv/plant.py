@@ -26,7 +26,7 @@ from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import G0, Scene
 
-__all__ = ["ACTION_MODES", "STATE_FIELDS", "Plant", "StepNoise", "Wrench", "make_plant"]
+__all__ = ["ACTION_MODES", "NO_NOISE", "STATE_FIELDS", "Plant", "StepNoise", "Wrench", "make_plant"]
 
 ACTION_MODES = ("throttle", "on_off", "torque")
 ALLOCATORS = ("pinv", "nnls", "lp")
@@ -265,7 +265,7 @@ class Plant:
         Order: fault uniforms, disturbance normals, sensor normals (each only when modelled).
         """
         if not self.noisy:
-            return _NO_NOISE
+            return NO_NOISE
         n = self.n
         faults = dist = sensor = None
         if self.p_fault:
@@ -296,7 +296,7 @@ class Plant:
         return {"bias": bias, "health": health, "model": model}
 
 
-_NO_NOISE = StepNoise(None, None, None)
+NO_NOISE = StepNoise(None, None, None)
 
 
 def _scene_scalars(sc: Scene) -> dict:

@@ -180,26 +180,27 @@ def _tilted(directions: np.ndarray, normals: np.ndarray, angle: np.ndarray) -> n
 def draw_episode_model(plant, draws) -> EpisodeModel:
     """The randomized physics of ``draws.n`` episodes (stream "randomization").
 
-    Slot layout: 3 uniforms (inertia scale), 6 for 3 normals (rotation), 6 for 3 normals and
-    1 uniform (CoM offset direction and radius), n uniforms (force scale), 6n for 3n normals
-    and n uniforms (misalignment), 1 uniform (delay).
+    Slot layout (normals take two slots each and start on even slots): uniforms 0–2 inertia
+    scale, normals from 4 (rotation) and 10 (CoM direction), uniform 16 (CoM radius), uniforms
+    17… (n force scales), then from the next even slot t: 3n normals (tilt axes), n uniforms
+    (tilt angles) and 1 uniform (delay).
     """
     rnd, sc = plant.randomization, plant.scene
     thr, n, N = sc.thrusters, plant.n, draws.n
-    scale = 1.0 + rnd.inertia_scale * (2.0 * draws.uniform_array("randomization", 3) - 1.0)
-    rot = math.radians(rnd.inertia_rotation_deg) * draws.normal_array("randomization", 3, 3)
+    u = draws.uniform_array
+    scale = 1.0 + rnd.inertia_scale * (2.0 * u("randomization", 3) - 1.0)
+    rot = math.radians(rnd.inertia_rotation_deg) * draws.normal_array("randomization", 3, 4)
     inertia = _perturbed_inertia(sc.body.inertia, scale.T, rot.T)
-    direction = draws.normal_array("randomization", 3, 9).T
+    direction = draws.normal_array("randomization", 3, 10).T
     direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
-    radius = rnd.com_offset * np.cbrt(draws.uniform_array("randomization", 1, 15)[0])
+    radius = rnd.com_offset * np.cbrt(u("randomization", 1, 16)[0])
     com_offset = direction * radius[:, None]
-    force = thr.max_force * (1.0 + rnd.force_scale
-                             * (2.0 * draws.uniform_array("randomization", n, 16).T - 1.0))
-    tilt_normals = draws.normal_array("randomization", 3 * n, 16 + n).T.reshape(N, n, 3)
-    tilt = math.radians(rnd.misalignment_deg) * np.sqrt(
-        draws.uniform_array("randomization", n, 16 + 7 * n).T)
+    force = thr.max_force * (1.0 + rnd.force_scale * (2.0 * u("randomization", n, 17).T - 1.0))
+    t = 18 + n - n % 2  # the first even slot after the force scales
+    tilt_normals = draws.normal_array("randomization", 3 * n, t).T.reshape(N, n, 3)
+    tilt = math.radians(rnd.misalignment_deg) * np.sqrt(u("randomization", n, t + 6 * n).T)
     dirs = _tilted(thr.directions_B, tilt_normals, tilt)
-    delayed = draws.uniform_array("randomization", 1, 16 + 8 * n)[0] < rnd.delay_probability
+    delayed = u("randomization", 1, t + 7 * n)[0] < rnd.delay_probability
     force_B = dirs * force[..., None]  # (N, n, 3) N at full throttle
     arms = thr.positions_B - thr.com_B - com_offset[:, None, :]  # (N, n, 3) m
     torque_B = cross(arms, force_B)

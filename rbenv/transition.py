@@ -56,7 +56,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     if xp.any(wrench.thrust_N != wrench.thrust_N):  # NaN propagated from the action
         raise nan_action_error(action)
     plant.advance_state(st, wrench, noise.disturbance, xp)
-    task.advance_target(st)
+    if task.moving_target:
+        task.advance_target(st)
     terms, success, failure = task.evaluate(st, wrench.thrust_N * plant.inv_total_thrust, xp)
     reward = sum(terms)
     return Outcome(observe(plant, task, st, noise.sensor, xp), reward, terms, success, failure,
@@ -78,7 +79,7 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     out["impulse_Ns"] = st.impulse_Ns
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
-    out.update(zip(task.reward_keys, terms, strict=True))
+    out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)
     if st.x is not None:
         v = st.v
         out["speed_mps"] = xp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])

@@ -80,6 +80,7 @@ class Task:
     reset_options: ClassVar[dict] = {}
     OPTIONS: ClassVar[dict] = {}
     success_terminates: ClassVar[bool] = True
+    moving_target: ClassVar[bool] = False  # advance_target is called every step
     WeightsType: ClassVar[type] = Weights
 
     plant: object  # rbenv.plant.Plant

@@ -72,6 +72,7 @@ class Track(Task):
     Terms: ClassVar[type] = TrackTerms
     WeightsType: ClassVar[type] = TrackWeights
     success_terminates: ClassVar[bool] = False
+    moving_target: ClassVar[bool] = True
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_step_conj": "c4",
                                     "omega_target_W": "c3", "omega_target_B": "c3",
                                     "q_err": "c4", "angle": "f", "rate_error": "f",
