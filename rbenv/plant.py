@@ -142,7 +142,8 @@ class Plant:
         throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
         torque: ``clip(a, -1, 1) · authority`` (N·m per axis) through the allocator. NaN is
         rejected; in throttle mode by :func:`rbenv.transition.step` from the propagated NaN
-        thrust, so the hot path pays no extra check. ``in_place``: the caller owns ``a`` and
+        thrust, which the state's finiteness check catches (no extra check on the hot path).
+        ``in_place``: the caller owns ``a`` and
         lets throttle mode clip it in place (no temporaries: the vector env's batch).
         """
         mode = self.action_mode

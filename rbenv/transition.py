@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from core import validation
-from core.errors import InvalidParameterError
+from core.errors import InvalidParameterError, NonFiniteError
 from rbenv.plant import STATE_FIELDS, Plant, StepNoise, nan_action_error
 
 __all__ = ["Outcome", "info", "observe", "start", "state_kinds", "step"]
@@ -53,14 +53,19 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
         u = plant.apply_faults_and_delay(st, u, noise.faults)
     st.throttle = u
     wrench = plant.wrench(st, u, xp)
-    if xp.any(wrench.thrust_N != wrench.thrust_N):  # NaN propagated from the action
-        raise nan_action_error(action)
-    plant.advance_state(st, wrench, noise.disturbance, xp)
+    try:
+        plant.advance_state(st, wrench, noise.disturbance, xp)
+    except NonFiniteError:
+        # A NaN action (throttle mode lets it through to the thrust) is the caller's error.
+        if np.isnan(np.asarray(action, dtype=float)).any():
+            raise nan_action_error(action) from None
+        raise
     if task.moving_target:
         task.advance_target(st)
     terms, success, failure = task.evaluate(st, wrench.thrust_N * plant.inv_total_thrust, xp)
-    reward = sum(terms)
-    return Outcome(observe(plant, task, st, noise.sensor, xp), reward, terms, success, failure,
+    obs = task.observe(st, st.q, st.w, xp) if noise.sensor is None else \
+        observe(plant, task, st, noise.sensor, xp)
+    return Outcome(obs, sum(terms), terms, success, failure,
                    info(plant, task, st, terms, success, xp))
 
 

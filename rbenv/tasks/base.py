@@ -168,13 +168,6 @@ class Task:
         """The task with new initial-condition ranges (curriculum); None keeps a value."""
         raise InvalidParameterError(f"task {self.name!r} has no initial ranges to change")
 
-    # ------------------------------------------------------------------- shared helpers
-
-    def rate_info(self, st, xp) -> float:
-        """|ω_B| in deg/s."""
-        w = st.w
-        return xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * _DEG
-
 
 def option_table(scene, task_cls, task_options) -> dict:
     """A task's options: its class defaults, then the scene's ``[tasks.<name>]`` table, then

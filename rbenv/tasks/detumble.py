@@ -14,7 +14,7 @@ from typing import ClassVar, NamedTuple
 
 from core import kernels as k
 from core import validation
-from rbenv.tasks.base import Task, Weights, option_table, unit
+from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ class Detumble(Task):
 
     def info(self, st, xp) -> dict:
         """rate_dps."""
-        return {"rate_dps": self.rate_info(st, xp)}
+        return {"rate_dps": st.rate * _DEG}
 
 
 def make_detumble(plant, reward_weights=None, max_initial_angle_deg=None,

@@ -78,7 +78,7 @@ class Reorient(Task):
     Terms: ClassVar[type] = ReorientTerms
     WeightsType: ClassVar[type] = ReorientWeights
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
-                                    "hold": "i"}
+                                    "rate": "f", "hold": "i"}
     reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4}
 
     weights: ReorientWeights = ReorientWeights()
@@ -120,7 +120,9 @@ class Reorient(Task):
     def complete_start(self, start: dict, xp) -> None:
         q_target_conj = conj(start.pop("q_target"))
         e, angle = error_quaternion(q_target_conj, start["q"], xp)
-        start.update(q_target_conj=q_target_conj, q_err=e, angle=angle, hold=0 * angle)
+        w = start["omega_B"]
+        start.update(q_target_conj=q_target_conj, q_err=e, angle=angle,
+                     rate=xp.sqrt(k.dot(w, w)), hold=0 * angle)
 
     # ------------------------------------------------------------------- per step
 
@@ -137,7 +139,7 @@ class Reorient(Task):
         wt = self.weights
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
         w = st.w
-        rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        st.rate = rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         inside = (angle < self.success_angle) & (rate < self.success_rate)
         st.hold = xp.where(inside, st.hold + 1, 0)
         failure = rate > self.rate_limit
@@ -154,7 +156,7 @@ class Reorient(Task):
 
     def info(self, st, xp) -> dict:
         """attitude_error_deg and rate_dps."""
-        return {"attitude_error_deg": st.angle * _DEG, "rate_dps": self.rate_info(st, xp)}
+        return {"attitude_error_deg": st.angle * _DEG, "rate_dps": st.rate * _DEG}
 
     def target(self, st) -> tuple:
         """The target quaternion (4 components), for rendering."""

@@ -75,7 +75,7 @@ class Track(Task):
     moving_target: ClassVar[bool] = True
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_step_conj": "c4",
                                     "omega_target_W": "c3", "omega_target_B": "c3",
-                                    "q_err": "c4", "angle": "f", "rate_error": "f",
+                                    "q_err": "c4", "angle": "f", "rate": "f", "rate_error": "f",
                                     "on_steps": "i"}
     reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4, "omega_target_W": 3}
     OPTIONS: ClassVar[dict] = {"max_target_rate_fraction": 0.3, "max_initial_angle_deg": 30.0,
@@ -134,6 +134,7 @@ class Track(Task):
         e_w = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
         start.update(q_target_conj=q_target_conj, q_step_conj=conj(step), q_err=e,
                      angle=angle, omega_target_B=w_t, rate_error=xp.sqrt(k.dot(e_w, e_w)),
+                     rate=xp.sqrt(k.dot(w, w)),
                      on_steps=0 * angle)
 
     # ------------------------------------------------------------------- per step
@@ -161,7 +162,7 @@ class Track(Task):
         st.omega_target_B = w_t = k.rotate_inverse(st.q, st.omega_target_W)
         e0, e1, e2 = w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2]
         st.rate_error = rate_err = xp.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-        rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        st.rate = rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         on = (angle < self.success_angle) & (rate_err < self.success_rate)
         st.on_steps = st.on_steps + (on & (st.steps > self.scored_from))
         failure = rate > self.rate_limit
@@ -184,7 +185,7 @@ class Track(Task):
         share so far of the scored second half)."""
         scored = xp.maximum(st.steps - self.scored_from, 1)
         return {"attitude_error_deg": st.angle * _DEG,
-                "rate_dps": self.rate_info(st, xp),
+                "rate_dps": st.rate * _DEG,
                 "rate_error_dps": st.rate_error * _DEG,
                 "track_fraction": st.on_steps / scored}
 
