@@ -84,6 +84,7 @@ VARIANTS = {
                     study="td3"),
     "td3-long": _v("td3", 120_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, env_kwargs=_TORQUE,
                    study="td3"),
+    "sac-long": _v("sac", 120_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "sac-final": _v("sac", 55_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "ppo-torque": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo", env_kwargs=_TORQUE),
     # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
