@@ -63,3 +63,46 @@ def test_rllib_on_single_node_cluster_via_address(raytools, tmp_path):
     finally:
         head.stop()
     assert head.leftover == [], f"Ray processes outlived SIGTERM: {head.leftover}"
+
+
+def test_rllib_resume_after_kill(raytools, tmp_path):
+    """kill -9 during `rbenv train --engine rllib`, then --resume: training continues from the
+    last complete checkpoint and the run finishes with its report."""
+    import os
+    import shutil
+    import signal
+    import tempfile
+    import time
+
+    ray_tmp = tempfile.mkdtemp(prefix="rbt", dir="/tmp")  # short: Ray's socket paths
+    env = {**raytools.ray_env(loopback=True), "RAY_TMPDIR": ray_tmp}
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "rbenv", "train", "--engine", "rllib", "--envs-per-runner",
+           "16", "--timesteps", "40960", "--checkpoint-every", "4096", "--eval-every", "40960",
+           "--hyperparams", '{"train_batch_size_per_learner": 2048, "minibatch_size": 512, '
+           '"num_epochs": 1}', "--out", str(out)]
+    first = subprocess.Popen(cmd, env=env, cwd=raytools.REPO, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL, start_new_session=True)
+    pointer = out / "checkpoints" / "latest.json"
+    try:
+        deadline = time.monotonic() + 300
+        while not pointer.is_file() and first.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert first.poll() is None, "training ended before its first checkpoint"
+        killed_at = json.loads(pointer.read_text())["timesteps"]
+    finally:
+        try:
+            os.killpg(first.pid, signal.SIGKILL)  # the driver and the Ray processes it started
+        except ProcessLookupError:
+            pass
+        first.wait(60)
+    assert killed_at < 40960
+    r = subprocess.run([*cmd, "--resume"], env=env, capture_output=True, text=True,
+                       timeout=600, cwd=raytools.REPO)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert "resuming rllib ppo" in r.stdout
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["resumed_from"] >= killed_at and summary["timesteps"] >= 40960
+    assert (out / "report.md").is_file() and (out / "policy").is_dir()
+    assert raytools.processes_naming(ray_tmp) == []
+    shutil.rmtree(ray_tmp, ignore_errors=True)
