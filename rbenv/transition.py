@@ -65,8 +65,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     terms, success, failure = task.evaluate(st, wrench.thrust_N * plant.inv_total_thrust, xp)
     obs = task.observe(st, st.q, st.w, xp) if noise.sensor is None else \
         observe(plant, task, st, noise.sensor, xp)
-    return Outcome(obs, sum(terms), terms, success, failure,
-                   info(plant, task, st, terms, success, xp))
+    return tuple.__new__(Outcome, (obs, sum(terms), terms, success, failure,
+                                   info(plant, task, st, terms, success, xp)))
 
 
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:

@@ -99,13 +99,13 @@ class Detumble(Task):
         st.hold = xp.where(inside, st.hold + 1, 0)
         failure = rate > self.rate_limit
         inv_limit = self.inv_rate_limit
-        terms = DetumbleTerms(
+        terms = tuple.__new__(DetumbleTerms, (
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
             wt.progress * inv_limit * (st.rate - rate),
             -wt.fuel * thrust_fraction,
             wt.hold * inside,
             -wt.failure * failure,
-        )
+        ))
         st.rate = rate
         return terms, st.hold >= self.hold_steps, failure
 

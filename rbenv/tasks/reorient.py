@@ -143,14 +143,14 @@ class Reorient(Task):
         inside = (angle < self.success_angle) & (rate < self.success_rate)
         st.hold = xp.where(inside, st.hold + 1, 0)
         failure = rate > self.rate_limit
-        terms = ReorientTerms(
+        terms = tuple.__new__(ReorientTerms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate * self.inv_rate_limit, 1.0),
             -wt.fuel * thrust_fraction,
             wt.progress * _INV_PI * (st.angle - angle),
             wt.hold * inside,
             -wt.failure * failure,
-        )
+        ))
         st.angle = angle
         return terms, st.hold >= self.hold_steps, failure
 

@@ -166,14 +166,14 @@ class Track(Task):
         on = (angle < self.success_angle) & (rate_err < self.success_rate)
         st.on_steps = st.on_steps + (on & (st.steps > self.scored_from))
         failure = rate > self.rate_limit
-        terms = TrackTerms(
+        terms = tuple.__new__(TrackTerms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
             -wt.fuel * thrust_fraction,
             wt.progress * _INV_PI * (st.angle - angle),
             wt.on_target * on,
             -wt.failure * failure,
-        )
+        ))
         st.angle = angle
         scored = self.episode_steps - self.scored_from
         success = (st.steps >= self.episode_steps) & \
