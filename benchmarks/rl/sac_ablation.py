@@ -306,10 +306,15 @@ def _row(name: str, data: dict) -> str:
     cur_txt = f"{cur['start_deg']:.0f}°→180° over {cur['frac']:.0%}" if cur else "—"
     arch = hp.get("policy_kwargs", {}).get("net_arch")
     settle = r["settle_time_median_s"]
-    return (f"| {name} | {s['algo']} | {s['timesteps'] // 1000}k | {s['action_map']} | "
+    design = {"clip": "12 throttles clip(a, 0, 1)", "affine": "12 throttles (a + 1)/2"}[
+        s["action_map"]]
+    if s["env_kwargs"].get("action_mode") == "torque":
+        design = f"torque ({s['env_kwargs'].get('allocator', 'pinv')})"
+    env_kw = {k: v for k, v in s["env_kwargs"].items() if k not in ("action_mode", "allocator")}
+    return (f"| {name} | {s['algo']} | {s['timesteps'] // 1000}k | {design} | "
             f"{'—' if ratio is None else f'{ratio:g}'} | {arch} | {cur_txt} | "
-            f"{json.dumps(s['env_kwargs']) if s['env_kwargs'] else '—'} | "
-            f"{_extra(hp)} | {100 * r['success_rate']:.1f}% | "
+            f"{json.dumps(env_kw) if env_kw else '—'} | "
+            f"{_extra(hp, s['algo'])} | {100 * r['success_rate']:.1f}% | "
             f"{100 * r['loss_of_control_rate']:.1f}% | {r['fuel_mean_g']:.2f} | "
             f"{'—' if settle is None else f'{settle:.1f}'} | {r['final_error_median_deg']:.3g} | "
             f"{data['train_wall_s'] / 60:.1f} |")
@@ -319,9 +324,11 @@ _SHOWN = {"gradient_steps", "policy_kwargs", "buffer_size", "batch_size", "train
           "tau", "n_steps", "n_epochs", "gae_lambda", "clip_range"}
 
 
-def _extra(hp: dict) -> str:
+def _extra(hp: dict, algo: str) -> str:
     """Hyperparameters that differ from the family's base dict (for the table)."""
     extra = {k: v for k, v in hp.items() if k not in _SHOWN and not _is_base(k, v)}
+    if algo != "ppo" and hp.get("n_steps", 1) > 1:
+        extra["n-step returns"] = hp["n_steps"]
     pk = {k: v for k, v in hp.get("policy_kwargs", {}).items()
           if k != "net_arch" and not (k == "use_sde" and v is False)}
     extra.update(pk)
@@ -333,7 +340,7 @@ def _is_base(key, value) -> bool:
 
 
 def summary(directory: Path = RESULTS) -> Path:
-    lines = ["| variant | algo | env steps | action map | grad steps / env step | net | "
+    lines = ["| variant | algo | env steps | action design | grad steps / env step | net | "
              "curriculum | env kwargs | other | success | loss of control | fuel (g) | "
              "settle median (s) | final error median (deg) | train wall (min) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
