@@ -27,7 +27,7 @@ import numpy as np
 import rbenv
 from agents.runs import RunFolderError, read_json, write_json
 
-RESULT_VERSION = 2  # 2: the selected checkpoint beside the final model
+RESULT_VERSION = 3  # 3: mean-throttle action, checkpoints selected on validation episodes
 # Short task names (the keys of agents.controllers.BASELINES) of the registered ids.
 TASKS = {"reorient": rbenv.ENV_ID, "detumble": rbenv.DETUMBLE_ID, "track": rbenv.TRACK_ID}
 TASK_OF = {env_id: task for task, env_id in TASKS.items()}
@@ -35,6 +35,7 @@ TASK_OF = {env_id: task for task, env_id in TASKS.items()}
 BUDGETS = {"ppo": {"reorient": 1_000_000, "detumble": 300_000, "track": 1_000_000},
            "sac": {"reorient": 200_000, "detumble": 100_000, "track": 200_000}}
 EVAL_EPISODES, EVAL_SEED = 500, 1_000_000
+VALIDATION_EPISODES, VALIDATION_SEED = 100, 2_000_000  # checkpoint selection, not held out
 CURVE_POINTS = 10  # periodic evaluations per training run (the learning curve)
 CURVE_EPISODES = 50
 QUICK = {"algos": ["ppo"], "tasks": ["detumble", "reorient"], "scenes": ["cubesat-12u"],
@@ -152,11 +153,10 @@ def learning_curve(run: Path) -> dict:
 
 
 def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
-    """The checkpoint with the best periodic (validation) success, the latest among equals.
+    """The checkpoint with the best validation success in ``curve``, the latest among equals.
 
-    The periodic evaluations run on episodes of their own (seeded from the training seed +
-    10,000), never on the held-out ones, so choosing by them is model selection on a validation
-    set. Without a checkpoint at that step, the final model.
+    The validation episodes (:func:`validation_curve`) are never the held-out ones, so this is
+    model selection on a validation set. Without a checkpoint at that step, the final model.
     """
     from agents import runs
 
@@ -170,19 +170,66 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     return run / runs.FINAL_MODEL, int(read_json(run / runs.SUMMARY, "summary")["timesteps"])
 
 
+class MeanThrottle:
+    """A trained Gaussian policy acting with its mean throttle E[clip(μ + σε, 0, 1)].
+
+    Under ``throttle = clip(a, 0, 1)`` PPO learns to set thruster means below zero and fire
+    them through its exploration noise; the usual deterministic action clip(μ, 0, 1) switches
+    that firing off. The mean throttle is the deterministic action that matches the policy it
+    was trained as (formula: ``benchmarks.rl.sac_ablation.expected_throttle``).
+    """
+
+    def __init__(self, policy):
+        self.policy = policy  # an agents.runs.RunPolicy (model + observation statistics)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        import torch
+
+        from benchmarks.rl.sac_ablation import expected_throttle
+
+        obs = torch.as_tensor(self.policy.normalize(observation), dtype=torch.float32)
+        with torch.no_grad():
+            dist = self.policy.model.policy.get_distribution(obs).distribution
+            mean, std = dist.mean.numpy(), dist.stddev.numpy()
+        return expected_throttle(mean, std).astype(np.float32), None
+
+
+def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED
+                     ) -> dict:
+    """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes."""
+    from agents import runs
+    from agents.evaluate import SB3Policy, evaluate
+
+    ckpts = sorted(runs.checkpoints(run / runs.CHECKPOINTS, report=lambda _: None),
+                   key=lambda c: c.steps)
+    curve = {"timesteps": [], "success_rate": []}
+    for ckpt in ckpts:
+        s = evaluate(MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes, seed=seed,
+                     scene=cell.scene, env_id=cell.env_id, record=0).summary()
+        curve["timesteps"].append(ckpt.steps)
+        curve["success_rate"].append(s["success_rate"])
+    return curve
+
+
 def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
-    """The selected and the final policy, and every scripted baseline of the task, on the same
-    held-out episodes."""
+    """On the same held-out episodes: the checkpoint selected on validation episodes and the
+    final model (both with the mean-throttle action), the final model with SB3's deterministic
+    action clip(μ, 0, 1), and every scripted baseline of the task."""
     from agents.controllers import BASELINES
     from agents.evaluate import SB3Policy, evaluate
 
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
-    model, steps = select_checkpoint(run, learning_curve(run))
-    policy = evaluate(SB3Policy(model), name=cell.algo, **common).summary()
-    final = evaluate(SB3Policy(run), name=f"{cell.algo} (final)", **common).summary()
+    curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES))
+    model, steps = select_checkpoint(run, curve)
+    policy = evaluate(MeanThrottle(SB3Policy(model)), name=cell.algo, **common).summary()
+    final = evaluate(MeanThrottle(SB3Policy(run)), name=f"{cell.algo} (final)",
+                     **common).summary()
+    clip_mean = evaluate(SB3Policy(run), name=f"{cell.algo} (final, clip(mean))",
+                         **common).summary()
     baselines = {name: evaluate(name, **common).summary() for name in BASELINES[cell.task]}
-    return {"policy": {**policy, "timesteps": steps}, "final": final, "baselines": baselines}
+    return {"policy": {**policy, "timesteps": steps}, "final": final,
+            "final_clip_mean": clip_mean, "baselines": baselines, "learning_curve": curve}
 
 
 def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
@@ -233,7 +280,7 @@ def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
                                                           "gradient_updates", "threads")},
                            **_settings(run)},
               "eval_wall_time_s": time.perf_counter() - started,
-              "learning_curve": learning_curve(run), **evaluation}
+              "training_curve": learning_curve(run), **evaluation}
     write_json(path, result)
     return result
 
@@ -278,6 +325,8 @@ def group_results(results: list[dict]) -> list[dict]:
                      "train_wall_time_s": _stats([r["training"]["wall_time_s"] for r in rs]),
                      **stats, "final_success_rate": _stats([r["final"]["success_rate"]
                                                              for r in rs]),
+                     "final_clip_mean_success_rate": _stats(
+                         [r["final_clip_mean"]["success_rate"] for r in rs]),
                      "selected_timesteps": [r["policy"]["timesteps"] for r in rs],
                      "baselines": baselines, "best_baseline_success": best,
                      "target": _target(stats["success_rate"]["mean"], best)})
@@ -307,12 +356,14 @@ def _num(s: dict, spec: str = ".2f") -> str:
 def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
     lines = [f"Held-out evaluation: {info['episodes']} episodes seeded {info['seed']} + i, the "
              "same episodes for every policy; learned policies deterministic. Learned rows: "
-             "mean ± standard deviation over seeds. The learned policy is the checkpoint with "
-             "the best periodic success on validation episodes of its own (not the held-out "
-             "ones); the last column is the final model's held-out success.", "",
+             "mean ± standard deviation over seeds. The learned policy acts with its mean "
+             "throttle E[clip(μ + σε, 0, 1)]; its row is the checkpoint with the best success "
+             f"on {VALIDATION_EPISODES} validation episodes (seeded {VALIDATION_SEED} + i, not "
+             "the held-out ones). Last columns: the final model's held-out success with the "
+             "mean throttle and with SB3's deterministic action clip(μ, 0, 1).", "",
              "| task | scene | policy | seeds | timesteps | success | fuel (g) | "
-             "settle median (s) | train (min) | target | final model |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "settle median (s) | train (min) | target | final model | final, clip(μ) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         goal = row["target"]
         mark = ("met" if goal["met"] else "**missed**") + f" (≥ {100 * goal['goal']:.1f} %)"
@@ -324,12 +375,13 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
                      f"{len(row['seeds'])} | {steps} | {_pct(row['success_rate'])} | "
                      f"{_num(row['fuel_g'])} | {_num(row['settle_median_s'], '.1f')} | "
                      f"{_num(minutes, '.1f')} | {mark} | "
-                     f"{_pct(row['final_success_rate'])} |")
+                     f"{_pct(row['final_success_rate'])} | "
+                     f"{_pct(row['final_clip_mean_success_rate'])} |")
         for name, b in row["baselines"].items():
             settle = "—" if b["settle_median_s"] is None else f"{b['settle_median_s']:.1f}"
             lines.append(f"| {row['task']} | {row['scene']} | {name} (scripted) | | | "
                          f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | "
-                         "| |")
+                         "| | |")
     if missing:
         lines += ["", f"**Missing cells** ({info['missing']}, not run or not finished): "
                   + "; ".join(missing) + "."]
@@ -403,7 +455,8 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
     rows = group_results(results)
     data = {"version": RESULT_VERSION, "eval": info, "rows": rows, "missing": missing,
             "cells": [{k: r[k] for k in ("name", "cell", "task", "eval", "training",
-                                         "policy", "final", "baselines", "learning_curve")}
+                                         "policy", "final", "final_clip_mean", "baselines",
+                                         "learning_curve", "training_curve")}
                       for r in results]}
     write_json(out / "suite.json", data)
     (out / "suite.md").write_text(format_markdown(rows, missing_md,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import rbenv
@@ -41,6 +42,8 @@ def _fake_result(algo, task, scene, seed, success, fuel_kg=0.001):
             "learning_curve": {"timesteps": [500, 1000], "success_rate": [0.1, success]},
             "policy": {**summary, "policy": algo, "timesteps": 1000},
             "final": {**summary, "policy": algo, "success_rate": success / 2},
+            "final_clip_mean": {**summary, "policy": algo, "success_rate": 0.0},
+            "training_curve": {"timesteps": [500, 1000], "success_rate": [0.1, 0.0]},
             "baselines": {"pd": {**summary, "policy": "pd", "success_rate": 0.9}}}
 
 
@@ -86,7 +89,8 @@ def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episo
     assert result["complete"] and result["training"]["timesteps"] >= suite.QUICK["timesteps"]
     assert set(result["baselines"]) == {"pd"}
     episodes, seed = suite.QUICK["episodes"], suite.EVAL_SEED
-    for summary in [result["policy"], result["final"], *result["baselines"].values()]:
+    for summary in [result["policy"], result["final"], result["final_clip_mean"],
+                    *result["baselines"].values()]:
         assert (summary["episodes"], summary["seed"]) == (episodes, seed)
     # The periodic evaluations during training make the learning curve.
     assert len(result["learning_curve"]["timesteps"]) >= 1
@@ -157,3 +161,23 @@ def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path):
     assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
     curve["success_rate"] = [1.0, 1.0, 0.3]  # ties: the latest
     assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
+
+
+@pytest.mark.slow  # trains
+def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite):
+    import torch
+
+    from agents.runs import load_policy
+
+    out, data = quick_suite
+    policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run")
+    env = __import__("gymnasium").make(rbenv.DETUMBLE_ID)
+    obs, _ = env.reset(seed=3)
+    expected, _ = suite.MeanThrottle(policy).predict(obs[None])
+    torch.manual_seed(0)
+    norm = torch.as_tensor(policy.normalize(obs[None]), dtype=torch.float32).repeat(20000, 1)
+    with torch.no_grad():
+        samples = policy.model.policy.get_distribution(norm).sample().numpy()
+    monte_carlo = np.clip(samples, 0, 1).mean(axis=0)
+    assert expected.shape == (1, 12)
+    assert np.max(np.abs(expected[0] - monte_carlo)) < 0.01
