@@ -234,7 +234,7 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
 
 def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
                         seed: int = EVAL_SEED) -> list[dict]:
-    """Held-out success and median final error of every checkpoint of a cell's run.
+    """Held-out success and median final error of every checkpoint (mean-throttle action).
 
     The evidence for a cell that misses its target: whether the policy was still improving
     when its budget ran out, and how far from the success thresholds it ends.
@@ -246,7 +246,8 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     ckpts = sorted(runs.checkpoints(cell_dir(cell, out) / "run" / runs.CHECKPOINTS,
                                     report=lambda _: None), key=lambda c: c.steps)
     for ckpt in ckpts:
-        s = evaluate(SB3Policy(ckpt.model), episodes=episodes, seed=seed, scene=cell.scene,
+        s = evaluate(MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes, seed=seed,
+                     scene=cell.scene,
                      env_id=cell.env_id, record=0).summary()
         rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
                      "final_error_deg_median": s["final_error_deg"]["median"],
@@ -314,10 +315,11 @@ def group_results(results: list[dict]) -> list[dict]:
         stats = {k: _stats([m[k] for m in per_seed]) for k in per_seed[0]}
         baselines = {}
         for name in rs[0]["baselines"]:
-            runs_b = {(r["eval"]["seed"], r["eval"]["episodes"]): _metrics(r["baselines"][name])
-                      for r in rs}
-            baselines[name] = next(iter(runs_b.values()))
-            baselines[name]["same_episodes_in_every_seed"] = len(runs_b) == 1
+            # Every seed's cell evaluated the baseline itself: identical unless the episodes
+            # (or the env's code) differed between them.
+            seen = [_metrics(r["baselines"][name]) for r in rs]
+            baselines[name] = {**seen[0], "identical_in_every_seed": all(m == seen[0]
+                                                                         for m in seen)}
         best = max(b["success_rate"] for b in baselines.values())
         rows.append({"algo": algo, "task": task, "scene": scene,
                      "seeds": sorted(r["cell"]["seed"] for r in rs),

@@ -95,7 +95,7 @@ def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episo
     # The periodic evaluations during training make the learning curve.
     assert len(result["learning_curve"]["timesteps"]) >= 1
     (row,) = data["rows"]
-    assert row["baselines"]["pd"]["same_episodes_in_every_seed"]
+    assert row["baselines"]["pd"]["identical_in_every_seed"]
     assert row["baselines"]["pd"]["success_rate"] > 0.9  # the rate damper detumbles
 
 
