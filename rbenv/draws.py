@@ -36,7 +36,6 @@ _EPISODE_MUL = np.uint64(0xD1B54A32D192ED03)
 _S30, _S27, _S31, _S11 = (np.uint64(s) for s in (30, 27, 31, 11))
 _TO_UNIT = 2.0**-53
 _TWO_PI = 2.0 * np.pi
-_BLOCK = 32  # uniform slots hashed at once per stream (covers every task's start)
 
 # One stream per consumer of episode-start randomness.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
@@ -46,10 +45,16 @@ _STREAM_KEYS = {name: np.uint64(key) for name, key in _STREAM_INTS.items()}
 
 
 def _mix(z: np.ndarray) -> np.ndarray:
-    """SplitMix64 finaliser on a uint64 array (wrapping arithmetic)."""
-    z = (z ^ (z >> _S30)) * _M1
-    z = (z ^ (z >> _S27)) * _M2
-    return z ^ (z >> _S31)
+    """SplitMix64 finaliser on a uint64 array, in place (wrapping arithmetic); returns z."""
+    t = z >> _S30
+    z ^= t
+    z *= _M1
+    np.right_shift(z, _S27, out=t)
+    z ^= t
+    z *= _M2
+    np.right_shift(z, _S31, out=t)
+    z ^= t
+    return z
 
 
 _MASK = 2**64 - 1
@@ -71,18 +76,15 @@ class EpisodeDraws:
     env), which hands out numbers as Python floats instead of (N,) arrays; ``xp`` is the
     matching :mod:`core.backend` namespace, so task code written on components serves both.
     Both cases run the same NumPy arithmetic on the same bits (one env is a batch of one), so a
-    single env and a sub-env draw the same numbers. Each stream is hashed once per reset, in a
-    block of slots, and its normals are made once from the block's aligned slot pairs. Slot
-    ``j`` of a stream is always the same number for the same (seed, episode), whatever else
-    was drawn.
+    single env and a sub-env draw the same numbers. Slot ``j`` of a stream is always the same
+    number for the same (seed, episode), whatever else was drawn.
     """
 
-    __slots__ = ("_blocks", "_keys", "_normals", "n", "single", "xp")
+    __slots__ = ("_keys", "n", "single", "xp")
 
     def __init__(self, seeds, episodes, single: bool = False):
         self.single = bool(single)
         self.xp = FLOAT if self.single else NUMPY
-        self._blocks, self._normals = {}, {}  # stream -> (slots, N) uniforms, (slots/2, N)
         if self.single:  # one int each: mixed on Python ints, cheaper than one-element arrays
             key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
                             + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
@@ -99,38 +101,29 @@ class EpisodeDraws:
 
     def _bits(self, stream: str, count: int, offset: int) -> np.ndarray:
         """(count, N) uint64: slots offset … offset + count − 1 of ``stream``."""
-        base = self._keys + _STREAM_KEYS[stream]
         slots = (np.arange(offset, offset + count, dtype=np.uint64) + np.uint64(1)) * _GOLDEN
-        return _mix(base[None, :] + slots[:, None])
-
-    def _block(self, stream: str, size: int) -> np.ndarray:
-        """(≥ size, N) uniforms of the stream's first slots, hashed once per reset."""
-        block = self._blocks.get(stream)
-        if block is None or len(block) < size:
-            size = max(size, _BLOCK)
-            block = (self._bits(stream, size, 0) >> _S11).astype(np.float64) * _TO_UNIT
-            self._blocks[stream] = block
-            self._normals.pop(stream, None)
-        return block
+        z = np.add.outer(slots, self._keys + _STREAM_KEYS[stream])
+        return _mix(z)
 
     def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
-        return self._block(stream, offset + count)[offset:offset + count]
+        z = np.right_shift(self._bits(stream, count, offset), _S11)
+        u = z.astype(np.float64)
+        u *= _TO_UNIT
+        return u
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) standard normals, Box–Muller on uniform slots ``offset + 2k, + 2k + 1``.
 
         Uses ``2·count`` uniform slots from ``offset``, which must be even (slot pairs are
-        aligned, so every request of a stream shares one transform of its block).
+        aligned: normal ``k`` of a stream is always made from slots ``2k`` and ``2k + 1``).
         """
         if offset % 2:
             raise ValueError(f"normal draws start at an even slot, got offset {offset}")
-        block = self._block(stream, offset + 2 * count)
-        normals = self._normals.get(stream)
-        if normals is None:
-            radius = np.sqrt(-2.0 * np.log1p(-block[0::2]))  # 1 − u in (0, 1]: finite
-            normals = self._normals[stream] = radius * np.cos(_TWO_PI * block[1::2])
-        return normals[offset // 2:offset // 2 + count]
+        u = self.uniform_array(stream, 2 * count, offset)
+        radius = np.sqrt(-2.0 * np.log1p(-u[0::2]))  # 1 − u in (0, 1]: finite
+        radius *= np.cos(_TWO_PI * u[1::2])
+        return radius
 
     def uniform(self, stream: str, count: int, offset: int = 0) -> tuple:
         """``count`` uniform components (floats or (N,) arrays), slots ``offset…``."""
