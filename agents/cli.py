@@ -215,10 +215,15 @@ def _env_id(args) -> str:
 
     if args.env_id:
         return args.env_id
-    if args.policy not in ("pd", "bangbang", "zero", "random") and Path(args.policy).exists():
-        from agents.runs import locate
+    path = Path(args.policy)
+    if args.policy not in ("pd", "bangbang", "zero", "random") and path.exists():
+        from agents import runs
 
-        return (locate(args.policy).config or {}).get("env_id", rbenv.ENV_ID)
+        if path.is_dir() and (path / runs.CONFIG).is_file():  # a run folder, SB3 or RLlib
+            config = runs.read_config(path)
+        else:
+            config = runs.locate(path).config or {}
+        return config.get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
 

@@ -77,7 +77,16 @@ class SB3Policy(RunPolicy):
 
 
 def _load_model_policy(name: str) -> tuple:
-    """(policy, the run's gym.make options) for a model path or run folder."""
+    """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib)."""
+    from agents import runs
+
+    path = Path(name)
+    if path.is_dir() and (path / runs.CONFIG).is_file():
+        config = runs.read_config(path)
+        if config.get("engine") == "rllib":  # needs the ray extra (agents.rllib says so)
+            from agents.rllib import RLlibPolicy
+
+            return RLlibPolicy(path), runs.env_kwargs_of(config)
     policy = SB3Policy(name)
     return policy, policy.env_kwargs
 
