@@ -348,9 +348,12 @@ def summary(directory: Path = RESULTS) -> Path:
     for path in sorted(directory.glob("*/*.json")):
         data = json.loads(path.read_text())
         if "variant" in data:
-            lines.append(_row(data["variant"], data))
+            name = data["variant"]
+            if data.get("train_seed", 0):
+                name += f" (seed {data['train_seed']})"
+            lines.append(_row(name, data))
             for mode, result in data.get("result_other_modes", {}).items():
-                lines.append(_row(f"{data['variant']} [{mode}]", {**data, "result": result}))
+                lines.append(_row(f"{name} [{mode}]", {**data, "result": result}))
         elif "baseline" in data:
             r = data["result"]
             base.append(f"| {data['baseline']} | {json.dumps(data['env_kwargs'])} | "
