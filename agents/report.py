@@ -85,14 +85,16 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
         "for the scene's hold time",
         f"- load the policy with `agents.runs.load_policy({str(run_dir)!r})`: it applies the "
         "observation normalisation (`vecnormalize.pkl`) that a bare `PPO.load` lacks",
-        "",
-        table,
-        "",
-        "![episode](episode.png)",
     ]
+    return finish_report(run_dir, lines, table, curve)
+
+
+def finish_report(run_dir: Path, lines: list[str], table: str, curve) -> Path:
+    """Append the results table and the plots to ``lines``; write ``report.md`` atomically."""
+    lines = [*lines, "", table, "", "![episode](episode.png)"]
     if curve:
         lines += ["", "![training curve](training_curve.png)"]
-    path = run_dir / "report.md"
+    path = Path(run_dir) / "report.md"
     atomic_write(path, lambda p: p.write_text("\n".join(lines) + "\n"))
     print(table)
     print(f"report: {path}")

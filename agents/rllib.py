@@ -451,7 +451,7 @@ def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
     from agents.controllers import BASELINES
     from agents.evaluate import evaluate, format_table, plot_episodes
     from agents.evaluate import write_json as write_results
-    from agents.report import plot_training_curve, task_name
+    from agents.report import finish_report, plot_training_curve, task_name
 
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs, "env_id": cfg.env_id}
@@ -473,18 +473,8 @@ def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
         "initial states for every policy",
         f"- load the policy with `agents.rllib.RLlibPolicy({str(out)!r})` (SB3-style "
         "`predict`)",
-        "",
-        table,
-        "",
-        "![episode](episode.png)",
     ]
-    if curve:
-        lines += ["", "![training curve](training_curve.png)"]
-    path = out / "report.md"
-    atomic_write(path, lambda p: p.write_text("\n".join(lines) + "\n"))
-    print(table)
-    print(f"report: {path}")
-    return path
+    return finish_report(out, lines, table, curve)
 
 
 # --- command line ---------------------------------------------------------------------------
