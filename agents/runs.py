@@ -475,6 +475,20 @@ class RunPolicy:
                                   episode_start=episode_start, deterministic=deterministic)
 
 
+def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+    """E[clip(mean + std·ε, 0, 1)], ε ~ N(0, 1): the mean throttle of a clipped Gaussian policy.
+
+    With the env's ``throttle = clip(a, 0, 1)`` the deterministic action clip(mean, 0, 1) is
+    *not* the mean throttle of the stochastic policy: a mean below 0 gives 0, while the policy
+    it was trained as fires that thruster a fraction of the time. mean, std: same shape.
+    """
+    from scipy.stats import norm
+
+    lo, hi = -mean / std, (1.0 - mean) / std
+    return (mean * (norm.cdf(hi) - norm.cdf(lo)) + std * (norm.pdf(lo) - norm.pdf(hi))
+            + norm.sf(hi))
+
+
 def load_policy(path) -> RunPolicy:
     """A ready policy from a run folder, its ``model.zip`` or a checkpoint ``model_<N>.zip``.
 

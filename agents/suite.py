@@ -180,7 +180,7 @@ class MeanThrottle:
     Under ``throttle = clip(a, 0, 1)`` PPO learns to set thruster means below zero and fire
     them through its exploration noise; the usual deterministic action clip(μ, 0, 1) switches
     that firing off. The mean throttle is the deterministic action that matches the policy it
-    was trained as (formula: ``benchmarks.rl.sac_ablation.expected_throttle``).
+    was trained as (formula: :func:`agents.runs.expected_throttle`).
     """
 
     def __init__(self, policy):
@@ -189,7 +189,7 @@ class MeanThrottle:
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         import torch
 
-        from benchmarks.rl.sac_ablation import expected_throttle
+        from agents.runs import expected_throttle
 
         obs = torch.as_tensor(self.policy.normalize(observation), dtype=torch.float32)
         with torch.no_grad():

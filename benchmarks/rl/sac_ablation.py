@@ -33,6 +33,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 import rbenv
+from agents.runs import expected_throttle
 from agents.sb3 import SB3VecEnv
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl"
@@ -128,20 +129,6 @@ def make_env(spec: dict, n_envs: int, seed: int):
 
 
 # --------------------------------------------------------------------------- evaluation
-
-
-def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
-    """E[clip(mean + std·ε, 0, 1)], ε ~ N(0, 1): the mean throttle of a clipped Gaussian policy.
-
-    With ``throttle = clip(a, 0, 1)`` the deterministic action clip(mean, 0, 1) is *not* the
-    mean throttle of the stochastic policy: a mean below 0 gives 0, while the policy it was
-    trained as fires that thruster a fraction of the time.
-    """
-    from scipy.stats import norm
-
-    lo, hi = -mean / std, (1.0 - mean) / std
-    return (mean * (norm.cdf(hi) - norm.cdf(lo)) + std * (norm.pdf(lo) - norm.pdf(hi))
-            + norm.sf(hi))
 
 
 def _act(model, obs: np.ndarray, mode: str) -> np.ndarray:

@@ -23,3 +23,17 @@ def test_rbenv_and_core_import_no_learning_stack_or_agents():
                          timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+def test_no_package_imports_the_benchmarks():
+    """benchmarks/ is not installed: core, rbenv and agents must not import it (the CLI's
+    `rbenv bench` loads it from a checkout on purpose)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    pattern = re.compile(r"^\s*(from benchmarks\b|import benchmarks\b)", re.M)
+    offenders = [str(p.relative_to(root)) for pkg in ("core", "rbenv", "agents")
+                 for p in (root / pkg).rglob("*.py")
+                 if p.name != "cli.py" and pattern.search(p.read_text())]
+    assert offenders == []
