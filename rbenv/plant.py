@@ -362,11 +362,11 @@ def action_matrix(torque_matrix_B, max_force, force_matrix_B=None) -> np.ndarray
     return matrix
 
 
-def nan_action_error(action) -> ValueError:
-    """The ValueError for an action containing NaN, naming the first bad index."""
+def nan_action_error(action) -> InvalidParameterError:
+    """The named error (a ValueError) for an action containing NaN, naming the first bad index."""
     bad = np.argwhere(np.isnan(np.asarray(action, dtype=float)))
     where = tuple(int(i) for i in bad[0]) if len(bad) else ()
-    return ValueError(
+    return InvalidParameterError(
         f"action must not contain NaN (got NaN at index {where}); actions outside [-1, 1] are "
         "clipped to the action space, but NaN has no meaning"
     )
