@@ -36,6 +36,8 @@ _EPISODE_MUL = np.uint64(0xD1B54A32D192ED03)
 _S30, _S27, _S31, _S11 = (np.uint64(s) for s in (30, 27, 31, 11))
 _TO_UNIT = 2.0**-53
 _TWO_PI = 2.0 * np.pi
+_BLOCK = 32  # slots hashed at once per stream for a small batch (covers every task's start)
+_BLOCK_ELEMENTS = 1 << 20  # a batch whose block would exceed this hashes per request
 
 # One stream per consumer of episode-start randomness.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
@@ -80,11 +82,12 @@ class EpisodeDraws:
     number for the same (seed, episode), whatever else was drawn.
     """
 
-    __slots__ = ("_keys", "n", "single", "xp")
+    __slots__ = ("_blocks", "_keys", "n", "single", "xp")
 
     def __init__(self, seeds, episodes, single: bool = False):
         self.single = bool(single)
         self.xp = FLOAT if self.single else NUMPY
+        self._blocks = {}  # stream -> (slots, N) uniforms, small batches only
         if self.single:  # one int each: mixed on Python ints, cheaper than one-element arrays
             key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
                             + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
@@ -105,12 +108,27 @@ class EpisodeDraws:
         z = np.add.outer(slots, self._keys + _STREAM_KEYS[stream])
         return _mix(z)
 
-    def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
-        """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``."""
+    def _hash_uniforms(self, stream: str, count: int, offset: int) -> np.ndarray:
         z = np.right_shift(self._bits(stream, count, offset), _S11)
         u = z.astype(np.float64)
         u *= _TO_UNIT
         return u
+
+    def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
+        """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``.
+
+        A small batch (one env, or the few sub-envs an autoreset restarts) hashes a block of a
+        stream's first slots once and serves every request from it, saving NumPy calls; a
+        large one hashes each request alone, which keeps its temporaries small. The numbers
+        are the same either way.
+        """
+        if self.n * _BLOCK > _BLOCK_ELEMENTS:
+            return self._hash_uniforms(stream, count, offset)
+        block = self._blocks.get(stream)
+        if block is None or len(block) < offset + count:
+            block = self._blocks[stream] = self._hash_uniforms(
+                stream, max(offset + count, _BLOCK), 0)
+        return block[offset:offset + count]
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) standard normals, Box–Muller on uniform slots ``offset + 2k, + 2k + 1``.
