@@ -5,8 +5,9 @@ of interleaved rounds (shared machines are noisy), with actions generated before
 episodes reset as they end, as a training loop would. Reported, each as a ratio taken in this
 run:
 
-* single env, µs per step through ``gym.make``, for every task, scene and action mode, as a
-  ratio to ``Pendulum-v1``;
+* single env, µs per step through ``gym.make``, for every task, scene and action mode, and
+  with ``compiled=True`` (numba, ``rbenv[fast]``; its compilation is paid before the timing
+  and reported by ``rbenv bench speed``), as a ratio to ``Pendulum-v1``;
 * native vector env, env-steps/s at N = 1024 and 4096 with random throttles, with all
   thrusters off (no episode ends) and with one fixed random throttle for every step
   (reset-heavy: a few percent of the sub-envs lose control and autoreset each step), the
@@ -29,6 +30,7 @@ import numpy as np
 
 import rbenv
 from benchmarks.common import best_times, pyplot, save_figure, table, write_json
+from core import compiled
 
 ROUNDS = 5
 N_ACTIONS = 1024
@@ -95,6 +97,12 @@ def single_env() -> list[dict]:
     env = gym.make(rbenv.ENV_ID, action_mode="torque")
     cases[f"{rbenv.ENV_ID} cubesat-12u torque"] = _single_stepper(
         env, _actions(env.action_space, N_ACTIONS))
+    if compiled.available():
+        env = gym.make(rbenv.ENV_ID, compiled=True)
+        env.reset(seed=0)
+        env.step(env.action_space.sample())  # the JIT compilation, outside the timing
+        cases[f"{rbenv.ENV_ID} cubesat-12u compiled"] = _single_stepper(
+            env, _actions(env.action_space, N_ACTIONS))
     best = best_times(cases, rounds=ROUNDS, min_time=0.05)
     ref = best["Pendulum-v1"]
     return [{"env": name, "us_per_step": t * 1e6, "ratio_to_pendulum": t / ref}

@@ -19,7 +19,7 @@ float path bit for bit (tests/core/test_compiled.py). The first call of each int
 JIT compilation (seconds; ``benchmarks.speed`` reports it).
 
 Use: ``core.compiled.get("rk4").advance(body, q, w, h, tau_B, tau_W)`` on component tuples of
-(N,) arrays, exactly like ``core.INTEGRATORS["rk4"].advance``.
+(N,) arrays, or of floats for one body, exactly like ``core.INTEGRATORS["rk4"].advance``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import functools
 import inspect
 import math
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -153,8 +153,8 @@ def _register_body():
 
         return typer
 
-    for i, field in enumerate(_BODY_FIELDS):
-        overload_attribute(BodyType, field)(constant(i))
+    for i, name in enumerate(_BODY_FIELDS):
+        overload_attribute(BodyType, name)(constant(i))
     overload_attribute(BodyType, "is_isotropic")(lambda self: RigidBody.is_isotropic.fget)
     for name in ("inertia_times", "inverse_times"):
         fn = getattr(RigidBody, name)
@@ -207,16 +207,45 @@ def _arrays(components, n: int):
 
 @dataclass(frozen=True)
 class CompiledIntegrator:
-    """A compiled integrator: ``advance`` has the interface of ``core.INTEGRATORS[name]``."""
+    """A compiled integrator: ``advance`` has the interface of ``core.INTEGRATORS[name]``.
+
+    loop: the batch loop (components are (N,) arrays). kernel: the float kernel itself,
+    compiled for one body whose components are floats (the single env's state).
+    """
 
     name: str
     loop: object
+    kernel: object
+    # (frozen body, has τ_B, has τ_W) → the compiled kernel's entry point for that signature
+    _entries: dict = field(default_factory=dict, repr=False, compare=False)
 
     def advance(self, body, q, w, h, tau_B=None, tau_W=None):
-        """One step of every body; components are (N,) arrays (floats broadcast)."""
+        """One step of every body: components are (N,) arrays (floats broadcast), or all
+        floats for one body (then the result is tuples of floats, as from the float path)."""
+        if isinstance(q[0], float):
+            return self.advance_one(body, q, w, h, tau_B, tau_W)
         n = max(1 if type(c) is float else np.size(c) for c in (*q, *w))
         return self.loop(_compiled_body(body), _arrays(q, n), _arrays(w, n), float(h),
                          _arrays(tau_B, n), _arrays(tau_W, n))
+
+    def advance_one(self, body, q, w, h, tau_B=None, tau_W=None):
+        """One body, components as floats: the compiled float kernel, called through its
+        entry point for this signature (numba's per-call type dispatch would cost ~20 µs).
+        """
+        frozen = _compiled_body(body)
+        key = (frozen, tau_B is None, tau_W is None)
+        entry = self._entries.get(key)
+        if entry is None:
+            entry = self._entries[key] = self._compile_one(*key)
+        return entry(frozen, tuple(q), tuple(w), float(h),
+                     None if tau_B is None else tuple(tau_B),
+                     None if tau_W is None else tuple(tau_W))
+
+    def _compile_one(self, frozen, no_tau_B: bool, no_tau_W: bool):
+        vec = types.UniTuple(types.float64, 3)
+        return self.kernel.compile((numba.typeof(frozen), types.UniTuple(types.float64, 4), vec,
+                                    types.float64, types.none if no_tau_B else vec,
+                                    types.none if no_tau_W else vec))
 
 
 @functools.cache
@@ -229,4 +258,5 @@ def get(name: str) -> CompiledIntegrator:
         raise InvalidParameterError(f"compiled integrator must be one of {list(COMPILED)}, "
                                     f"got {name!r}")
     _setup()
-    return CompiledIntegrator(name, _make_loop(integrators.INTEGRATORS[name].advance))
+    kernel = integrators.INTEGRATORS[name].advance
+    return CompiledIntegrator(name, _make_loop(kernel), numba.njit(kernel))

@@ -31,7 +31,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
                  max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
-                 render_mode=None):
+                 render_mode=None, compiled=False):
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.action_space, self.observation_space = self._setup(options, render_mode,
                                                                 RENDER_MODES)
@@ -125,6 +125,10 @@ class SatelliteReorientEnv(AttitudeEnv):
     ``randomize``            scene's (off)        dict of domain-randomization sizes, or False
     ``task_options``         None                 unused by this task
     ``render_mode``          None                 ``"rgb_array"`` or ``"human"``
+    ``compiled``             False                True: the integrator runs numba-compiled
+                                                  (extra ``rbenv[fast]``; same results bit for
+                                                  bit; a few seconds of compilation at the
+                                                  first step; not with randomized inertia)
     =======================  ===================  ==============================================
 
     **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
