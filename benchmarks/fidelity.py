@@ -39,6 +39,7 @@ from agents.runs import RunFolderError, read_json, write_json
 RESULT_VERSION = 1
 SCENE = "cubesat-12u"
 N_ENVS = 64  # PPO's default (agents.train.DEFAULT_N_ENVS), also used for the speed figure
+LARGE_N_ENVS = 4096  # a second speed figure where the physics, not per-call overhead, dominates
 
 
 @dataclass(frozen=True)
@@ -202,9 +203,11 @@ def reference_check(table: dict, runs: list[dict]) -> dict:
             "converged": bool(worst_success == 0.0 and worst_fuel <= CONVERGED_FUEL_RTOL)}
 
 
-def env_speed(settings: list[Setting], *, rounds: int = 7, steps: int = 8) -> dict:
-    """Env-steps/s of the vector env (N_ENVS sub-envs, same-step autoreset as in training) for
-    every setting: CPU time, minimum over interleaved rounds; random actions, resets included."""
+def env_speed(settings: list[Setting], *, num_envs: int = N_ENVS, rounds: int = 7,
+              steps: int = 8) -> dict:
+    """Env-steps/s of the vector env (``num_envs`` sub-envs, same-step autoreset as in training)
+    for every setting: CPU time, minimum over interleaved rounds; random actions, resets
+    included."""
     import gymnasium as gym
     from gymnasium.vector import AutoresetMode
 
@@ -212,7 +215,7 @@ def env_speed(settings: list[Setting], *, rounds: int = 7, steps: int = 8) -> di
 
     fns, envs = {}, []
     for s in settings:
-        env = gym.make_vec(rbenv.ENV_ID, num_envs=N_ENVS, vectorization_mode="vector_entry_point",
+        env = gym.make_vec(rbenv.ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point",
                            autoreset_mode=AutoresetMode.SAME_STEP, scene=SCENE, **s.env_kwargs)
         env.reset(seed=0)
         actions = np.random.default_rng(0).uniform(-1, 1, (steps, *env.action_space.shape))
@@ -226,7 +229,7 @@ def env_speed(settings: list[Setting], *, rounds: int = 7, steps: int = 8) -> di
     seconds = best_times(fns, rounds=rounds)
     for env in envs:
         env.close()
-    return {name: N_ENVS * steps / t for name, t in seconds.items()}
+    return {name: num_envs * steps / t for name, t in seconds.items()}
 
 
 # --- aggregate --------------------------------------------------------------------------------
@@ -240,8 +243,10 @@ def _stats(values) -> dict:
     return suite._stats(list(values))
 
 
-def setting_rows(settings: list[Setting], runs: list[dict], table: dict, speed: dict) -> list:
-    """One row per setting: the policies' stats over seeds, baselines, speed."""
+def setting_rows(settings: list[Setting], runs: list[dict], table: dict, speed: dict,
+                 timesteps: int, large: dict) -> list:
+    """One row per setting: the policies' stats over seeds, baselines, speed (and the CPU time
+    the env alone would take for ``timesteps`` steps at that speed)."""
     rows = []
     base_speed = speed.get(DEFAULT.name)
     for s in settings:
@@ -250,6 +255,10 @@ def setting_rows(settings: list[Setting], runs: list[dict], table: dict, speed: 
                "env_steps_per_s": speed.get(s.name),
                "env_cost_vs_default": (base_speed / speed[s.name]
                                        if base_speed and s.name in speed else None),
+               "env_cpu_s_per_run": (timesteps / speed[s.name] if s.name in speed else None),
+               "env_steps_per_s_large": large.get(s.name),
+               "env_cost_vs_default_large": (large[DEFAULT.name] / large[s.name]
+                                             if s.name in large else None),
                "baselines_own": {b: _metrics(table[s.name][b]) for b in BASELINES}}
         for key in ("reference", "own", "final_reference", "final_own"):
             per = [_metrics(r[key]) for r in rs]
@@ -288,17 +297,25 @@ def format_markdown(data: dict) -> str:
         f"{suite.VALIDATION_EPISODES} validation episodes of the training physics. Mean ± std "
         "over seeds. Training time: wall time of the run on a shared 2-core machine (CPU "
         "time of the process beside it). env-steps/s: the vector env alone, "
-        f"{N_ENVS} sub-envs, CPU time, measured in one run.", "",
-        "| setting | env-steps/s | env cost vs rk4x1 | seeds | success on reference | "
+        f"{N_ENVS} sub-envs (as in training), CPU time, measured in one run; its cost "
+        f"relative to rk4x1 also at {LARGE_N_ENVS} sub-envs, where the physics dominates; env "
+        f"CPU per run: the CPU time those env steps take over {info['timesteps']:,} timesteps "
+        "(the rest of training is the network). PD/bang-bang own: the scripted baselines on "
+        "the same episodes of that setting's physics (success / propellant).", "",
+        f"| setting | env-steps/s | env cost vs rk4x1 ({N_ENVS} / {LARGE_N_ENVS} envs) | "
+        "env CPU per run (s) | seeds | "
+        "success on reference | "
         "success on own physics | fuel on reference (g) | settle median on reference (s) | "
         "training wall (min) | training CPU (min) | PD own | bang-bang own |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in data["rows"]:
         sps = "—" if row["env_steps_per_s"] is None else f"{row['env_steps_per_s']:,.0f}"
-        cost = "—" if row["env_cost_vs_default"] is None else f"{row['env_cost_vs_default']:.2f}×"
+        cost = "—" if row["env_cost_vs_default"] is None else (
+            f"{row['env_cost_vs_default']:.2f}× / {row['env_cost_vs_default_large']:.2f}×")
+        env_s = "—" if row["env_cpu_s_per_run"] is None else f"{row['env_cpu_s_per_run']:.1f}"
         pd, bb = row["baselines_own"]["pd"], row["baselines_own"]["bangbang"]
         lines.append(
-            f"| {row['setting']} | {sps} | {cost} | {len(row['seeds'])} | "
+            f"| {row['setting']} | {sps} | {cost} | {env_s} | {len(row['seeds'])} | "
             f"**{_pct(row['reference']['success_rate'])}** | {_pct(row['own']['success_rate'])}"
             f" | {_num(row['reference']['fuel_g'], '.2f')} | "
             f"{_num(row['reference']['settle_median_s'], '.1f')} | "
@@ -319,19 +336,30 @@ def format_markdown(data: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _training_time(row: dict) -> tuple[dict, str]:
+    """The x axis: CPU time of training where every run has it (a quieter measure on a shared
+    machine than wall time), else wall time."""
+    cpu = row["train_cpu_time_s"]
+    if cpu["n"] and cpu["n"] == len(row["seeds"]):
+        return cpu, "CPU"
+    return row["train_wall_time_s"], "wall"
+
+
 def plot(data: dict, path: Path) -> Path:
     """Success on the reference (filled) and on the training physics (open) against training
-    wall time, one point per setting (mean over seeds; bars: min to max)."""
+    time, one point per setting (mean over seeds; bars: min to max)."""
     from benchmarks.common import pyplot
 
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    kinds = set()
     for row in data["rows"]:
-        wall, ref, own = (row["train_wall_time_s"], row["reference"]["success_rate"],
-                          row["own"]["success_rate"])
-        if wall["mean"] is None:
+        (time_s, kind), ref = _training_time(row), row["reference"]["success_rate"]
+        own = row["own"]["success_rate"]
+        if time_s["mean"] is None:
             continue
-        x = wall["mean"] / 60
+        kinds.add(kind)
+        x = time_s["mean"] / 60
         (pt,) = ax.plot([x], [100 * ref["mean"]], "o", ms=7, label=row["setting"])
         ax.errorbar([x], [100 * ref["mean"]], yerr=[[100 * (ref["mean"] - ref["min"])],
                                                     [100 * (ref["max"] - ref["mean"])]],
@@ -343,10 +371,11 @@ def plot(data: dict, path: Path) -> Path:
     for b, ls in zip(BASELINES, ("--", "-."), strict=True):
         ax.axhline(100 * ref_base[b]["success_rate"], color="k", ls=ls, lw=0.8,
                    label=f"{b} on reference")
-    ax.set_xlabel("PPO training wall time (min, shared 2-core machine)")
+    what = " or ".join(sorted(kinds)) or "CPU"
+    ax.set_xlabel(f"PPO training time, {what} (min, 1 torch thread, shared 2-core machine)")
     ax.set_ylabel(f"success on reference physics {REFERENCE.name} (%)")
-    ax.set_title(f"PPO on {SCENE}: trained on cheaper physics, tested on the reference "
-                 "(open: own physics)", fontsize=9)
+    ax.set_title(f"PPO on {SCENE}, {data['info']['timesteps']:,} steps: trained on each "
+                 "setting, tested on the reference (open: on its own physics)", fontsize=8)
     ax.legend(fontsize=7, loc="lower left", ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -360,7 +389,9 @@ def aggregate(settings: list[Setting], runs: list[dict], out: Path, *, episodes:
     from benchmarks.common import machine
 
     table = baselines(list(dict.fromkeys([*settings, REFERENCE, CHECK])), episodes)
-    speed = env_speed(list(dict.fromkeys([*settings, DEFAULT])), rounds=speed_rounds)
+    timed = list(dict.fromkeys([*settings, DEFAULT]))
+    speed = env_speed(timed, rounds=speed_rounds)
+    large = env_speed(timed, num_envs=LARGE_N_ENVS, rounds=speed_rounds, steps=2)
     have = {(r["name"], r["seed"]) for r in runs}
     missing = [f"{s.name} seed {k}" for k in seeds for s in settings if (s.name, k) not in have]
     data = {"version": RESULT_VERSION, "benchmark": "fidelity", "machine": machine(),
@@ -368,7 +399,8 @@ def aggregate(settings: list[Setting], runs: list[dict], out: Path, *, episodes:
                      "timesteps": timesteps, "seeds": seeds, "n_envs": N_ENVS,
                      "reference": REFERENCE.name, "check": CHECK.name},
             "reference_check": reference_check(table, runs),
-            "rows": setting_rows(settings, runs, table, speed), "env_steps_per_s": speed,
+            "rows": setting_rows(settings, runs, table, speed, timesteps, large),
+            "env_steps_per_s": speed, "env_steps_per_s_large": large,
             "baselines": table, "missing": missing,
             "runs": [{k: r[k] for k in ("name", "seed", "setting", "timesteps",
                                         "selected_timesteps", "training", "validation_curve",

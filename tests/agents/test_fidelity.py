@@ -43,6 +43,7 @@ def test_quick_form_writes_every_file_and_a_row_per_setting(quick):
     assert json.loads((out / "fidelity.json").read_text())["rows"] == data["rows"]
     names = [s.name for s in QUICK["settings"]]
     assert [row["setting"] for row in data["rows"]] == names
+    assert data["rows"][names.index("rk4x1")]["env_cost_vs_default"] == 1.0
     assert data["missing"] == []
     md = (out / "fidelity.md").read_text()
     for name in names:
@@ -50,7 +51,8 @@ def test_quick_form_writes_every_file_and_a_row_per_setting(quick):
         assert (out / "runs" / f"{name}-seed0.json").is_file()
     for row in data["rows"]:
         assert row["seeds"] == [0]
-        assert np.isfinite(row["env_steps_per_s"]) and row["env_steps_per_s"] > 0
+        for key in ("env_steps_per_s", "env_steps_per_s_large", "env_cpu_s_per_run"):
+            assert np.isfinite(row[key]) and row[key] > 0
         assert row["train_wall_time_s"]["n"] == 1
         for key in ("reference", "own", "final_reference", "final_own"):
             assert 0.0 <= row[key]["success_rate"]["mean"] <= 1.0
