@@ -56,6 +56,7 @@ class TaskAdapter:
         self.render_mode = render_mode
         self.observation_structure = dict(self.task.observation_structure)
         self._kinds = transition.state_kinds(self.task)
+        self._block_slots = {"task": self.task.start_slots, "plant": self.plant.start_slots}
         size = self.task.observation_size()
         return (gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32),
                 gym.spaces.Box(-1.0, 1.0, (size,), np.float32))

@@ -23,6 +23,8 @@ uniforms take its top 53 bits, normals come from the Box–Muller transform of t
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from core.backend import FLOAT, NUMPY
@@ -59,6 +61,22 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return z
 
 
+def _to_unit(z: np.ndarray) -> np.ndarray:
+    """Uniform floats on [0, 1) from the top 53 bits of uint64 hashes (exact: z >> 11 < 2⁵³)."""
+    return np.multiply(np.right_shift(z, _S11, out=z), _TO_UNIT, dtype=np.float64)
+
+
+@functools.cache
+def _slot_keys(streams: tuple, offset: int = 0) -> np.ndarray:
+    """Per-row key offsets of the slots ``offset …`` of each (stream, count) in ``streams``,
+    stacked: ``(slot + 1)·golden + stream key`` (uint64, wrapping; read-only)."""
+    rows = [(np.arange(offset, offset + count, dtype=np.uint64) + np.uint64(1)) * _GOLDEN
+            + _STREAM_KEYS[stream] for stream, count in streams]
+    out = np.concatenate(rows) if rows else np.zeros(0, dtype=np.uint64)
+    out.setflags(write=False)
+    return out
+
+
 _MASK = 2**64 - 1
 _M1_INT, _M2_INT, _GOLDEN_INT = int(_M1), int(_M2), int(_GOLDEN)
 _EPISODE_MUL_INT = int(_EPISODE_MUL)
@@ -82,52 +100,59 @@ class EpisodeDraws:
     number for the same (seed, episode), whatever else was drawn.
     """
 
-    __slots__ = ("_blocks", "_keys", "n", "single", "xp")
+    __slots__ = ("_blocks", "_keys", "_sizes", "n", "single", "xp")
 
-    def __init__(self, seeds, episodes, single: bool = False):
+    def __init__(self, seeds, episodes, single: bool = False, block_slots: dict | None = None):
+        """block_slots: stream → the slots its consumer draws (a hint: a small batch hashes
+        those blocks of every hinted stream at once; the numbers do not depend on it)."""
         self.single = bool(single)
         self.xp = FLOAT if self.single else NUMPY
         self._blocks = {}  # stream -> (slots, N) uniforms, small batches only
+        self._sizes = block_slots or {}
         if self.single:  # one int each: mixed on Python ints, cheaper than one-element arrays
             key = _mix_int((_mix_int((int(seeds) % 2**64) ^ _GOLDEN_INT)
                             + (int(episodes) % 2**64) * _EPISODE_MUL_INT) & _MASK)
             self._keys, self.n = np.array([key], dtype=np.uint64), 1
-            return
-        # uint64 array arithmetic wraps silently (only NumPy scalars warn on overflow).
-        self._keys = _mix(_mix(np.asarray(seeds, dtype=np.uint64) ^ _GOLDEN)
-                          + np.asarray(episodes, dtype=np.uint64) * _EPISODE_MUL)
-        self.n = len(self._keys)
+        else:
+            # uint64 array arithmetic wraps silently (only NumPy scalars warn on overflow).
+            self._keys = _mix(_mix(np.asarray(seeds, dtype=np.uint64) ^ _GOLDEN)
+                              + np.asarray(episodes, dtype=np.uint64) * _EPISODE_MUL)
+            self.n = len(self._keys)
+        if self._sizes and self.n * sum(self._sizes.values()) <= _BLOCK_ELEMENTS:
+            self._hash_blocks()
+
+    def _hash_blocks(self) -> None:
+        """Every hinted stream's block in one pass: one (Σ slots, N) hash, split by stream."""
+        streams = tuple(self._sizes.items())
+        u = _to_unit(_mix(np.add.outer(_slot_keys(streams), self._keys)))
+        start = 0
+        for stream, size in streams:
+            self._blocks[stream] = u[start:start + size]
+            start += size
 
     def components(self, arr: np.ndarray) -> tuple:
         """Rows of a (count, N) array as components: floats (single) or (N,) arrays."""
         return tuple(arr[:, 0].tolist()) if self.single else tuple(arr)
 
-    def _bits(self, stream: str, count: int, offset: int) -> np.ndarray:
-        """(count, N) uint64: slots offset … offset + count − 1 of ``stream``."""
-        slots = (np.arange(offset, offset + count, dtype=np.uint64) + np.uint64(1)) * _GOLDEN
-        z = np.add.outer(slots, self._keys + _STREAM_KEYS[stream])
-        return _mix(z)
-
     def _hash_uniforms(self, stream: str, count: int, offset: int) -> np.ndarray:
-        z = np.right_shift(self._bits(stream, count, offset), _S11)
-        u = z.astype(np.float64)
-        u *= _TO_UNIT
-        return u
+        """(count, N) uniforms: slots offset … offset + count − 1 of ``stream``."""
+        return _to_unit(_mix(np.add.outer(_slot_keys(((stream, count),), offset), self._keys)))
 
     def uniform_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) floats uniform on [0, 1) from slots ``offset…`` of ``stream``.
 
         A small batch (one env, or the few sub-envs an autoreset restarts) hashes a block of a
-        stream's first slots once and serves every request from it, saving NumPy calls; a
-        large one hashes each request alone, which keeps its temporaries small. The numbers
-        are the same either way.
+        stream's first slots once (the ``block_slots`` hint, else 32) and serves every request
+        from it, saving NumPy calls; a large one hashes each request alone, which keeps its
+        temporaries small. The numbers are the same either way.
         """
-        if self.n * _BLOCK > _BLOCK_ELEMENTS:
+        size = self._sizes.get(stream, _BLOCK)
+        if self.n * size > _BLOCK_ELEMENTS:
             return self._hash_uniforms(stream, count, offset)
         block = self._blocks.get(stream)
         if block is None or len(block) < offset + count:
             block = self._blocks[stream] = self._hash_uniforms(
-                stream, max(offset + count, _BLOCK), 0)
+                stream, max(offset + count, size), 0)
         return block[offset:offset + count]
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:

@@ -51,7 +51,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             self._seed_key, self._episode = int(seed) % 2**64, 0
         elif self._seed_key is None:
             self._seed_key = int(self.np_random.integers(2**63))
-        draws = EpisodeDraws(self._seed_key, self._episode, single=True)
+        draws = EpisodeDraws(self._seed_key, self._episode, single=True,
+                             block_slots=self._block_slots)
         self._episode += 1
         start = transition.start(self.plant, self.task, draws, options)
         self._st = st = from_start(self._kinds, start, single=True)

@@ -284,6 +284,12 @@ class Plant:
 
     # ------------------------------------------------------------------- episode start
 
+    @property
+    def start_slots(self) -> int:
+        """Slots of stream "plant" that :meth:`sample_start` draws: 0–5 the disturbance bias
+        (three normals), then one uniform per thruster with random faults."""
+        return 6 + (self.n if self.scene.faults.model == "random" else 0)
+
     def sample_start(self, draws) -> dict:
         """The plant's part of an episode start for ``draws.n`` envs, from stream "plant".
 

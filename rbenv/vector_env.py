@@ -159,7 +159,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     def _start(self, idx: np.ndarray, options=None) -> dict:
         """Start values for sub-envs ``idx`` from their counter-based draws."""
-        draws = EpisodeDraws(self._seeds[idx], self._episodes[idx])
+        draws = EpisodeDraws(self._seeds[idx], self._episodes[idx],
+                             block_slots=self._block_slots)
         self._episodes[idx] += np.uint64(1)
         return transition.start(self.plant, self.task, draws, options, rows=idx)
 

@@ -81,6 +81,7 @@ class Task:
     OPTIONS: ClassVar[dict] = {}
     success_terminates: ClassVar[bool] = True
     moving_target: ClassVar[bool] = False  # advance_target is called every step
+    start_slots: ClassVar[int] = 32  # slots of stream "task" that sample_start draws (a hint)
     WeightsType: ClassVar[type] = Weights
 
     plant: object  # rbenv.plant.Plant

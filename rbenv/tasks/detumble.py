@@ -49,6 +49,7 @@ class Detumble(Task):
     name: ClassVar[str] = "detumble"
     env_id: ClassVar[str] = "rbenv/SatelliteDetumble-v0"
     observation_structure: ClassVar[dict] = {"omega_B": 3}
+    start_slots: ClassVar[int] = 15
     Terms: ClassVar[type] = DetumbleTerms
     WeightsType: ClassVar[type] = DetumbleWeights
     state_fields: ClassVar[dict] = {"rate": "f", "hold": "i"}

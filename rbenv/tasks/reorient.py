@@ -75,6 +75,7 @@ class Reorient(Task):
     name: ClassVar[str] = "reorient"
     env_id: ClassVar[str] = "rbenv/SatelliteReorient-v0"
     observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3}
+    start_slots: ClassVar[int] = 24
     Terms: ClassVar[type] = ReorientTerms
     WeightsType: ClassVar[type] = ReorientWeights
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
@@ -102,19 +103,20 @@ class Reorient(Task):
 
         Stream "task" (two uniform slots per normal): normals 0–3 target, 4–6 rate direction,
         uniform 14 rate magnitude; then the error: normals 8–11 (uniform on SO(3), the
-        full-angle case) or normals 8–10 (axis) and uniform 22 (angle).
+        full-angle case) or normals 8–10 (axis) and uniform 22 (angle). Normal k depends on
+        slots 2k and 2k + 1 alone, so all twelve come from one request (7 and 11 go unused).
         """
         xp = draws.xp
-        g = draws.normal("task", 7)
+        g = draws.normal("task", 12)
         (u_rate,) = draws.uniform("task", 1, offset=14)
         q_target = k.qnormalize(g[0:4])
         omega_B = k.scale(unit(g[4:7], xp), self.max_initial_rate * u_rate)
         if self.max_initial_angle >= math.pi:
-            error = k.qnormalize(draws.normal("task", 4, offset=16))
+            error = k.qnormalize(g[8:12])
         else:
             (u_angle,) = draws.uniform("task", 1, offset=22)
             theta = restricted_haar_angle(u_angle, self.max_initial_angle, xp)
-            error = k.exp(k.scale(unit(draws.normal("task", 3, offset=16), xp), theta))
+            error = k.exp(k.scale(unit(g[8:11], xp), theta))
         return {"q": k.qmul(q_target, error), "omega_B": omega_B, "q_target": q_target}
 
     def complete_start(self, start: dict, xp) -> None:

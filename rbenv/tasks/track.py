@@ -69,6 +69,7 @@ class Track(Task):
     name: ClassVar[str] = "track"
     env_id: ClassVar[str] = "rbenv/SatelliteTrack-v0"
     observation_structure: ClassVar[dict] = {"q_err": 4, "omega_err_B": 3, "omega_target_B": 3}
+    start_slots: ClassVar[int] = 29
     Terms: ClassVar[type] = TrackTerms
     WeightsType: ClassVar[type] = TrackWeights
     success_terminates: ClassVar[bool] = False
