@@ -194,8 +194,12 @@ def _make_loop(kernel):
     return loop
 
 
+_FLOAT64 = np.dtype(np.float64)
+
+
 def _array(c, n: int) -> np.ndarray:
-    if type(c) is np.ndarray and c.shape == (n,) and c.dtype == np.float64 and c.flags.c_contiguous:
+    # The cheapest test of "(n,) contiguous float64" (c.flags costs a microsecond).
+    if type(c) is np.ndarray and c.dtype is _FLOAT64 and c.shape == (n,) and c.strides == (8,):
         return c
     return np.ascontiguousarray(np.broadcast_to(np.asarray(c, dtype=np.float64), (n,)))
 
@@ -216,36 +220,44 @@ class CompiledIntegrator:
     name: str
     loop: object
     kernel: object
-    # (frozen body, has τ_B, has τ_W) → the compiled kernel's entry point for that signature
+    # (function, frozen body, has τ_B, has τ_W) → its compiled entry point for that signature
     _entries: dict = field(default_factory=dict, repr=False, compare=False)
 
     def advance(self, body, q, w, h, tau_B=None, tau_W=None):
         """One step of every body: components are (N,) arrays (floats broadcast), or all
         floats for one body (then the result is tuples of floats, as from the float path)."""
         if isinstance(q[0], float):
-            return self.advance_one(body, q, w, h, tau_B, tau_W)
-        n = max(1 if type(c) is float else np.size(c) for c in (*q, *w))
-        return self.loop(_compiled_body(body), _arrays(q, n), _arrays(w, n), float(h),
-                         _arrays(tau_B, n), _arrays(tau_W, n))
+            try:
+                return self.advance_one(body, q, w, h, tau_B, tau_W)
+            except TypeError:  # arrays among the floats: broadcast them below
+                pass
+        n = max(getattr(c, "size", 1) for c in (*q, *w))  # a float has no size: 1
+        frozen = _compiled_body(body)
+        return self._entry(self.loop, frozen, tau_B, tau_W)(
+            frozen, _arrays(q, n), _arrays(w, n), float(h), _arrays(tau_B, n),
+            _arrays(tau_W, n))
 
     def advance_one(self, body, q, w, h, tau_B=None, tau_W=None):
-        """One body, components as floats: the compiled float kernel, called through its
-        entry point for this signature (numba's per-call type dispatch would cost ~20 µs).
-        """
+        """One body, components as floats: the compiled float kernel itself."""
         frozen = _compiled_body(body)
-        key = (frozen, tau_B is None, tau_W is None)
+        return self._entry(self.kernel, frozen, tau_B, tau_W)(
+            frozen, tuple(q), tuple(w), float(h), None if tau_B is None else tuple(tau_B),
+            None if tau_W is None else tuple(tau_W))
+
+    def _entry(self, function, frozen, tau_B, tau_W):
+        """``function`` compiled for this body and these torque arguments, as its entry point:
+        numba's per-call type dispatch (about 20–50 µs for these argument types) is paid once
+        per signature instead of per call."""
+        key = (function, frozen, tau_B is None, tau_W is None)
         entry = self._entries.get(key)
         if entry is None:
-            entry = self._entries[key] = self._compile_one(*key)
-        return entry(frozen, tuple(q), tuple(w), float(h),
-                     None if tau_B is None else tuple(tau_B),
-                     None if tau_W is None else tuple(tau_W))
-
-    def _compile_one(self, frozen, no_tau_B: bool, no_tau_W: bool):
-        vec = types.UniTuple(types.float64, 3)
-        return self.kernel.compile((numba.typeof(frozen), types.UniTuple(types.float64, 4), vec,
-                                    types.float64, types.none if no_tau_B else vec,
-                                    types.none if no_tau_W else vec))
+            item = types.float64 if function is self.kernel else types.Array(types.float64, 1,
+                                                                              "C")
+            vec = types.UniTuple(item, 3)
+            entry = self._entries[key] = function.compile(
+                (numba.typeof(frozen), types.UniTuple(item, 4), vec, types.float64,
+                 types.none if tau_B is None else vec, types.none if tau_W is None else vec))
+        return entry
 
 
 @functools.cache

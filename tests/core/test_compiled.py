@@ -79,6 +79,33 @@ def test_floats_broadcast_against_arrays():
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
 
 
+@pytest.mark.parametrize(("name", "kind", "torques"), CASES)
+def test_one_body_on_floats_runs_the_compiled_kernel_bit_for_bit(name, kind, torques):
+    """Floats in, floats out (the single env's path), equal to the float kernel exactly."""
+    pytest.importorskip("numba")
+    body = bodies()[kind]
+    q, w, tau_B, tau_W = batch(5)
+    tau_B = None if torques == "none" else tau_B
+    tau_W = tau_W if torques == "both" else None
+    step, advance = compiled.get(name), INTEGRATORS[name].advance
+    for i in range(4):
+        args = (entry(q, i), entry(w, i), 0.05, entry(tau_B, i), entry(tau_W, i))
+        q_c, w_c = step.advance(body, *args)
+        assert all(type(c) is float for c in q_c + w_c)
+        assert (q_c, w_c) == advance(body, *args)
+
+
+def test_one_body_with_an_array_among_the_floats_broadcasts():
+    pytest.importorskip("numba")
+    body = bodies()["full"]
+    w = (np.array([0.1, 0.2, -0.3]), 0.5, -0.25)
+    q_c, w_c = compiled.get("rk4").advance(body, (1.0, 0.0, 0.0, 0.0), w, 0.05)
+    q_n, w_n = INTEGRATORS["rk4"].advance(body, (1.0, 0.0, 0.0, 0.0), w, 0.05)
+    for a, b in zip(q_c + w_c, q_n + w_n, strict=True):
+        assert np.shape(a) == (3,)
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+
+
 @pytest.mark.parametrize("name", ["midpoint", "splitting", "nope"])
 def test_integrators_that_are_not_compiled_are_refused_by_name(name):
     pytest.importorskip("numba")
