@@ -1,0 +1,327 @@
+"""How close to the limit: every reorientation policy as a ratio to per-episode lower bounds.
+
+    python -m benchmarks.bounds [--quick] [--out DIR] [--episodes 500] [--seed 1000000]
+                                [--optimal 3]
+
+On the default scene (cubesat-12u) and the held-out episodes ``seed + i``, computes for each
+episode the lower bounds of :mod:`rbenv.bounds` (settle time; propellant for any successful
+policy; propellant given the policy's own settle time), evaluates the PD and bang-bang
+baselines and the suite's three PPO policies (``benchmarks/results/suite/cells/
+ppo-reorient-cubesat-12u-seed{0,1,2}``, each as the suite evaluates it: the checkpoint the
+suite selected, acting with its mean throttle) and reports achieved / bound per episode:
+median and quartiles over successful episodes. A ratio below 1 would disprove a bound; the
+minimum is reported. ``--optimal K`` also optimises open-loop trajectories (SciPy SLSQP,
+:mod:`agents.optimal`) for K episodes, replays them in the env, and compares them with the
+bounds. Writes ``bounds.json``, ``bounds.md`` and ``bounds.png`` to ``--out`` (default
+``benchmarks/results/bounds``). ``--quick``: 20 episodes, PPO seed 0 only, one short
+optimisation: a smoke test for CI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import common
+
+SCENE = "cubesat-12u"
+SUITE = common.RESULTS / "suite"
+CELL = "ppo-reorient-cubesat-12u-seed{}"
+OUT = common.RESULTS / "bounds"
+QUICK = {"episodes": 20, "ppo_seeds": (0,), "optimal": 1, "maxiter": 40}
+
+
+def ppo_policy(seed: int, suite: Path = SUITE):
+    """The suite's PPO policy for reorient/cubesat-12u ``seed``, as the suite evaluates it: the
+    checkpoint it selected on validation episodes, acting with its mean throttle."""
+    from agents.evaluate import SB3Policy
+    from agents.runs import read_json
+    from agents.suite import MeanThrottle, select_checkpoint
+
+    folder = Path(suite) / "cells" / CELL.format(seed)
+    result = read_json(folder / "result.json", "suite cell result")
+    model, steps = select_checkpoint(folder / "run", result["learning_curve"])
+    meta = {"model": model.name, "timesteps": steps,
+            "suite_success_rate": result["policy"]["success_rate"],
+            "suite_fuel_mean_g": 1000 * result["policy"]["fuel"]["mean"]}
+    return MeanThrottle(SB3Policy(model)), meta
+
+
+def quartiles(x) -> dict:
+    """median, p25, p75, min, max and n of the finite values of x (None when there are none)."""
+    v = np.asarray(x, float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return {"median": None, "p25": None, "p75": None, "min": None, "max": None, "n": 0}
+    p25, med, p75 = np.percentile(v, [25, 50, 75])
+    return {"median": float(med), "p25": float(p25), "p75": float(p75), "min": float(v.min()),
+            "max": float(v.max()), "n": len(v)}
+
+
+def ratios(result, bounds: dict, limits) -> dict:
+    """Per-episode achieved / bound for one EvalResult, successful episodes only."""
+    from rbenv.bounds import fuel_bound
+
+    ok = np.asarray(result.success, bool)
+    settle = np.where(ok, result.settle_time_s, np.nan)
+    fuel = np.where(ok, result.fuel_kg, np.nan)
+    # Propellant needed to settle as early as this policy did (valid for this episode).
+    at_own = fuel_bound(limits, bounds["angle"], bounds["omega_B"], bounds["bias_B"],
+                        time_s=np.where(ok, settle, limits.settle_time_max))["kg"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r_settle = settle / bounds["settle_s"]
+        r_fuel = np.where(bounds["fuel_kg"] > 0, fuel / bounds["fuel_kg"], np.nan)
+        r_own = np.where(at_own > 0, fuel / at_own, np.nan)
+    return {"success_rate": float(ok.mean()), "successes": int(ok.sum()),
+            "settle_time_s": quartiles(settle), "fuel_g": quartiles(1000 * fuel),
+            "settle_ratio": quartiles(r_settle), "fuel_ratio": quartiles(r_fuel),
+            "fuel_ratio_own_time": quartiles(r_own),
+            "per_episode": {"success": ok, "settle_time_s": settle, "fuel_g": 1000 * fuel,
+                            "settle_ratio": r_settle, "fuel_ratio": r_fuel,
+                            "fuel_ratio_own_time": r_own}}
+
+
+def spot_checks(seed: int, count: int, maxiter: int, quick: bool,
+                candidates: int = 500) -> list[dict]:
+    """Optimised trajectories for ``count`` episodes (replayed in the env) beside the bounds.
+
+    Episodes, among ``seed … seed + candidates − 1``: the quartiles of the initial angle,
+    evenly spaced (quick: the smallest angle, the shortest horizon). Time: the earliest settle
+    step SLSQP reaches, by bisection between the bound (infeasible below it) and the bang-bang
+    controller's settle step, warm-started from the bang-bang throttles. Propellant: least
+    propellant settling by the last admissible step, throttles held 2 s, warm-started from the
+    PD's throttles (skipped with --quick).
+    """
+    from agents import optimal
+    from rbenv import bounds as rb
+
+    limits = rb.scene_limits(SCENE)
+    starts = rb.episode_starts(candidates, seed, SCENE)
+    order = np.argsort(starts["angle"])
+    picks = order[:1] if quick else order[np.linspace(len(order) // 4, 3 * len(order) // 4,
+                                                      count).astype(int)]
+    rows = []
+    for i in picks[:count]:
+        s = seed + int(i)
+        one = {k: v[i:i + 1] for k, v in starts.items()}
+        settle_bound = float(rb.settle_time_bound(limits, one["angle"], one["omega_B"],
+                                                  one["bias_B"])["sampled"][0])
+        fuel_bound = float(rb.fuel_bound(limits, one["angle"], one["omega_B"],
+                                         one["bias_B"])["kg"][0])
+        problem = optimal.Problem.from_seed(s, SCENE)
+        started = time.perf_counter()
+        bang = optimal.replay("bangbang", s, SCENE)
+        pd = optimal.replay("pd", s, SCENE)
+        dt = limits.control_dt
+        row = {"seed": s, "angle_deg": math.degrees(one["angle"][0]),
+               "rate0": float(np.linalg.norm(one["omega_B"][0])),
+               "settle_bound_s": settle_bound, "fuel_bound_g": 1000 * fuel_bound,
+               "bangbang": {k: bang[k] for k in ("success", "settle_time_s")}
+               | {"fuel_g": 1000 * bang["fuel_kg"]},
+               "pd": {k: pd[k] for k in ("success", "settle_time_s")}
+               | {"fuel_g": 1000 * pd["fuel_kg"]}}
+        if bang["success"]:
+            lo = int(np.rint(settle_bound / dt)) - 1
+            sol = optimal.time_optimal(problem, int(np.rint(bang["settle_time_s"] / dt)),
+                                       bang["throttles"], lo, maxiter=maxiter)
+            rep = optimal.replay(sol.throttles, s, SCENE)
+            row["time_optimal"] = {"solver_feasible": sol.feasible, "success": rep["success"],
+                                   "settle_time_s": rep["settle_time_s"],
+                                   "fuel_g": 1000 * rep["fuel_kg"]}
+        if not quick and pd["success"]:
+            sol = optimal.fuel_optimal(problem, pd["throttles"], maxiter=maxiter)
+            rep = optimal.replay(sol.throttles, s, SCENE)
+            row["fuel_optimal"] = {"solver_feasible": sol.feasible, "success": rep["success"],
+                                   "settle_time_s": rep["settle_time_s"],
+                                   "fuel_g": 1000 * rep["fuel_kg"]}
+        row["wall_s"] = time.perf_counter() - started
+        print(f"  optimal, episode {s}: {json.dumps(row, default=float)}", flush=True)
+        rows.append(row)
+    return rows
+
+
+def _cell(s: dict, spec: str = ".2f") -> str:
+    if s["median"] is None:
+        return "—"
+    return (f"{format(s['median'], spec)} [{format(s['p25'], spec)}, "
+            f"{format(s['p75'], spec)}]")
+
+
+def markdown(data: dict) -> str:
+    b = data["bounds"]
+    lines = [
+        f"Scene {data['scene']}, {data['episodes']} held-out episodes (seed {data['seed']} + i). "
+        "Ratios are achieved / lower bound per episode, over each policy's **successful "
+        "episodes only**: median [25th, 75th percentile]. Fuel / bound (any policy): against "
+        "the least propellant any policy needs to succeed within the episode; fuel / bound "
+        "(own time): against the least propellant needed to settle as early as this policy "
+        "did in that episode. Episodes whose propellant bound is 0 (small angles with a "
+        f"helpful initial rate: {b['fuel_zero']}) have no fuel ratio. PPO: the suite's policies "
+        "(selected checkpoint, mean throttle).", "",
+        f"Bounds over the episodes: settle time {_cell(b['settle_s'], '.1f')} s; propellant "
+        f"{_cell(b['fuel_g'], '.3f')} g.", "",
+        "| policy | success | settle time (s) | settle / bound | fuel (g) | fuel / bound (any "
+        "policy) | fuel / bound (own time) | least ratio (settle, fuel) |",
+        "|---|---|---|---|---|---|---|---|"]
+    for name, r in data["policies"].items():
+        least = (f"{r['settle_ratio']['min']:.2f}, {r['fuel_ratio']['min']:.2f}"
+                 if r["settle_ratio"]["min"] is not None else "—")
+        lines.append(f"| {name} | {100 * r['success_rate']:.1f} % | "
+                     f"{_cell(r['settle_time_s'], '.1f')} | {_cell(r['settle_ratio'])} | "
+                     f"{_cell(r['fuel_g'])} | {_cell(r['fuel_ratio'], '.1f')} | "
+                     f"{_cell(r['fuel_ratio_own_time'], '.1f')} | {least} |")
+    if data["optimal"]:
+        lines += ["", "Optimised open-loop trajectories (SLSQP, replayed in the env), beside "
+                  "the bounds and the baselines on the same episodes:", "",
+                  "| episode | angle (deg) | settle bound (s) | time-optimised settle (s) | "
+                  "bang-bang settle (s) | fuel bound (g) | fuel-optimised (g) | PD fuel (g) |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for o in data["optimal"]:
+            t = o.get("time_optimal", {})
+            f = o.get("fuel_optimal", {})
+            def show(d, key, spec):
+                if not d:
+                    return "—"
+                return format(d[key], spec) + ("" if d["success"] else " (failed)")
+            lines.append(f"| {o['seed']} | {o['angle_deg']:.1f} | {o['settle_bound_s']:.1f} | "
+                         f"{show(t, 'settle_time_s', '.1f')} | "
+                         f"{o['bangbang']['settle_time_s']:.1f} | {o['fuel_bound_g']:.3f} | "
+                         f"{show(f, 'fuel_g', '.3f')} | {o['pd']['fuel_g']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(data: dict, per_episode: dict, path: Path) -> Path:
+    plt = common.pyplot()
+    names = list(per_episode)
+    panels = (("settle_ratio", "settle time / bound"),
+              ("fuel_ratio", "fuel / bound (any policy)"),
+              ("fuel_ratio_own_time", "fuel / bound (at its own settle time)"))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for ax, (key, title) in zip(axes, panels, strict=True):
+        values = [np.asarray(per_episode[n][key], float) for n in names]
+        values = [v[np.isfinite(v)] for v in values]
+        ax.boxplot(values, whis=(5, 95), showfliers=False)
+        ax.set_xticks(range(1, len(names) + 1), names, rotation=20, fontsize=8)
+        ax.axhline(1.0, color="k", ls=":", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, axis="y", which="both", alpha=0.3)
+    axes[0].set_ylabel("achieved / lower bound (successful episodes; whiskers 5-95 %)")
+    fig.suptitle(f"How close to the limit: {data['scene']}, {data['episodes']} held-out "
+                 "episodes (dotted: the bound)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
+        quick: bool = False) -> tuple[dict, dict]:
+    from agents.evaluate import evaluate
+    from agents.train import set_threads
+    from rbenv import bounds as rb
+
+    set_threads(1)
+    limits = rb.scene_limits(SCENE)
+    starts = rb.episode_starts(episodes, seed, SCENE)
+    settle = rb.settle_time_bound(limits, starts["angle"], starts["omega_B"], starts["bias_B"])
+    fuel = rb.fuel_bound(limits, starts["angle"], starts["omega_B"], starts["bias_B"])
+    bounds = {**starts, "settle_s": settle["sampled"], "settle_continuous_s":
+              settle["continuous"], "fuel_kg": fuel["kg"], "kappa": fuel["kappa"]}
+    policies: dict = {"pd": ("pd", {}), "bangbang": ("bangbang", {})}
+    for s in ppo_seeds:
+        policies[f"ppo seed {s}"] = ppo_policy(s)
+    results, per_episode = {}, {}
+    for name, (policy, meta) in policies.items():
+        started = time.perf_counter()
+        ev = evaluate(policy, episodes=episodes, seed=seed, scene=SCENE, name=name, record=0)
+        r = ratios(ev, bounds, limits)
+        per_episode[name] = r.pop("per_episode")
+        results[name] = {**r, **meta, "eval_wall_s": time.perf_counter() - started}
+        print(f"{name}: success {100 * r['success_rate']:.1f} %, settle/bound "
+              f"{_cell(r['settle_ratio'])}, fuel/bound {_cell(r['fuel_ratio'], '.1f')}",
+              flush=True)
+    if len(ppo_seeds) > 1:  # the seeds pooled: every successful episode of every seed
+        pooled = {k: np.concatenate([per_episode[f"ppo seed {s}"][k] for s in ppo_seeds])
+                  for k in per_episode[f"ppo seed {ppo_seeds[0]}"]}
+        results["ppo (seeds pooled)"] = {
+            "success_rate": float(np.mean(pooled["success"])),
+            "successes": int(np.sum(pooled["success"])),
+            **{k: quartiles(pooled[k]) for k in ("settle_time_s", "fuel_g", "settle_ratio",
+                                                   "fuel_ratio", "fuel_ratio_own_time")}}
+        per_episode["ppo (seeds pooled)"] = pooled
+    optimal = spot_checks(seed, optimal_count, maxiter, quick) if optimal_count else []
+    violations = {name: {"settle": int(np.sum(per_episode[name]["settle_ratio"] < 1.0)),
+                         "fuel": int(np.sum(per_episode[name]["fuel_ratio"] < 1.0)),
+                         "fuel_own_time": int(np.sum(per_episode[name]["fuel_ratio_own_time"]
+                                                     < 1.0))}
+                  for name in per_episode}
+    for o in optimal:
+        for key, achieved, bound in (("time_optimal", "settle_time_s", "settle_bound_s"),
+                                     ("fuel_optimal", "fuel_g", "fuel_bound_g")):
+            if key in o:
+                o[key]["ratio_to_bound"] = o[key][achieved] / o[bound] if o[bound] else None
+    data = {"scene": SCENE, "episodes": episodes, "seed": seed, "limits": limits.summary(),
+            "bounds": {"settle_s": quartiles(bounds["settle_s"]),
+                       "settle_continuous_s": quartiles(bounds["settle_continuous_s"]),
+                       "fuel_g": quartiles(1000 * bounds["fuel_kg"]),
+                       "fuel_zero": int(np.sum(bounds["fuel_kg"] <= 0)),
+                       "kappa_lambda_max": quartiles(bounds["kappa"] * limits.inertia_max)},
+            "policies": results, "violations": violations, "optimal": optimal,
+            "per_episode": _rounded({"angle_deg": np.degrees(bounds["angle"]),
+                                     "rate0": np.linalg.norm(bounds["omega_B"], axis=1),
+                                     "settle_bound_s": bounds["settle_s"],
+                                     "fuel_bound_g": 1000 * bounds["fuel_kg"],
+                                     "policies": per_episode})}
+    return data, per_episode
+
+
+def _rounded(tree):
+    """Arrays in a nested dict as lists of floats to 5 significant digits (NaN: None)."""
+    if isinstance(tree, dict):
+        return {k: _rounded(v) for k, v in tree.items()}
+    arr = np.asarray(tree)
+    if arr.dtype == bool:
+        return arr.tolist()
+    return [float(f"{x:.5g}") if np.isfinite(x) else None for x in arr.astype(float)]
+
+
+def main(argv=()) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--quick", action="store_true", help="smoke form: " + json.dumps(QUICK))
+    p.add_argument("--out", default=None, help=f"output folder (default {OUT})")
+    p.add_argument("--episodes", type=int, default=500)
+    p.add_argument("--seed", type=int, default=1_000_000)
+    p.add_argument("--optimal", type=int, default=None,
+                   help="episodes to optimise trajectories for (0: none; default 3, quick 1)")
+    p.add_argument("--maxiter", type=int, default=150, help="SLSQP iterations per solve")
+    args = p.parse_args(argv)
+    started = time.perf_counter()
+    if args.quick:
+        count = QUICK["optimal"] if args.optimal is None else args.optimal
+        data, per_episode = run(QUICK["episodes"], args.seed, QUICK["ppo_seeds"], count,
+                                QUICK["maxiter"], quick=True)
+    else:
+        count = 3 if args.optimal is None else args.optimal
+        data, per_episode = run(args.episodes, args.seed, (0, 1, 2), count, args.maxiter)
+    data["command"] = "python -m benchmarks.bounds" + (" --quick" if args.quick else "")
+    data["wall_time_s"] = time.perf_counter() - started
+    data["machine"] = common.machine()
+    out = Path(args.out) if args.out else OUT
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bounds.json").write_text(json.dumps(common._jsonable(data), indent=1) + "\n")
+    table = markdown(data)
+    (out / "bounds.md").write_text(table)
+    plot(data, per_episode, out / "bounds.png")
+    print(table)
+    return data
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

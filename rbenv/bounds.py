@@ -1,0 +1,381 @@
+"""Lower bounds on settle time and propellant for the reorientation task, from a scene alone.
+
+No policy, however clever, settles sooner or spends less than these bounds on an episode, so
+``achieved / bound`` measures how far a controller is from the limit (docs/bounds.md derives
+each bound and says why it is valid). Everything here holds for the continuous rigid-body
+dynamics ``I ω̇ + ω × Iω = τ``, throttles in [0, 1] held over each control step of ``dt`` s (as
+the env applies them), the rate limit checked at the control steps (as the env checks it) and
+the scene's disturbance torque if it is a constant or a per-episode bias.
+
+Three facts carry both bounds:
+
+* the attitude error angle θ changes no faster than the body rate: ``|θ̇| ≤ |ω|`` (θ is the
+  distance to the target in the bi-invariant metric of SO(3), whose speed is ``|ω|``);
+* settling needs θ < ``success_angle`` and ``|ω| <`` ``success_rate`` at a control step;
+* the gyroscopic term ``ω × Iω`` does no work and keeps ``|Iω|``: any weighted rate
+  ``s = |P^½ ω|`` with ``P = I + κ I²`` (positive definite) changes only through the torque,
+  ``|ṡ| ≤ |P^½ I⁻¹ τ|``.
+
+Settle time: ``v = |ω|`` obeys ``|v̇| ≤ A``, with ``A`` the largest ``|I⁻¹(Bu + τ_d)|`` over
+throttles (a vertex of the box, enumerated) plus a gyroscopic allowance, and ``v ≤ V̂`` between
+steps (:func:`rate_cap`). The fastest ``v`` profile covering the angle is bang-coast-bang
+(:func:`bang_coast_bang_time`). Propellant: :func:`fuel_bound`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linprog
+
+from core.errors import InvalidParameterError
+from rbenv.scene import G0, Scene, load_scene
+
+__all__ = [
+    "SceneLimits",
+    "bang_coast_bang_time",
+    "episode_starts",
+    "fuel_bound",
+    "gyro_coefficient",
+    "max_weighted_torque",
+    "min_impulse_lp",
+    "rate_cap",
+    "scene_limits",
+    "settle_time_bound",
+    "weighted_rate_forms",
+]
+
+_MAX_ENUMERATED_THRUSTERS = 20  # 2^20 throttle vertices; beyond, the triangle inequality
+# The weighted-rate family P = I + κ I², κ = t / λ_max with t on this grid (t > -1: P > 0).
+_KAPPA_GRID = np.concatenate([np.linspace(-0.98, 0.0, 50), np.linspace(0.02, 4.0, 50)])
+
+
+@dataclass(frozen=True)
+class SceneLimits:
+    """What the bounds need from a scene (SI units; rad, s).
+
+    inertia_B: (3, 3) kg·m² about the centre of mass; inertia_min/max: its principal moments.
+    torque_max: N·m, largest ``|B u|`` over throttles u in [0, 1]^n (B: torque matrix).
+    accel_axis: rad/s², ``torque_max / inertia_min`` (largest torque along any axis over the
+    smallest principal inertia). accel_max: rad/s², largest ``|I⁻¹ B u|`` (≤ accel_axis).
+    gyro_coeff: 1/rad, ``c`` with ``|I⁻¹(ω × Iω)| ≤ c |ω|²``. rate_limit: rad/s, checked at
+    control steps; rate_cap: rad/s, bound on ``|ω|`` at every instant (:func:`rate_cap`).
+    settle_time_max: s, latest settle time of a successful episode (the hold must end within
+    the episode). fuel_per_impulse: kg/(N·s) = 1 / (Isp g0).
+    """
+
+    inertia_B: np.ndarray
+    inertia_min: float
+    inertia_max: float
+    torque_matrix_B: np.ndarray
+    max_force: np.ndarray
+    torque_max: float
+    accel_axis: float
+    accel_max: float
+    gyro_coeff: float
+    rate_limit: float
+    rate_cap: float
+    control_dt: float
+    success_angle: float
+    success_rate: float
+    settle_time_max: float
+    fuel_per_impulse: float
+    constant_torque_B: np.ndarray  # N·m, the scene's constant disturbance (zeros if none)
+
+    def summary(self) -> dict:
+        """The scalar limits as a JSON-ready dict."""
+        keys = ("inertia_min", "inertia_max", "torque_max", "accel_axis", "accel_max",
+                "gyro_coeff", "rate_limit", "rate_cap", "control_dt", "success_angle",
+                "success_rate", "settle_time_max", "fuel_per_impulse")
+        return {k: float(getattr(self, k)) for k in keys}
+
+
+def max_weighted_torque(torque_matrix_B, weight=None) -> float:
+    """Largest ``|M B u|`` over throttles u in [0, 1]^n (M: (3, 3), default identity).
+
+    ``|M B u|`` is convex in u, so its maximum over the box is at a vertex (u_i ∈ {0, 1}); up
+    to 20 thrusters every vertex is checked (exact), beyond that the triangle inequality
+    ``Σ |M b_i|`` is returned (still an upper bound, looser).
+    """
+    B = np.asarray(torque_matrix_B, float)
+    MB = B if weight is None else np.asarray(weight, float) @ B
+    n = MB.shape[1]
+    if n > _MAX_ENUMERATED_THRUSTERS:
+        return float(np.linalg.norm(MB, axis=0).sum())
+    best = 0.0
+    low_bits = min(n, 12)
+    low = ((np.arange(2 ** low_bits)[:, None] >> np.arange(low_bits)) & 1).astype(float)
+    base = low @ MB[:, :low_bits].T  # (2^low_bits, 3)
+    for high in range(2 ** (n - low_bits)):
+        bits = (high >> np.arange(n - low_bits)) & 1
+        shift = MB[:, low_bits:] @ bits
+        best = max(best, float(np.sqrt(((base + shift) ** 2).sum(axis=1)).max()))
+    return best
+
+
+def gyro_coefficient(inertia_B, grid: int = 401) -> float:
+    """An upper bound on ``c = max |I⁻¹(ω × Iω)|`` over unit ω (1/rad; |gyro accel| ≤ c|ω|²).
+
+    The function is evaluated on a grid of ``grid²`` points on each face of the cube [-1, 1]³,
+    projected to the sphere; every unit vector lies within δ = (2/(grid − 1))/√2 of a grid
+    point (radial projection onto the ball does not increase distances). With D = I − λ̄ (λ̄
+    the mid-range of the principal moments), ``ω × Iω = ω × Dω``, so the function is Lipschitz
+    with constant ``(λmax − λmin)/λmin`` on the sphere; the grid maximum plus that constant
+    times δ is therefore an upper bound (within ≈ 1 % of the true maximum at the default grid).
+    """
+    inertia = np.asarray(inertia_B, float)
+    lam = np.linalg.eigvalsh(inertia)
+    g = np.linspace(-1.0, 1.0, grid)
+    a, b = (x.ravel() for x in np.meshgrid(g, g))
+    faces = []
+    for axis in range(3):
+        others = [i for i in range(3) if i != axis]
+        for sign in (-1.0, 1.0):
+            p = np.empty((a.size, 3))
+            p[:, axis], p[:, others[0]], p[:, others[1]] = sign, a, b
+            faces.append(p)
+    w = np.vstack(faces)
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    gyro = np.linalg.solve(inertia, np.cross(w, w @ inertia.T).T).T
+    delta = (2.0 / (grid - 1)) / math.sqrt(2.0)
+    lipschitz = (lam[-1] - lam[0]) / lam[0]
+    return float(np.linalg.norm(gyro, axis=1).max() + lipschitz * delta)
+
+
+def rate_cap(rate_limit: float, gyro_coeff: float, control_dt: float) -> float:
+    """Bound on ``|ω(t)|`` at every instant when ``|ω| ≤ rate_limit`` at the control steps.
+
+    Within a step the torque ``Bu + τ_d`` is constant, so ``ω(t) = ω_k + t·a + r(t)`` with a
+    constant ``a`` and a gyroscopic remainder ``|r(t)| ≤ c V² t`` while ``|ω| ≤ V``. ``|ω_k +
+    t a|`` is convex in t, hence ≤ max(|ω_k|, |ω_k+1 − r(dt)|) ≤ L + c V² dt, and ``|ω(t)| ≤
+    L + 2 c V² dt``. The smallest root V of ``2 c dt V² − V + L = 0`` is the cap (|ω| starts
+    below it and, being continuous, cannot jump past the gap between the two roots). rad/s.
+    """
+    a = 2.0 * gyro_coeff * control_dt
+    if a == 0.0:
+        return float(rate_limit)
+    disc = 1.0 - 4.0 * a * rate_limit
+    if disc < 0.0:
+        raise InvalidParameterError(
+            f"rate_limit={rate_limit!r} rad/s with control_dt={control_dt!r} s: the "
+            "gyroscopic term can outgrow the rate limit within a step, so no finite rate cap "
+            "follows (need 8·c·dt·L ≤ 1)")
+    return float((1.0 - math.sqrt(disc)) / (2.0 * a))
+
+
+def _check_scene(scene: Scene) -> None:
+    """The bounds assume a bounded disturbance and the nominal model."""
+    if scene.disturbance.model == "random" and scene.disturbance.noise_sigma > 0.0:
+        raise InvalidParameterError(
+            f"scene {scene.name!r}: disturbance.noise_sigma={scene.disturbance.noise_sigma!r} "
+            "makes the disturbance torque unbounded, so no lower bound holds (need 0)")
+    if scene.randomization.enabled:
+        raise InvalidParameterError(
+            f"scene {scene.name!r}: randomization is enabled; the bounds need the nominal "
+            "inertia and thrusters (use the scene without randomization)")
+
+
+def scene_limits(scene=None) -> SceneLimits:
+    """The limits of ``scene`` (a Scene, a shipped name or a path; default cubesat-12u)."""
+    sc = scene if isinstance(scene, Scene) else load_scene(*(() if scene is None else (scene,)))
+    _check_scene(sc)
+    inertia = np.array(sc.body.inertia, float)
+    lam = np.linalg.eigvalsh(inertia)
+    B = np.array(sc.thrusters.torque_matrix_B, float)
+    torque_max = max_weighted_torque(B)
+    gyro = gyro_coefficient(inertia)
+    ep, dt = sc.episode, sc.physics.control_dt
+    constant = (np.array(sc.disturbance.torque, float) if sc.disturbance.model == "constant"
+                else np.zeros(3))
+    return SceneLimits(
+        inertia_B=inertia, inertia_min=float(lam[0]), inertia_max=float(lam[-1]),
+        torque_matrix_B=B, max_force=np.array(sc.thrusters.max_force, float),
+        torque_max=torque_max, accel_axis=torque_max / float(lam[0]),
+        accel_max=max_weighted_torque(B, np.linalg.inv(inertia)), gyro_coeff=float(gyro),
+        rate_limit=float(ep.rate_limit), rate_cap=rate_cap(ep.rate_limit, gyro, dt),
+        control_dt=float(dt), success_angle=math.radians(ep.success_angle_deg),
+        success_rate=float(ep.success_rate),
+        settle_time_max=float(ep.duration - ep.hold_time + dt),
+        fuel_per_impulse=1.0 / (sc.isp * G0), constant_torque_B=constant)
+
+
+# --------------------------------------------------------------------------- settle time
+
+def bang_coast_bang_time(distance, v0, v_end, accel, v_cap):
+    """Least time T for a speed v(t) with ``|v̇| ≤ accel``, ``0 ≤ v ≤ v_cap``, v(0) = v0 and
+    v(T) ≤ v_end to cover ``∫ v dt ≥ distance``. Arrays broadcast; s.
+
+    The largest speed profile for a given T is ``min(v0 + a t, v_cap, v_end + a (T − t))``
+    (accelerate, coast, brake), and its integral grows with T, so T is the first time it
+    reaches ``distance``: one of four closed forms (no motion needed; accelerating only; a
+    triangle; a trapezoid with a coast at ``v_cap``). Requires v0 ≤ v_cap and v_end ≤ v_cap.
+    """
+    d = np.maximum(np.asarray(distance, float), 0.0)
+    v0, v_end, a, cap = (np.asarray(x, float) for x in (v0, v_end, accel, v_cap))
+    # Braking from v0 down to v_end takes at least this long, covering this much.
+    t_brake = np.maximum(v0 - v_end, 0.0) / a
+    d_brake = np.where(v0 > v_end, (v0 ** 2 - v_end ** 2) / (2.0 * a), 0.0)
+    # Below v_end, accelerating only: v0 T + a T²/2 = d, valid while v0 + a T ≤ v_end.
+    t_accel = (np.sqrt(v0 ** 2 + 2.0 * a * d) - v0) / a
+    accel_only = (v0 < v_end) & (v0 + a * t_accel <= v_end)
+    # Triangle: peak vp with (vp² − v0²)/2a + (vp² − v_end²)/2a = d.
+    vp = np.sqrt(a * d + 0.5 * (v0 ** 2 + v_end ** 2))
+    vp = np.maximum(vp, np.maximum(v0, v_end))
+    t_tri = (2.0 * vp - v0 - v_end) / a
+    # Trapezoid: accelerate to the cap, coast, brake.
+    d_ramps = (2.0 * cap ** 2 - v0 ** 2 - v_end ** 2) / (2.0 * a)
+    t_trap = (2.0 * cap - v0 - v_end) / a + (d - d_ramps) / cap
+    t = np.where(vp <= cap, t_tri, t_trap)
+    t = np.where(accel_only, t_accel, t)
+    return np.where(d <= d_brake, t_brake, t)
+
+
+def settle_time_bound(limits: SceneLimits, angle0, omega0_B, bias_B=None) -> dict:
+    """Per-episode lower bound on the settle time (first control step inside the thresholds).
+
+    angle0: (N,) initial error angle, rad. omega0_B: (N, 3) initial body rate, rad/s.
+    bias_B: (N, 3) the episode's constant disturbance bias, N·m (None: zero); the scene's
+    constant disturbance is added. Returns ``continuous`` (N,) s, the bang-coast-bang time
+    with v0 = |ω0| (the initial rate counted as if it all pointed along the manoeuvre),
+    v_end = success_rate, accel = accel_max + |I⁻¹τ_d| + c·rate_cap² and the rate cap; and
+    ``sampled`` (N,) s, the same rounded up to a whole number of control steps (settle times
+    are control-step times), plus ``accel`` (N,) rad/s².
+    """
+    lim = limits
+    angle0 = np.asarray(angle0, float)
+    v0 = np.linalg.norm(np.asarray(omega0_B, float), axis=-1)
+    dist = _disturbance(lim, bias_B, angle0.shape)
+    dist_accel = np.linalg.norm(np.linalg.solve(lim.inertia_B, dist.T).T, axis=-1)
+    accel = lim.accel_max + dist_accel + lim.gyro_coeff * lim.rate_cap ** 2
+    t = bang_coast_bang_time(angle0 - lim.success_angle, v0, lim.success_rate, accel,
+                             lim.rate_cap)
+    dt = lim.control_dt
+    sampled = np.ceil(t / dt - 1e-9) * dt
+    return {"continuous": t, "sampled": sampled, "accel": accel}
+
+
+def _disturbance(lim: SceneLimits, bias_B, shape) -> np.ndarray:
+    """(N, 3) disturbance torque per episode: the bias (if any) plus the constant one, N·m."""
+    out = np.broadcast_to(lim.constant_torque_B, (*shape, 3)).astype(float)
+    if bias_B is not None:
+        out = out + np.asarray(bias_B, float)
+    return out
+
+
+# --------------------------------------------------------------------------- propellant
+
+def weighted_rate_forms(inertia_B, kappa) -> dict:
+    """For ``P = I + κ I²`` (needs 1 + κ λ > 0 for every principal moment λ):
+
+    ``P_half`` (3, 3) = P^½, ``W`` (3, 3) = P^½ I⁻¹ (s = |P^½ ω| has ``|ṡ| ≤ |W τ|``),
+    ``mu_min``, ``mu_max``: the extreme eigenvalues of P (``|ω| ≤ s / √mu_min``).
+    """
+    lam, V = np.linalg.eigh(np.asarray(inertia_B, float))
+    g = lam * (1.0 + kappa * lam)
+    if (g <= 0.0).any():
+        raise InvalidParameterError(
+            f"kappa={kappa!r} makes P = I + κI² not positive definite (need 1 + κλ > 0 for "
+            f"every principal moment λ in {lam.tolist()})")
+    return {"P_half": (V * np.sqrt(g)) @ V.T, "W": (V * (np.sqrt(g) / lam)) @ V.T,
+            "mu_min": float(g.min()), "mu_max": float(g.max())}
+
+
+def min_impulse_lp(torque_matrix_B, max_force, direction, weight=None) -> float:
+    """Least thruster impulse Σ F_i x_i (N·s) whose weighted torque impulse ``M B x`` is the unit
+    vector ``direction`` (x_i ≥ 0: seconds at full throttle); M: (3, 3), default identity.
+
+    A linear program (HiGHS). Its minimum over all directions is ``1 / max_i |M b_i| / F_i``,
+    attained along the best single thruster (because ``|M B x| ≤ Σ x_i |M b_i|``): that is the
+    constant :func:`fuel_bound` uses. Raises InvalidParameterError if unreachable.
+    """
+    B = np.asarray(torque_matrix_B, float)
+    MB = B if weight is None else np.asarray(weight, float) @ B
+    e = np.asarray(direction, float)
+    e = e / np.linalg.norm(e)
+    res = linprog(np.asarray(max_force, float), A_eq=MB, b_eq=e, bounds=(0.0, None),
+                  method="highs")
+    if res.status != 0:
+        raise InvalidParameterError(
+            f"direction={e.tolist()} cannot be produced by the layout (LP status {res.status})")
+    return float(res.fun)
+
+
+def fuel_bound(limits: SceneLimits, angle0, omega0_B, bias_B=None, time_s=None,
+               kappas=_KAPPA_GRID) -> dict:
+    """Per-episode lower bound on the propellant (kg) spent by the settle time.
+
+    angle0 (N,) rad, omega0_B (N, 3) rad/s, bias_B (N, 3) N·m or None. time_s: the settle time
+    (scalar or (N,), s); default the latest a successful episode can settle
+    (``limits.settle_time_max``), which gives the bound for any successful policy.
+
+    For each weight P = I + κ I² (κ over a grid; every one gives a valid bound, so the largest
+    is kept): ``s = |P^½ ω|`` starts at s0 = |P^½ ω0|, must end below s_f = √μmax·success_rate,
+    and changes at rate ≤ |W τ_B| + |W τ_d|. With S = ∫|W τ_B| dt over [0, T], s(t) ≤ (s0 + s_f
+    + S + |Wτ_d| T)/2 throughout, and the angle needs ∫|ω| ≥ θ0 − θ_s with |ω| ≤ s/√μmin, so
+    ``S ≥ 2√μmin (θ0 − θ_s)/T − s0 − s_f − |Wτ_d| T``. Thrust Σ u_i F_i ≥ |W τ_B| / k with
+    k = max_i |W b_i|/F_i (:func:`min_impulse_lp`), so the impulse is ≥ S/k and the propellant
+    ≥ S/(k Isp g0). Returns ``kg`` (N,), ``impulse_Ns`` (N,) and ``kappa`` (N,) (the best κ).
+    """
+    lim = limits
+    angle0 = np.asarray(angle0, float)
+    w0 = np.asarray(omega0_B, float)
+    T = np.broadcast_to(lim.settle_time_max if time_s is None else np.asarray(time_s, float),
+                        angle0.shape)
+    dist = _disturbance(lim, bias_B, angle0.shape)
+    need = np.maximum(angle0 - lim.success_angle, 0.0)
+    lam_max = lim.inertia_max
+    best = np.zeros(angle0.shape)
+    best_kappa = np.full(angle0.shape, np.nan)
+    for t in kappas:
+        f = weighted_rate_forms(lim.inertia_B, t / lam_max)
+        k = float((np.linalg.norm(f["W"] @ lim.torque_matrix_B, axis=0) / lim.max_force).max())
+        s0 = np.linalg.norm(w0 @ f["P_half"].T, axis=-1)
+        s_f = math.sqrt(f["mu_max"]) * lim.success_rate
+        d_w = np.linalg.norm(dist @ f["W"].T, axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            S = 2.0 * math.sqrt(f["mu_min"]) * need / T - s0 - s_f - d_w * T
+        impulse = np.where(T > 0, np.maximum(S, 0.0) / k, 0.0)
+        better = impulse > best
+        best = np.where(better, impulse, best)
+        best_kappa = np.where(better, t / lam_max, best_kappa)
+    return {"kg": best * lim.fuel_per_impulse, "impulse_Ns": best, "kappa": best_kappa}
+
+
+# --------------------------------------------------------------------------- episodes
+
+def episode_starts(episodes: int, seed: int, scene=None, **env_kwargs) -> dict:
+    """The starts of episodes ``seed + i`` of the reorientation vector env, as evaluated.
+
+    Returns ``angle`` (N,) rad, ``q`` and ``q_target`` (N, 4) (scalar first, body → world),
+    ``omega_B`` (N, 3) rad/s, ``bias_B`` (N, 3) N·m (zeros when the scene has no random bias):
+    the same values the env draws at ``reset(seed=seed)``.
+    """
+    import gymnasium as gym
+
+    import rbenv
+
+    kwargs = dict(env_kwargs)
+    if scene is not None:
+        kwargs["scene"] = scene
+    from rbenv import transition
+    from rbenv.draws import EpisodeDraws
+
+    envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
+                        **kwargs)
+    try:
+        env = envs.unwrapped
+        seeds = np.arange(seed, seed + episodes, dtype=np.uint64)
+        start = transition.start(env.plant, env.task,
+                                 EpisodeDraws(seeds, np.zeros(episodes, dtype=np.uint64)))
+    finally:
+        envs.close()
+    bias = start["bias"]
+    bias = np.zeros((episodes, 3)) if bias is None else np.stack(bias, axis=-1)
+    target_conj = np.stack(start["q_target_conj"], axis=-1).astype(float)
+    return {"angle": np.asarray(start["angle"], float),
+            "q": np.stack(start["q"], axis=-1).astype(float),
+            "q_target": target_conj * np.array([1.0, -1.0, -1.0, -1.0]),
+            "omega_B": np.stack(start["w"], axis=-1).astype(float),
+            "bias_B": np.broadcast_to(bias, (episodes, 3)).astype(float)}
