@@ -351,7 +351,7 @@ def plot(data: dict, path: Path) -> Path:
     from benchmarks.common import pyplot
 
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    fig, ax = plt.subplots(figsize=(9, 4.8))
     kinds = set()
     for row in data["rows"]:
         (time_s, kind), ref = _training_time(row), row["reference"]["success_rate"]
@@ -376,7 +376,7 @@ def plot(data: dict, path: Path) -> Path:
     ax.set_ylabel(f"success on reference physics {REFERENCE.name} (%)")
     ax.set_title(f"PPO on {SCENE}, {data['info']['timesteps']:,} steps: trained on each "
                  "setting, tested on the reference (open: on its own physics)", fontsize=8)
-    ax.legend(fontsize=7, loc="lower left", ncol=2)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
