@@ -232,6 +232,53 @@ def env_speed(settings: list[Setting], *, num_envs: int = N_ENVS, rounds: int = 
     return {name: num_envs * steps / t for name, t in seconds.items()}
 
 
+def open_loop_divergence(settings: list[Setting], *, episodes: int = 100,
+                         duration_s: float = 30.0) -> dict:
+    """How far each setting's physics drifts from the reference under the same thrust.
+
+    The PD flies ``episodes`` held-out episodes on the reference physics for ``duration_s``
+    (the slew, before it settles); its throttle sequence is then replayed open-loop on each
+    setting. Reported: the largest difference of the attitude error (deg) and of the rate
+    (deg/s) between the two over the replay, median and max over episodes. A lower bound on
+    the model error a policy trained on the setting meets on the reference, before feedback.
+    """
+    import gymnasium as gym
+
+    from agents.controllers import baseline
+
+    def make(setting):
+        env = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, scene=SCENE,
+                           vectorization_mode="vector_entry_point", **setting.env_kwargs)
+        obs, _ = env.reset(seed=suite.EVAL_SEED)
+        return env, obs
+
+    def fly(env, obs, actions=None, policy=None):
+        alive = np.ones(episodes, bool)
+        trace, taken = [], []
+        for k in range(n_steps):
+            a = actions[k] if actions is not None else policy.predict(obs)[0]
+            obs, _, term, trunc, info = env.step(a)
+            taken.append(np.asarray(a, float).copy())
+            trace.append((np.where(alive, info["attitude_error_deg"], np.nan),
+                          np.where(alive, info["rate_dps"], np.nan)))
+            alive &= ~(term | trunc)
+        env.close()
+        return np.array(trace), taken
+
+    ref_env, obs = make(REFERENCE)
+    n_steps = round(duration_s / ref_env.unwrapped.plant.control_dt)
+    ref, actions = fly(ref_env, obs, policy=baseline(ref_env, "pd"))
+    out = {}
+    for s in settings:
+        trace, _ = fly(*make(s), actions=actions)
+        diff = np.nanmax(np.abs(trace - ref), axis=0)  # (2, episodes): error, rate
+        out[s.name] = {"attitude_error_deg": {"median": float(np.median(diff[0])),
+                                              "max": float(np.max(diff[0]))},
+                       "rate_dps": {"median": float(np.median(diff[1])),
+                                    "max": float(np.max(diff[1]))}}
+    return {"episodes": episodes, "duration_s": duration_s, "settings": out}
+
+
 # --- aggregate --------------------------------------------------------------------------------
 
 def _metrics(summary: dict) -> dict:
@@ -285,6 +332,11 @@ def _num(s: dict, spec: str, scale: float = 1.0) -> str:
     return f"{format(s['mean'] * scale, spec)}{spread}"
 
 
+def _drift(row: dict) -> str:
+    d = row["open_loop_divergence"]["attitude_error_deg"]
+    return f"{d['median']:.2g} ({d['max']:.2g})"
+
+
 def format_markdown(data: dict) -> str:
     info, check = data["info"], data["reference_check"]
     ref = data["baselines"][REFERENCE.name]
@@ -300,14 +352,18 @@ def format_markdown(data: dict) -> str:
         f"{N_ENVS} sub-envs (as in training), CPU time, measured in one run; its cost "
         f"relative to rk4x1 also at {LARGE_N_ENVS} sub-envs, where the physics dominates; env "
         f"CPU per run: the CPU time those env steps take over {info['timesteps']:,} timesteps "
-        "(the rest of training is the network). PD/bang-bang own: the scripted baselines on "
+        "(the rest of training is the network). Open-loop drift: the PD's thrust sequence "
+        f"from {data['open_loop_divergence']['episodes']} reference episodes replayed on the "
+        "setting; largest difference of the attitude error over the first 30 s, median "
+        "(max) over episodes: the model error a policy meets, before feedback corrects it. "
+        "PD/bang-bang own: the scripted baselines on "
         "the same episodes of that setting's physics (success / propellant).", "",
         f"| setting | env-steps/s | env cost vs rk4x1 ({N_ENVS} / {LARGE_N_ENVS} envs) | "
-        "env CPU per run (s) | seeds | "
+        "env CPU per run (s) | open-loop drift, 30 s (deg) | seeds | "
         "success on reference | "
         "success on own physics | fuel on reference (g) | settle median on reference (s) | "
         "training wall (min) | training CPU (min) | PD own | bang-bang own |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in data["rows"]:
         sps = "—" if row["env_steps_per_s"] is None else f"{row['env_steps_per_s']:,.0f}"
         cost = "—" if row["env_cost_vs_default"] is None else (
@@ -315,7 +371,8 @@ def format_markdown(data: dict) -> str:
         env_s = "—" if row["env_cpu_s_per_run"] is None else f"{row['env_cpu_s_per_run']:.1f}"
         pd, bb = row["baselines_own"]["pd"], row["baselines_own"]["bangbang"]
         lines.append(
-            f"| {row['setting']} | {sps} | {cost} | {env_s} | {len(row['seeds'])} | "
+            f"| {row['setting']} | {sps} | {cost} | {env_s} | {_drift(row)} | "
+            f"{len(row['seeds'])} | "
             f"**{_pct(row['reference']['success_rate'])}** | {_pct(row['own']['success_rate'])}"
             f" | {_num(row['reference']['fuel_g'], '.2f')} | "
             f"{_num(row['reference']['settle_median_s'], '.1f')} | "
@@ -392,15 +449,20 @@ def aggregate(settings: list[Setting], runs: list[dict], out: Path, *, episodes:
     timed = list(dict.fromkeys([*settings, DEFAULT]))
     speed = env_speed(timed, rounds=speed_rounds)
     large = env_speed(timed, num_envs=LARGE_N_ENVS, rounds=speed_rounds, steps=2)
+    drift = open_loop_divergence(settings, episodes=min(episodes, 100))
     have = {(r["name"], r["seed"]) for r in runs}
     missing = [f"{s.name} seed {k}" for k in seeds for s in settings if (s.name, k) not in have]
+    rows = setting_rows(settings, runs, table, speed, timesteps, large)
+    for row in rows:
+        row["open_loop_divergence"] = drift["settings"][row["setting"]]
     data = {"version": RESULT_VERSION, "benchmark": "fidelity", "machine": machine(),
             "info": {"scene": SCENE, "episodes": episodes, "eval_seed": suite.EVAL_SEED,
                      "timesteps": timesteps, "seeds": seeds, "n_envs": N_ENVS,
                      "reference": REFERENCE.name, "check": CHECK.name},
             "reference_check": reference_check(table, runs),
-            "rows": setting_rows(settings, runs, table, speed, timesteps, large),
+            "rows": rows,
             "env_steps_per_s": speed, "env_steps_per_s_large": large,
+            "open_loop_divergence": drift,
             "baselines": table, "missing": missing,
             "runs": [{k: r[k] for k in ("name", "seed", "setting", "timesteps",
                                         "selected_timesteps", "training", "validation_curve",
