@@ -387,6 +387,11 @@ def format_markdown(data: dict) -> str:
         f"policy): {'yes' if check['converged'] else '**NO**'} (largest success difference "
         f"{100 * check['max_success_diff']:.2f} points, largest fuel difference "
         f"{100 * check['max_fuel_rel_diff']:.3f} %)."]
+    gap = data["gap_own_minus_reference"]
+    if gap["n"]:
+        lines += ["", f"Success on own physics minus success on the reference, over all "
+                  f"{gap['n']} policies: mean {100 * gap['mean']:+.2f} points, largest "
+                  f"{100 * gap['largest_abs']:.1f} points."]
     if data["missing"]:
         lines += ["", "**Missing runs** (not run or not finished): "
                   + ", ".join(data["missing"]) + "."]
@@ -455,7 +460,10 @@ def aggregate(settings: list[Setting], runs: list[dict], out: Path, *, episodes:
     rows = setting_rows(settings, runs, table, speed, timesteps, large)
     for row in rows:
         row["open_loop_divergence"] = drift["settings"][row["setting"]]
+    gaps = [r["own"]["success_rate"] - r["reference"]["success_rate"] for r in runs]
     data = {"version": RESULT_VERSION, "benchmark": "fidelity", "machine": machine(),
+            "gap_own_minus_reference": {**_stats(gaps),
+                                        "largest_abs": max(map(abs, gaps), default=None)},
             "info": {"scene": SCENE, "episodes": episodes, "eval_seed": suite.EVAL_SEED,
                      "timesteps": timesteps, "seeds": seeds, "n_envs": N_ENVS,
                      "reference": REFERENCE.name, "check": CHECK.name},
