@@ -133,11 +133,13 @@ def _expand(x: np.ndarray, n: int, steps: int, block: int) -> np.ndarray:
 
 
 def solve(problem: Problem, settle_step: int, *, block: int = 1, guess=None,
-          maxiter: int = 150) -> Solution:
+          stretch: bool = False, maxiter: int = 150) -> Solution:
     """Least-propellant throttles that settle at control step ``settle_step`` and hold.
 
     The horizon is ``settle_step + hold_steps − 1`` steps; throttles are held over ``block``
     steps. guess: per-step throttles (N', n) resampled to the horizon, or None (all 0.1).
+    stretch: also scale the guess by (N'/N)², which maps a rest-to-rest manoeuvre onto the
+    same path flown N/N' times slower (torques scale as 1/time², gyroscopic terms alike).
     """
     sc = problem.scene
     n = sc.thrusters.n
@@ -145,8 +147,12 @@ def solve(problem: Problem, settle_step: int, *, block: int = 1, guess=None,
     hold = sc.hold_steps
     steps = settle_step + hold - 1
     nb = -(-steps // block)
-    x0 = np.full(nb * n, 0.1) if guess is None else _resample(np.asarray(guess, float),
-                                                               nb, block)
+    if guess is None:
+        x0 = np.full(nb * n, 0.1)
+    else:
+        guess = np.asarray(guess, float)
+        factor = (len(guess) / steps) ** 2 if stretch else 1.0
+        x0 = np.clip(factor * _resample(guess, nb, block), 0.0, 1.0)
     force = np.asarray(sc.thrusters.max_force, float)
     cost = np.tile(force, nb) * block * problem.dt / (force.sum() * problem.dt)
     rate2 = (_RATE_MARGIN * ep.rate_limit) ** 2
@@ -216,10 +222,13 @@ def time_optimal(problem: Problem, feasible_step: int, guess, infeasible_step: i
 
 
 def fuel_optimal(problem: Problem, guess, *, block: int = 4, maxiter: int = 200) -> Solution:
-    """Least propellant settling at the latest step a successful episode may (held ``block``)."""
+    """Least propellant settling at the latest step a successful episode may (held ``block``).
+
+    guess: a controller's per-step throttles, stretched over the horizon (see :func:`solve`).
+    """
     steps = problem.scene.episode_steps
     return solve(problem, steps - problem.scene.hold_steps + 1, block=block, guess=guess,
-                 maxiter=maxiter)
+                 stretch=True, maxiter=maxiter)
 
 
 def replay(throttles, seed: int, scene=None) -> dict:

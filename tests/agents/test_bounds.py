@@ -219,6 +219,22 @@ def test_optimised_trajectory_is_above_the_bounds():
     assert rep["fuel_kg"] >= own
 
 
+def test_fuel_optimised_trajectory_is_above_the_propellant_bound():
+    """A propellant-optimised sequence (SLSQP, settling at 78.5 s), replayed in the env,
+    succeeds, spends less than the PD and no less than the bound for any policy."""
+    from agents import optimal
+
+    seed = SEED + 343
+    lim = rb.scene_limits("cubesat-12u")
+    st = rb.episode_starts(1, seed)
+    bound = rb.fuel_bound(lim, st["angle"], st["omega_B"], st["bias_B"])["kg"][0]
+    pd = optimal.replay("pd", seed)
+    sol = optimal.fuel_optimal(optimal.Problem.from_seed(seed), pd["throttles"], maxiter=60)
+    rep = optimal.replay(sol.throttles, seed)
+    assert rep["success"]
+    assert bound <= rep["fuel_kg"] < pd["fuel_kg"]
+
+
 def test_own_rollout_matches_the_env():
     """The optimiser's RK4 reproduces the env's trajectory under the bang-bang throttles."""
     from agents import optimal
