@@ -133,6 +133,10 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--env-id", default=None,
                    help="the task (default: a run's own, else rbenv/SatelliteReorient-v0)")
     e.add_argument("--env-kwargs", type=_json_arg, default={}, help="JSON of gym.make options")
+    e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
+                   help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, 0, "
+                        "1)], mode (SB3's deterministic mu), auto (default): mean_throttle for "
+                        "PPO/A2C in throttle mode, else mode")
     e.add_argument("--json", default=None, help="write the summary as JSON to this file")
     e.add_argument("--plot", default=None, metavar="PATH",
                    help="PNG of the first episode (no plot without it, or without --out)")
@@ -191,7 +195,7 @@ def _evaluate(args) -> int:
     from agents.evaluate import evaluate, format_table, record_video, write_json
 
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
-                      env_kwargs=args.env_kwargs, env_id=_env_id(args))
+                      env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action)
     print(format_table([result]))
     json_path, plot_path = args.json, args.plot
     if args.out:

@@ -62,10 +62,12 @@ class SB3Policy(RunPolicy):
 
     ``model_path`` is a run folder, a final ``model.zip`` (statistics: ``vecnormalize.pkl``
     beside it) or a checkpoint ``model_<N>.zip`` (statistics: its own ``vecnormalize_<N>.pkl``);
-    ``vecnormalize_path`` overrides the statistics. Same as :func:`agents.runs.load_policy`.
+    ``vecnormalize_path`` overrides the statistics; ``action`` as :class:`agents.runs.RunPolicy`
+    (default: the mean throttle for PPO/A2C in throttle mode). Same as
+    :func:`agents.runs.load_policy`.
     """
 
-    def __init__(self, model_path, vecnormalize_path=None):
+    def __init__(self, model_path, vecnormalize_path=None, action: str = "auto"):
         from agents import runs
 
         files = runs.locate(model_path)
@@ -73,11 +75,12 @@ class SB3Policy(RunPolicy):
         stats = vecnormalize_path or files.stats
         super().__init__(runs.load_model(files.model, algo if algo in ("ppo", "sac") else None),
                          runs.load_stats(stats) if stats else None, files.config,
-                         source=str(files.model))
+                         source=str(files.model), action=action)
 
 
-def _load_model_policy(name: str) -> tuple:
-    """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib)."""
+def _load_model_policy(name: str, action: str = "auto") -> tuple:
+    """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib);
+    ``action`` as :class:`agents.runs.RunPolicy` (SB3 models)."""
     from agents import runs
 
     path = Path(name)
@@ -87,7 +90,7 @@ def _load_model_policy(name: str) -> tuple:
             from agents.rllib import RLlibPolicy
 
             return RLlibPolicy(path), runs.env_kwargs_of(config)
-    policy = SB3Policy(name)
+    policy = SB3Policy(name, action=action)
     return policy, policy.env_kwargs
 
 
@@ -108,16 +111,17 @@ def make_policy(name: str, env, seed: int = 0):
 
 def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = None,
              name: str | None = None, record: int = 3, env_kwargs: dict | None = None,
-             batch: int = 1000, env_id: str = rbenv.ENV_ID) -> EvalResult:
+             batch: int = 1000, env_id: str = rbenv.ENV_ID, action: str = "auto") -> EvalResult:
     """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``).
 
     env_id: any registered rbenv id (reorient, detumble, track); episode i is seeded
     ``seed + i``, so every policy evaluated with the same seed meets the same episodes.
+    action: for a model given by path, how it acts (:class:`agents.runs.RunPolicy`).
     """
     env_kwargs = dict(env_kwargs or {})
     label = name or (policy if isinstance(policy, str) else type(policy).__name__)
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
-        policy, run_kwargs = _load_model_policy(policy)  # with the run's scene and env options
+        policy, run_kwargs = _load_model_policy(policy, action)  # the run's env options too
         env_kwargs = {**run_kwargs, **env_kwargs}
     if scene is not None:
         env_kwargs["scene"] = scene

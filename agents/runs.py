@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.errors import RbenvValueError
+from core.errors import InvalidParameterError, RbenvValueError
 
 CONFIG = "config.json"
 LOCK = "run.lock"
@@ -430,17 +430,42 @@ def env_kwargs_of(config: dict | None) -> dict:
     return {"scene": config.get("scene", "cubesat-12u"), **kwargs}
 
 
+POLICY_ACTIONS = ("auto", "mean_throttle", "mode")
+
+
 class RunPolicy:
     """A trained model with its observation statistics, behind SB3's ``predict`` interface.
 
     Works on one observation ``(obs_dim,)`` or a batch ``(n, obs_dim)``; observations are the
     raw ones a ``gym.make``/``gym.make_vec`` env returns.
+
+    action: what ``predict(..., deterministic=True)`` returns. ``"mode"``: SB3's deterministic
+    action (the Gaussian's mean μ; the env clips it). ``"mean_throttle"``: the mean throttle
+    E[clip(μ + σε, 0, 1)] of the stochastic policy that was trained (:func:`expected_throttle`).
+    ``"auto"`` (default): ``mean_throttle`` for an unsquashed Gaussian policy (PPO, A2C) acting
+    in throttle mode, where clip(μ, 0, 1) switches off every thruster whose mean is below zero
+    but which the trained policy fires through its noise, and ``mode`` otherwise.
     """
 
     def __init__(self, model, vecnormalize=None, config: dict | None = None,
-                 source: str = "model"):
+                 source: str = "model", action: str = "auto"):
         self.model, self.vecnormalize = model, vecnormalize
         self.config, self.source = config, source
+        self.action = self._resolve_action(action)
+
+    def _resolve_action(self, action: str) -> str:
+        from core import validation
+
+        validation.choice("action", action, POLICY_ACTIONS)
+        gaussian = _is_unsquashed_gaussian(self.model)
+        if action == "auto":
+            throttle = self.env_kwargs.get("action_mode", "throttle") == "throttle"
+            return "mean_throttle" if gaussian and throttle else "mode"
+        if action == "mean_throttle" and not gaussian:
+            raise InvalidParameterError(
+                f"action 'mean_throttle' needs an unsquashed Gaussian policy (PPO, A2C); "
+                f"{type(self.model).__name__} from {self.source} has none; use 'mode'")
+        return action
 
     @property
     def env_kwargs(self) -> dict:
@@ -471,8 +496,31 @@ class RunPolicy:
         return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        if deterministic and self.action == "mean_throttle":
+            return self.mean_throttle(observation), state
         return self.model.predict(self.normalize(observation), state=state,
                                   episode_start=episode_start, deterministic=deterministic)
+
+    def mean_throttle(self, observation) -> np.ndarray:
+        """E[clip(μ + σε, 0, 1)] for one observation (n_act,) or a batch (n, n_act), float32."""
+        import torch
+
+        obs = np.asarray(self.normalize(observation), dtype=np.float32)
+        batch = obs.ndim > 1
+        with torch.no_grad():
+            dist = self.model.policy.get_distribution(
+                torch.as_tensor(obs if batch else obs[None])).distribution
+            mean, std = dist.mean.numpy(), dist.stddev.numpy()
+        out = expected_throttle(mean, std).astype(np.float32)
+        return out if batch else out[0]
+
+
+def _is_unsquashed_gaussian(model) -> bool:
+    """True for an SB3 actor-critic policy whose actions are a diagonal Gaussian (PPO, A2C)."""
+    from stable_baselines3.common.distributions import DiagGaussianDistribution
+
+    return type(getattr(getattr(model, "policy", None), "action_dist", None)) \
+        is DiagGaussianDistribution
 
 
 def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
@@ -489,7 +537,7 @@ def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
             + norm.sf(hi))
 
 
-def load_policy(path) -> RunPolicy:
+def load_policy(path, action: str = "auto") -> RunPolicy:
     """A ready policy from a run folder, its ``model.zip`` or a checkpoint ``model_<N>.zip``.
 
     The model comes with its own VecNormalize statistics and the run's configuration
@@ -507,4 +555,4 @@ def load_policy(path) -> RunPolicy:
                       "unnormalised, which is right only for a model trained without "
                       "VecNormalize", stacklevel=2)
     stats = load_stats(files.stats) if files.stats is not None else None
-    return RunPolicy(model, stats, files.config, source=str(files.model))
+    return RunPolicy(model, stats, files.config, source=str(files.model), action=action)

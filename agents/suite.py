@@ -175,27 +175,20 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
 
 
 class MeanThrottle:
-    """A trained Gaussian policy acting with its mean throttle E[clip(μ + σε, 0, 1)].
+    """A trained Gaussian policy acting with its mean throttle E[clip(μ + σε, 0, 1)]
+    (:meth:`agents.runs.RunPolicy.mean_throttle`), whatever the policy's own ``action``.
 
     Under ``throttle = clip(a, 0, 1)`` PPO learns to set thruster means below zero and fire
     them through its exploration noise; the usual deterministic action clip(μ, 0, 1) switches
     that firing off. The mean throttle is the deterministic action that matches the policy it
-    was trained as (formula: :func:`agents.runs.expected_throttle`).
+    was trained as.
     """
 
     def __init__(self, policy):
         self.policy = policy  # an agents.runs.RunPolicy (model + observation statistics)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        import torch
-
-        from agents.runs import expected_throttle
-
-        obs = torch.as_tensor(self.policy.normalize(observation), dtype=torch.float32)
-        with torch.no_grad():
-            dist = self.policy.model.policy.get_distribution(obs).distribution
-            mean, std = dist.mean.numpy(), dist.stddev.numpy()
-        return expected_throttle(mean, std).astype(np.float32), None
+        return self.policy.mean_throttle(observation), None
 
 
 def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED
@@ -229,7 +222,7 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     policy = evaluate(MeanThrottle(SB3Policy(model)), name=cell.algo, **common).summary()
     final = evaluate(MeanThrottle(SB3Policy(run)), name=f"{cell.algo} (final)",
                      **common).summary()
-    clip_mean = evaluate(SB3Policy(run), name=f"{cell.algo} (final, clip(mean))",
+    clip_mean = evaluate(SB3Policy(run, action="mode"), name=f"{cell.algo} (final, clip(mean))",
                          **common).summary()
     baselines = {name: evaluate(name, **common).summary() for name in BASELINES[cell.task]}
     return {"policy": {**policy, "timesteps": steps}, "final": final,

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import torch
 
+import rbenv
 from agents import runs
 from agents.runs import RunFolderError, RunLock, RunLockedError, load_policy
 from agents.train import TrainConfig, train
@@ -332,7 +333,7 @@ def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize  # noqa: F401 (pickle class)
 
-    policy = load_policy(base_run)
+    policy = load_policy(base_run, action="mode")  # SB3's own deterministic action
     env = policy.make_env()
     assert env.spec.max_episode_steps == SHORT["max_episode_steps"]  # the run's env options
     obs, _ = env.reset(seed=3)
@@ -528,3 +529,21 @@ def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
     (tmp_path / "rbenv-SatelliteReorient-v0").mkdir()
     (tmp_path / "rbenv-SatelliteReorient-v0" / FINAL_STATS).write_bytes(b"stats")
     assert locate(model).stats == tmp_path / "rbenv-SatelliteReorient-v0" / FINAL_STATS
+
+
+def test_policy_action_auto_is_mean_throttle_only_for_a_gaussian_policy_in_throttle_mode():
+    import gymnasium as gym
+    from stable_baselines3 import PPO, SAC
+
+    from agents.runs import RunPolicy
+    from core.errors import InvalidParameterError
+
+    env = gym.make(rbenv.ENV_ID)
+    ppo = PPO("MlpPolicy", env, n_steps=64, device="cpu")
+    assert RunPolicy(ppo).action == "mean_throttle"
+    assert RunPolicy(ppo, config={"env_kwargs": {"action_mode": "torque"}}).action == "mode"
+    assert RunPolicy(ppo, action="mode").action == "mode"
+    sac = SAC("MlpPolicy", env, buffer_size=100, device="cpu")
+    assert RunPolicy(sac).action == "mode"
+    with pytest.raises(InvalidParameterError, match=r"mean_throttle.*SAC"):
+        RunPolicy(sac, action="mean_throttle")

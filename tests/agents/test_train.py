@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecNormalize
 
@@ -53,11 +54,36 @@ def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
                               make_vec_env(small_config(run_dir), 4, 0))
     obs = stats.venv.reset()
     expected, _ = model.predict(stats.normalize_obs(obs), deterministic=True)
-    loaded = SB3Policy(run_dir / "model.zip")  # picks up vecnormalize.pkl beside the model
+    # picks up vecnormalize.pkl beside the model; "mode" is SB3's own deterministic action
+    loaded = SB3Policy(run_dir / "model.zip", action="mode")
     actions, _ = loaded.predict(obs, deterministic=True)
     assert np.array_equal(actions, expected)
-    again, _ = SB3Policy(run_dir / "model.zip").predict(obs)
+    again, _ = SB3Policy(run_dir / "model.zip", action="mode").predict(obs)
     assert np.array_equal(again, actions)
+
+
+def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
+    from agents.runs import expected_throttle
+
+    policy = SB3Policy(run_dir / "model.zip")
+    assert policy.action == "mean_throttle"
+    model = policy.model
+    obs = np.random.default_rng(2).uniform(-1, 1, (5, 7)).astype(np.float32)
+    with torch.no_grad():
+        dist = model.policy.get_distribution(
+            torch.as_tensor(policy.normalize(obs))).distribution
+    expected = expected_throttle(dist.mean.numpy(), dist.stddev.numpy()).astype(np.float32)
+    actions, _ = policy.predict(obs)
+    np.testing.assert_array_equal(actions, expected)
+    single, _ = policy.predict(obs[0])
+    assert single.shape == (12,)
+    np.testing.assert_allclose(single, expected[0], rtol=1e-6)
+    assert (actions >= 0).all() and (actions <= 1).all()
+    # It differs from clip(mu, 0, 1) exactly where the noise reaches across the clip bounds.
+    mode, _ = SB3Policy(run_dir / "model.zip", action="mode").predict(obs)
+    assert not np.array_equal(actions, np.clip(mode, 0, 1))
+    with pytest.raises(ValueError, match="action must be one of"):
+        SB3Policy(run_dir / "model.zip", action="mean")
 
 
 def test_resume_after_a_real_kill(tmp_path, capsys):
