@@ -164,8 +164,11 @@ def suite_policies(suite_out: Path, scene: str, group: str, seeds) -> tuple[list
         cell = suite.Cell("ppo", ENV_ID, scene, seed, suite.default_timesteps("ppo", ENV_ID,
                                                                              scene))
         folder = suite.cell_dir(cell, suite_out)
-        result = suite.read_result(folder / "result.json")
-        if result is None:
+        try:  # any complete result: only the selected step is read from it
+            result = read_json(folder / "result.json", "cell result")
+        except RunFolderError:
+            result = None
+        if result is None or not result.get("complete"):
             missing.append(cell.name)
             continue
         steps = int(result["policy"]["timesteps"])
@@ -377,6 +380,11 @@ def format_markdown(data: dict) -> str:
     for c in data["conditions"].values():
         lines.append(f"| {c['label']} | " + " | ".join(
             _cell(c["policies"].get(g), "fuel_g", 1, ".2f", "") for g in groups) + " |")
+    lines += ["", "**Settle time, median over successful episodes (s)**", "", head]
+    for c in data["conditions"].values():
+        lines.append(f"| {c['label']} | " + " | ".join(
+            _cell(c["policies"].get(g), "settle_median_s", 1, ".1f", "") for g in groups)
+            + " |")
     if data.get("missing"):
         lines += ["", "**Missing** (not run or not found): " + ", ".join(data["missing"]) + "."]
     return "\n".join(lines) + "\n"
