@@ -12,7 +12,8 @@ Conditions (:data:`CONDITIONS`): every kind at each size in :data:`SIZES`, then 
 time at the largest trained size, plus two diagnostics (delay in every episode; every kind at
 an extrapolated size beyond the trained range).
 
-Policies: the PD and bang-bang baselines (nominal model); PPO trained on the nominal scene and
+Policies: the PD (shipped tuning, and faster ones: :data:`PD_FREQUENCIES`) and bang-bang
+baselines, all with the nominal model; PPO trained on the nominal scene and
 on ``cubesat-12u-dr`` (the learning suite's runs, loaded as the suite does: the checkpoint it
 selected on validation episodes, acting with the mean throttle); and PPO trained here with
 randomization at the largest size (:data:`TRAIN_SIZE`), at each budget of ``--timesteps``
@@ -114,21 +115,47 @@ CONDITIONS = conditions()
 @dataclass(frozen=True)
 class PolicySpec:
     """One evaluated policy: ``group`` (a table column), a seed for learned ones, and where its
-    model is (``None`` for a scripted baseline, evaluated by name)."""
+    model is (``None`` for a scripted baseline: ``law``, default the group, a name in
+    ``agents.controllers.BASELINES["reorient"]``, built with ``options`` on the nominal scene).
+    """
 
     group: str
     seed: int | None = None
     model: str | None = None
     timesteps: int | None = None  # the training step of the model (its identity in caches)
+    law: str | None = None
+    options: tuple = ()  # (name, value) pairs for the scripted controller
 
     @property
     def name(self) -> str:
         return self.group if self.seed is None else f"{self.group}-seed{self.seed}"
 
 
-GROUPS = {"pd": "PD (nominal model)", "bangbang": "bang-bang (nominal model)",
+# The shipped PD has ωn = 0.3 rad/s; faster tunings of the same law show what its margin costs.
+PD_FREQUENCIES = (0.5, 0.8)
+GROUPS = {"pd": "PD, ωn 0.3 (shipped)",
+          **{f"pd-wn{w:g}": f"PD, ωn {w:g}" for w in PD_FREQUENCIES},
+          "bangbang": "bang-bang",
           "ppo-nominal": "PPO, trained nominal (1M)",
           "ppo-dr-scene": "PPO, trained on cubesat-12u-dr (1M)"}
+
+
+def scripted_policies() -> list[PolicySpec]:
+    """The shipped PD and bang-bang, and the PD at each of PD_FREQUENCIES."""
+    return [PolicySpec("pd"),
+            *(PolicySpec(f"pd-wn{w:g}", law="pd", options=(("natural_frequency", w),))
+              for w in PD_FREQUENCIES),
+            PolicySpec("bangbang")]
+
+
+def scripted_controller(spec: PolicySpec):
+    """``spec``'s scripted law with its options, from the nominal scene (its model)."""
+    import gymnasium as gym
+
+    from agents.controllers import BASELINES
+
+    env = gym.make(ENV_ID, scene=SCENE)
+    return BASELINES["reorient"][spec.law or spec.group].from_env(env, **dict(spec.options))
 
 
 def budget_label(timesteps: int) -> str:
@@ -277,7 +304,10 @@ def evaluate_policy(spec: PolicySpec, condition: Condition, episodes: int, seed:
     """:class:`agents.evaluate.EvalResult` of ``spec`` on ``condition``'s episodes."""
     from agents.evaluate import SB3Policy, evaluate
 
-    policy = spec.group if spec.model is None else suite.MeanThrottle(SB3Policy(spec.model))
+    if spec.model is not None:
+        policy = suite.MeanThrottle(SB3Policy(spec.model))
+    else:
+        policy = scripted_controller(spec) if spec.options else spec.law or spec.group
     kwargs = {"randomize": condition.randomize if randomize is None else randomize}
     return evaluate(policy, name=spec.name, episodes=episodes, seed=seed, scene=SCENE,
                     env_id=ENV_ID, record=0, env_kwargs=kwargs)
@@ -292,7 +322,8 @@ def evaluate_cached(out: Path, spec: PolicySpec, condition: Condition, episodes:
     """The summary of ``spec`` on ``condition`` (read from its JSON when it matches)."""
     path = eval_record(out, spec, condition)
     key = {"episodes": episodes, "seed": seed, "randomize": condition.randomize,
-           "timesteps": spec.timesteps}
+           "timesteps": spec.timesteps, **({"options": dict(spec.options)} if spec.options
+                                           else {})}
     try:
         record = read_json(path, "evaluation")
         if record.get("version") == RESULT_VERSION and record.get("key") == key:
@@ -363,7 +394,8 @@ def format_markdown(data: dict) -> str:
              f"(seeded {data['eval_seed']} + i), the same episodes and the same physics draws "
              "for every policy. Learned policies: mean ± standard deviation over training "
              "seeds (" + ", ".join(f"{titles[g]}: {n}" for g, n in data["seeds"].items())
-             + "), acting with the mean throttle. Scripted policies use the nominal model.",
+             + "), acting with the mean throttle. Scripted policies (the quaternion PD at natural "
+             "frequency ωn rad/s, the eigenaxis bang-bang) use the nominal model.",
              "", "Size s: principal moments of inertia 1 ± s and the mass distribution turned by "
              f"up to {ROTATION_DEG_PER_SIZE:g}°·s; centre of mass within s × {HALF_WIDTH_M} m "
              "(the body's half-width); thrust 1 ± s per thruster; nozzles tilted by up to "
@@ -411,7 +443,8 @@ def plot(data: dict, path: Path) -> Path:
         for ax, key, scale in ((axes[0], "success_rate", 100), (axes[1], "fuel_g", 1)):
             y = [scale * p[1][key]["mean"] for p in pts]
             err = [scale * (p[1][key]["std"] or 0) for p in pts]
-            ax.errorbar(x, y, yerr=err, marker="o", capsize=3, label=titles[group])
+            ax.errorbar(x, y, yerr=err, marker="o", capsize=3, label=titles[group],
+                        ls="-" if group.startswith("ppo") else "--")  # dashed: scripted
         ys = [100 * conds[n]["policies"][group]["success_rate"]["mean"]
               if group in conds[n]["policies"] else np.nan for n in single]
         width = 0.8 / len(titles)
@@ -450,7 +483,7 @@ def run(out: Path, *, seeds: int, timesteps, episodes: int, suite_out: Path,
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    specs = [PolicySpec("pd"), PolicySpec("bangbang")]
+    specs = scripted_policies()
     missing = []
     for scene, group in ((SCENE, "ppo-nominal"), ("cubesat-12u-dr", "ppo-dr-scene")):
         found, lost = suite_policies(suite_out, scene, group, range(seeds))

@@ -92,8 +92,8 @@ def test_quick_run_writes_every_policy_and_condition(quick):
                                "ppo-reorient-cubesat-12u-dr-seed0"]
     assert list(data["conditions"]) == [c.name for c in rb.CONDITIONS]
     for cond in data["conditions"].values():
-        assert set(cond["policies"]) == {"pd", "bangbang", rb.randomized_group(4096),
-                                         rb.randomized_group(8192)}
+        assert set(cond["policies"]) == {"pd", "pd-wn0.5", "pd-wn0.8", "bangbang",
+                                         rb.randomized_group(4096), rb.randomized_group(8192)}
         for stats in cond["policies"].values():
             assert 0.0 <= stats["success_rate"]["mean"] <= 1.0
             assert stats["fuel_g"]["mean"] > 0.0
