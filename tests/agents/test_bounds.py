@@ -196,6 +196,7 @@ def test_bounds_lie_below_pd_and_bang_bang_on_200_episodes(limits):
     assert np.allclose(np.degrees(st["angle"]), info["attitude_error_deg"])
 
 
+@pytest.mark.slow  # SLSQP, tens of seconds
 def test_optimised_trajectory_is_above_the_bounds():
     """A time-optimised open-loop sequence (SLSQP), replayed in the env on a 21° episode,
     succeeds no sooner than the settle bound and spends no less than the propellant bound
@@ -219,6 +220,7 @@ def test_optimised_trajectory_is_above_the_bounds():
     assert rep["fuel_kg"] >= own
 
 
+@pytest.mark.slow  # SLSQP, tens of seconds
 def test_fuel_optimised_trajectory_is_above_the_propellant_bound():
     """A propellant-optimised sequence (SLSQP, settling at 78.5 s), replayed in the env,
     succeeds, spends less than the PD and no less than the bound for any policy."""
@@ -250,6 +252,7 @@ def test_own_rollout_matches_the_env():
 
 # --- the benchmark ------------------------------------------------------------------------------
 
+@pytest.mark.slow  # the --quick benchmark, about a minute
 def test_benchmark_quick_smoke(tmp_path):
     from benchmarks import bounds as bench
 
