@@ -146,6 +146,17 @@ def read_run(path: Path, expect: dict) -> dict | None:
     return data if all(data.get(k) == v for k, v in expect.items()) else None
 
 
+def collect(out: Path, settings: list[Setting], timesteps: int, episodes: int) -> list[dict]:
+    """Every finished run in ``out/runs`` of ``settings`` with this budget, whatever its seed."""
+    found = []
+    for s in settings:
+        for path in sorted((Path(out) / "runs").glob(f"{s.name}-seed*.json")):
+            run = read_run(path, {"setting": asdict(s), "timesteps": timesteps,
+                                  "eval": {"episodes": episodes, "seed": suite.EVAL_SEED}})
+            found += [run] if run else []
+    return sorted(found, key=lambda r: (r["seed"], r["name"]))
+
+
 def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, timesteps: int,
                 episodes: int, threads: int = 1) -> dict:
     """Train on ``setting`` and evaluate on reference, check and own physics; cached as JSON."""
@@ -504,7 +515,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help=f"held-out episodes (default {suite.EVAL_EPISODES})")
     p.add_argument("--threads", type=int, default=1, help="torch threads")
     p.add_argument("--aggregate-only", action="store_true",
-                   help="write the tables from the runs present; train nothing")
+                   help="write the tables from every finished run present in OUT (any seed; "
+                   "--seeds N only sets which are listed as missing); train nothing")
     return p.parse_args(argv)
 
 
@@ -522,14 +534,8 @@ def main(argv=None) -> dict:
     kw = {"out": out, "runs_dir": runs_dir, "timesteps": timesteps, "episodes": episodes,
           "threads": args.threads}
     runs = []
-    for seed in seeds:  # seed-major: a partial run covers every setting once
+    for seed in [] if args.aggregate_only else seeds:  # seed-major: covers every setting once
         for s in settings:
-            if args.aggregate_only:
-                found = read_run(result_path(out, s, seed), {"setting": asdict(s),
-                                                             "seed": seed,
-                                                             "timesteps": timesteps})
-                runs += [found] if found else []
-                continue
             started = time.perf_counter()
             print(f"{s.name} seed {seed}: training {timesteps:,} timesteps", flush=True)
             r = run_setting(s, seed, **kw)
@@ -537,6 +543,8 @@ def main(argv=None) -> dict:
                   f"own {100 * r['own']['success_rate']:.1f} % "
                   f"({time.perf_counter() - started:.0f} s)", flush=True)
             runs.append(r)
+    if args.aggregate_only:
+        runs = collect(out, settings, timesteps, episodes)
     data = aggregate(settings, runs, out, episodes=episodes, timesteps=timesteps, seeds=seeds,
                      speed_rounds=3 if args.quick else 7)
     print((out / "fidelity.md").read_text())
