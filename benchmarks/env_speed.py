@@ -36,19 +36,29 @@ ROUNDS = 5
 N_ACTIONS = 1024
 MEMORY_N = 262_144
 
+# Peak RSS of this process in KiB. Linux's VmHWM belongs to the process image; ru_maxrss is
+# carried across fork + exec, so a child of a large parent would start at the parent's peak
+# and under-count its own growth (it read 400 B per sub-env inside `rbenv bench`, 920 alone).
 _MEMORY_PROBE = r"""
 import resource, sys
 import gymnasium as gym, numpy as np
 import rbenv
+
+def peak_kib():
+    try:
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
+    except (OSError, StopIteration):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
 n = int(sys.argv[1])
 a = np.random.default_rng(0).uniform(-1, 1, (n, 12)).astype(np.float32)
-before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+before = peak_kib()
 env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n)
 env.reset(seed=0)
 for _ in range(10):
     env.step(a)
-after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print((after - before) * 1024 / n)
+print((peak_kib() - before) * 1024 / n)
 """
 
 

@@ -40,6 +40,7 @@ _TO_UNIT = 2.0**-53
 _TWO_PI = 2.0 * np.pi
 _BLOCK = 32  # slots hashed at once per stream for a small batch (covers every task's start)
 _BLOCK_ELEMENTS = 1 << 20  # a batch whose block would exceed this hashes per request
+_NORMAL_CHUNK = 4  # normals per hashing pass for a batch that hashes per request
 
 # One stream per consumer of episode-start randomness.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
@@ -163,6 +164,15 @@ class EpisodeDraws:
         """
         if offset % 2:
             raise ValueError(f"normal draws start at an even slot, got offset {offset}")
+        if stream not in self._blocks and count > _NORMAL_CHUNK \
+                and self.n * 2 * count > _BLOCK_ELEMENTS:
+            # A large batch hashed per request: a few normals at a time into the result, so
+            # the uint64 and uniform temporaries stay a few rows tall (memory per sub-env).
+            out = np.empty((count, self.n))
+            for k in range(0, count, _NORMAL_CHUNK):
+                rows = min(_NORMAL_CHUNK, count - k)
+                out[k:k + rows] = self.normal_array(stream, rows, offset + 2 * k)
+            return out
         u = self.uniform_array(stream, 2 * count, offset)
         radius = np.sqrt(-2.0 * np.log1p(-u[0::2]))  # 1 − u in (0, 1]: finite
         radius *= np.cos(_TWO_PI * u[1::2])

@@ -41,6 +41,22 @@ def test_one_env_draws_equal_the_batch_row_bit_for_bit():
             batch.normal_array("randomization", 5)[:, i].tolist())
 
 
+def test_every_way_of_serving_a_draw_gives_the_same_numbers():
+    """Block cache with slot hints (small batch), one hash per request, and normals in chunks
+    (large batch) are performance choices only: row i is always the same numbers."""
+    n = 60_000  # 2 * 12 * n slots exceed the block budget: hashed per request, in chunks
+    large = EpisodeDraws(np.arange(n), np.zeros(n))
+    big_normals, big_uniforms = large.normal_array("task", 12), large.uniform_array("task", 30)
+    rows = np.array([0, 17, n - 1])
+    hinted = EpisodeDraws(rows, np.zeros(3), block_slots={"task": 24, "plant": 6})
+    plain = EpisodeDraws(rows, np.zeros(3))
+    for small in (hinted, plain):
+        np.testing.assert_array_equal(small.normal_array("task", 12), big_normals[:, rows])
+        np.testing.assert_array_equal(small.uniform_array("task", 30), big_uniforms[:, rows])
+    np.testing.assert_array_equal(hinted.normal_array("task", 4, offset=16),
+                                  big_normals[8:12, rows])
+
+
 def test_randomized_inertia_is_always_physically_valid():
     plant = make_plant("boom-sat", randomize=BIG)  # inertia ratio 186:1, the hardest case
     model = draw_episode_model(plant, EpisodeDraws(np.arange(3000), np.zeros(3000)))
