@@ -88,6 +88,12 @@ VARIANTS = {
     "sac-long": _v("sac", 120_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "sac-final": _v("sac", 55_000, _FIX, curriculum=_CUR, env_kwargs=_TORQUE),
     "ppo-torque": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo", env_kwargs=_TORQUE),
+    # ---- precision: a 20x steeper attitude term (0.2 -> 4.0 per rad/pi), so the last degrees
+    # are worth about as much as the hold bonus instead of 0.0025 per step at 2 degrees
+    "td3-precise": _v("td3", 55_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, study="td3",
+                      env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
+    "sac-precise": _v("sac", 55_000, _FIX, curriculum=_CUR,
+                      env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
     # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
     **{f"ppo-fuel{w:g}": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo",
                            env_kwargs={"reward_weights": {"fuel": w}})
@@ -168,7 +174,7 @@ def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int,
         done = (term | trunc) & alive
         idx = np.flatnonzero(done)
         success[idx] = np.asarray(info["is_success"])[idx]
-        lost[idx] = np.asarray(info["rate_dps"])[idx] > np.degrees(cfg.rate_limit)
+        lost[idx] = np.asarray(info["rate_dps"])[idx] > np.degrees(cfg.scene.episode.rate_limit)
         fuel[idx] = np.asarray(info["fuel_kg"])[idx]
         t_end[idx] = np.asarray(info["time_s"])[idx]
         err[idx] = np.asarray(info["attitude_error_deg"])[idx]
@@ -384,7 +390,8 @@ def explore(episodes: int = EVAL_EPISODES) -> dict:
                 _, _, term, trunc, info = envs.step(throttle_action(draw(shape), action_map))
                 done = (term | trunc) & alive
                 idx = np.flatnonzero(done)
-                lost[idx] = np.asarray(info["rate_dps"])[idx] > np.degrees(envs.config.rate_limit)
+                limit_dps = np.degrees(envs.config.scene.episode.rate_limit)
+                lost[idx] = np.asarray(info["rate_dps"])[idx] > limit_dps
                 fuel[idx] = np.asarray(info["fuel_kg"])[idx]
                 t_end[idx] = np.asarray(info["time_s"])[idx]
                 alive &= ~done
