@@ -53,6 +53,17 @@ def ppo_policy(seed: int, suite: Path = SUITE):
     return MeanThrottle(SB3Policy(model)), meta
 
 
+def trained_seeds(seeds, suite: Path = SUITE) -> list[int]:
+    """The seeds of ``seeds`` whose suite run folder is present (trained models are not
+    committed: a fresh clone has the suite's JSON, not its policies)."""
+    present = [s for s in seeds if (Path(suite) / "cells" / CELL.format(s) / "run").is_dir()]
+    for s in sorted(set(seeds) - set(present)):
+        print(f"ppo seed {s}: no trained policy in {Path(suite) / 'cells' / CELL.format(s)}; "
+              "skipped (train it with: python -m rbenv suite --tasks reorient --scenes "
+              f"{SCENE} --out {suite})", flush=True)
+    return present
+
+
 def quartiles(x) -> dict:
     """median, p25, p75, min, max and n of the finite values of x (None when there are none)."""
     v = np.asarray(x, float)
@@ -253,6 +264,9 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
     bounds = {**starts, "settle_s": settle["sampled"], "settle_continuous_s":
               settle["continuous"], "fuel_kg": fuel["kg"], "kappa": fuel["kappa"]}
     policies: dict = {"pd": ("pd", {}), "bangbang": ("bangbang", {})}
+    trained = trained_seeds(ppo_seeds)
+    missing = sorted(set(ppo_seeds) - set(trained))
+    ppo_seeds = trained
     for s in ppo_seeds:
         policies[f"ppo seed {s}"] = ppo_policy(s)
     results, per_episode = {}, {}
@@ -291,7 +305,8 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
                        "fuel_g": quartiles(1000 * bounds["fuel_kg"]),
                        "fuel_zero": int(np.sum(bounds["fuel_kg"] <= 0)),
                        "kappa_lambda_max": quartiles(bounds["kappa"] * limits.inertia_max)},
-            "policies": results, "violations": violations, "optimal": optimal,
+            "policies": results, "missing_ppo_seeds": missing, "violations": violations,
+            "optimal": optimal,
             "per_episode": _rounded({"angle_deg": np.degrees(bounds["angle"]),
                                      "rate0": np.linalg.norm(bounds["omega_B"], axis=1),
                                      "settle_bound_s": bounds["settle_s"],
