@@ -147,15 +147,26 @@ class AtomicCheckpoint(_Every):
 class PeriodicEval(_Every):
     """Deterministic evaluation every ``every`` timesteps, logged to ``eval/evaluations.npz``.
 
-    The history is loaded from the file on resume (entries after the resumed checkpoint are
-    dropped, since those steps are trained again) and rewritten atomically after each
-    evaluation, in the format of SB3's ``EvalCallback``.
+    The policy acts as a loaded one does (:class:`agents.runs.RunPolicy` with
+    ``action="auto"``: the mean throttle for PPO in throttle mode), so the training curve
+    shows the controller that ``rbenv evaluate`` and the report measure. ``run_config``: the
+    run's configuration (its ``env_kwargs`` name the action mode). The history is loaded from
+    the file on resume (entries after the resumed checkpoint are dropped, since those steps are
+    trained again) and rewritten atomically after each evaluation, in the format of SB3's
+    ``EvalCallback``.
     """
 
-    def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int):
+    def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int,
+                 run_config: dict | None = None):
         super().__init__(every)
         self.eval_env, self.log, self.episodes = eval_env, Path(log), episodes
+        self.run_config = run_config
         self.history = load_eval_history(self.log, resumed_at)
+
+    def policy(self) -> runs.RunPolicy:
+        """The model being trained, acting as a loaded policy would. The eval env normalises
+        observations itself, so the policy carries no statistics."""
+        return runs.RunPolicy(self.model, None, self.run_config, source="training model")
 
     def _fire(self) -> None:
         sync_envs_normalization(self.training_env, self.eval_env)
@@ -165,7 +176,7 @@ class PeriodicEval(_Every):
             if locals_["done"] and "is_success" in locals_["info"]:
                 successes.append(bool(locals_["info"]["is_success"]))
 
-        rewards, lengths = evaluate_policy(self.model, self.eval_env, self.episodes,
+        rewards, lengths = evaluate_policy(self.policy(), self.eval_env, self.episodes,
                                            deterministic=True, return_episode_rewards=True,
                                            warn=False, callback=record)
         h = self.history
@@ -440,7 +451,7 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
     # Evaluation before checkpoint: a checkpoint at step N implies the evaluation due at N is
     # logged, so a kill between the two never loses an entry of the history.
     callbacks = [PeriodicEval(eval_env, out / runs.EVAL_LOG, cfg.eval_every, cfg.eval_episodes,
-                              done),
+                              done, run_config=asdict(cfg)),
                  AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
     if progress_bar:
         callbacks.append(RateProgress())

@@ -151,3 +151,14 @@ def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
     assert config["env_kwargs"] == {"action_mode": "torque"}
     model = PPO.load(out / "model.zip", device="cpu")
     assert model.action_space.shape == (3,)  # torque mode: one action per body axis
+
+
+def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
+    from agents.train import PeriodicEval
+
+    model = PPO.load(run_dir / "model.zip", device="cpu")
+    for env_kwargs, action in (({}, "mean_throttle"), ({"action_mode": "torque"}, "mode")):
+        callback = PeriodicEval(None, run_dir / "unused.npz", 10, 1, 0,
+                                run_config={"scene": "cubesat-12u", "env_kwargs": env_kwargs})
+        callback.model = model
+        assert callback.policy().action == action
