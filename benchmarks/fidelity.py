@@ -448,7 +448,8 @@ def plot(data: dict, path: Path) -> Path:
     ax.set_xlabel(f"PPO training time, {what} (min, 1 torch thread, shared 2-core machine)")
     ax.set_ylabel(f"success on reference physics {REFERENCE.name} (%)")
     ax.set_title(f"PPO on {SCENE}, {data['info']['timesteps']:,} steps: trained on each "
-                 "setting, tested on the reference (open: on its own physics)", fontsize=8)
+                 "setting, tested on the reference\n(filled: mean over seeds on the reference, "
+                 "bars min to max; open: mean on its own physics)", fontsize=8)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
