@@ -20,7 +20,9 @@ Resumable: each finished (setting, seed) run is written to ``OUT/runs/<setting>-
 and skipped when present; the training folders (models, checkpoints) are in ``--runs-dir``
 (default ``runs/fidelity``, or ``OUT/train`` with ``--quick``), and a killed training resumes
 from its last checkpoint. The aggregate is ``OUT/fidelity.json``, ``fidelity.md`` and
-``fidelity.png`` (success on the reference against training wall time, one point per setting).
+``fidelity.png`` (success on the reference against training time, one point per setting).
+``OUT`` defaults to ``benchmarks/results/fidelity``, and to ``runs/fidelity-quick`` with
+``--quick`` so that the smoke form never overwrites the committed results.
 """
 
 from __future__ import annotations
@@ -505,7 +507,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help=f"smoke form: {[s.name for s in QUICK['settings']]}, "
                    f"{QUICK['timesteps']} timesteps, {QUICK['episodes']} episodes")
     p.add_argument("--out", default=None,
-                   help="results folder (default benchmarks/results/fidelity)")
+                   help="results folder (default benchmarks/results/fidelity; "
+                   "runs/fidelity-quick with --quick)")
     p.add_argument("--runs-dir", default=None,
                    help="training folders (default runs/fidelity; OUT/train with --quick)")
     p.add_argument("--settings", nargs="+", type=parse_setting, default=None,
@@ -526,7 +529,7 @@ def main(argv=None) -> dict:
     quick = QUICK if args.quick else {}
     from benchmarks.common import RESULTS
 
-    out = Path(args.out) if args.out else RESULTS / "fidelity"
+    out = Path(args.out or ("runs/fidelity-quick" if args.quick else RESULTS / "fidelity"))
     runs_dir = Path(args.runs_dir or (out / "train" if args.quick else "runs/fidelity"))
     settings = list(args.settings or quick.get("settings", SETTINGS))
     seeds = list(range(args.seeds if args.seeds is not None else quick.get("seeds", 1)))
