@@ -191,9 +191,11 @@ class MeanThrottle:
         return self.policy.mean_throttle(observation), None
 
 
-def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED
-                     ) -> dict:
-    """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes."""
+def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED,
+                     env_kwargs: dict | None = None) -> dict:
+    """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes
+    of the cell's task and scene; ``env_kwargs``: further gym.make options of the env the run
+    trained in (physics setting, randomization)."""
     from agents import runs
     from agents.evaluate import SB3Policy, evaluate
 
@@ -202,7 +204,8 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
     curve = {"timesteps": [], "success_rate": []}
     for ckpt in ckpts:
         s = evaluate(MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes, seed=seed,
-                     scene=cell.scene, env_id=cell.env_id, record=0).summary()
+                     scene=cell.scene, env_id=cell.env_id, record=0,
+                     env_kwargs=env_kwargs).summary()
         curve["timesteps"].append(ckpt.steps)
         curve["success_rate"].append(s["success_rate"])
     return curve

@@ -92,22 +92,6 @@ def _evaluate(policy, setting: Setting, episodes: int, seed: int) -> dict:
                     env_kwargs=setting.env_kwargs).summary()
 
 
-def validation_curve(run: Path, setting: Setting, episodes: int) -> dict:
-    """Success of every checkpoint (mean throttle) on validation episodes of ``setting``."""
-    from agents import runs
-    from agents.evaluate import SB3Policy
-
-    ckpts = sorted(runs.checkpoints(run / runs.CHECKPOINTS, report=lambda _: None),
-                   key=lambda c: c.steps)
-    curve = {"timesteps": [], "success_rate": []}
-    for ckpt in ckpts:
-        s = _evaluate(suite.MeanThrottle(SB3Policy(ckpt.model)), setting, episodes,
-                      suite.VALIDATION_SEED)
-        curve["timesteps"].append(ckpt.steps)
-        curve["success_rate"].append(s["success_rate"])
-    return curve
-
-
 def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, threads: int
                   ) -> dict:
     """Train PPO (shipped defaults) on ``setting``; training.json plus this process's CPU time.
@@ -174,7 +158,9 @@ def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, times
     run = Path(runs_dir) / f"{setting.name}-seed{seed}"
     training = train_setting(setting, seed, timesteps, run, threads)
     set_threads(threads)
-    curve = validation_curve(run, setting, min(episodes, suite.VALIDATION_EPISODES))
+    cell = suite.Cell("ppo", rbenv.ENV_ID, SCENE, seed, timesteps)
+    curve = suite.validation_curve(cell, run, min(episodes, suite.VALIDATION_EPISODES),
+                                   env_kwargs=setting.env_kwargs)
     model, steps = suite.select_checkpoint(run, curve)
     selected = suite.MeanThrottle(SB3Policy(model))
     final = suite.MeanThrottle(SB3Policy(run))

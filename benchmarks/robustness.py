@@ -232,24 +232,6 @@ def start_from_shorter_run(out: Path, seed: int, timesteps: int, shorter) -> Pat
     return None
 
 
-def validation_curve(run: Path, randomize: dict, episodes: int) -> dict:
-    """Success of every checkpoint (mean throttle) on validation episodes of the training
-    distribution (seeded VALIDATION_SEED + i; never the held-out ones)."""
-    from agents import runs
-    from agents.evaluate import SB3Policy, evaluate
-
-    ckpts = sorted(runs.checkpoints(run / runs.CHECKPOINTS, report=lambda _: None),
-                   key=lambda c: c.steps)
-    curve = {"timesteps": [], "success_rate": []}
-    for ckpt in ckpts:
-        s = evaluate(suite.MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes,
-                     seed=VALIDATION_SEED, scene=SCENE, env_id=ENV_ID, record=0,
-                     env_kwargs={"randomize": randomize}).summary()
-        curve["timesteps"].append(ckpt.steps)
-        curve["success_rate"].append(s["success_rate"])
-    return curve
-
-
 def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: int,
                      threads: int = 1, shorter=()) -> dict:
     """PPO (shipped defaults) trained with randomization at TRAIN_SIZE; its record (cached).
@@ -281,7 +263,8 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     train(cfg, resume=resume, force=not resume, progress_bar=False, report=False)
     summary = read_json(run / runs.SUMMARY, "training summary")
     set_threads(threads)
-    curve = validation_curve(run, randomize, validation_episodes)
+    curve = suite.validation_curve(cell, run, validation_episodes, seed=VALIDATION_SEED,
+                                   env_kwargs={"randomize": randomize})
     model, steps = suite.select_checkpoint(run, curve)
     record = {"version": RESULT_VERSION, "seed": seed, "timesteps": timesteps,
               "scene": SCENE, "env_id": ENV_ID, "randomize": randomize,
