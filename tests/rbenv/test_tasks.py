@@ -91,7 +91,7 @@ def _biased_actions(n, steps, seed, size=12):
                                                (rbenv.TRACK_ID, "cubesat-12u"),
                                                (rbenv.ENV_ID, "cubesat-12u-dr"),
                                                (rbenv.TRACK_ID, "cubesat-12u-dr")])
-def test_vector_env_equals_single_envs_through_autoresets(env_id, scene):
+def test_vector_env_equals_single_envs_through_autoresets(env_id, scene, lockstep):
     """Sub-env i seeded s + i equals a single env seeded s + i, episode after episode,
     however the other sub-envs' episodes end (counter-based starts, rbenv.draws)."""
     n, steps, seed = 5, 340, 21
@@ -103,21 +103,14 @@ def test_vector_env_equals_single_envs_through_autoresets(env_id, scene):
     actions = _biased_actions(n, steps, 5)
     prev_done = np.zeros(n, bool)
     resets = 0
+    step_alongside, assert_sub_env_matches = lockstep
     for t in range(steps):
-        obs, reward, terminated, truncated, info = venv.step(actions[t])
-        vst = venv.unwrapped._st
+        vec_out, singles_out = step_alongside(venv, singles, actions[t], prev_done)
+        obs, _, terminated, truncated, info = vec_out
+        resets += int(prev_done.sum())
         for i, env in enumerate(singles):
-            if prev_done[i]:
-                resets += 1
-                o, inf = env.reset()
-                r, te, tr = 0.0, False, False
-            else:
-                o, r, te, tr, inf = env.step(actions[t, i])
-            assert (te, tr) == (terminated[i], truncated[i])
-            assert abs(r - reward[i]) <= 1e-12
-            sst = env.unwrapped._st
-            np.testing.assert_allclose([*sst.q, *sst.w], [c[i] for c in (*vst.q, *vst.w)],
-                                       rtol=0, atol=1e-12)
+            assert_sub_env_matches(env, singles_out[i], venv, vec_out, i)
+            o, inf = singles_out[i][0], singles_out[i][4]
             np.testing.assert_allclose(o, obs[i], rtol=0, atol=1e-6)
             for key, value in inf.items():
                 assert abs(float(value) - float(info[key][i])) <= 1e-9 * max(1, abs(value))

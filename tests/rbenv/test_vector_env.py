@@ -75,7 +75,7 @@ def test_sync_vectorization_of_the_single_env_also_works():
 
 
 @pytest.mark.parametrize("scene", ["cubesat-12u", "microsat-100kg"])
-def test_matches_single_envs_to_1e12_through_autoresets(scene):
+def test_matches_single_envs_to_1e12_through_autoresets(scene, lockstep):
     """Sub-env i seeded s + i equals a single env seeded s + i, episode after episode.
 
     microsat-100kg has sensor noise, drawn from the batch generator in the vector env: there
@@ -101,24 +101,17 @@ def test_matches_single_envs_to_1e12_through_autoresets(scene):
     prev_done = np.zeros(n, dtype=bool)
     reset_once = np.zeros(n, dtype=bool)
     resets = 0
+    step_alongside, assert_sub_env_matches = lockstep
     for t in range(steps):
-        obs, reward, terminated, truncated, info = venv.step(actions[t])
-        vst = venv.unwrapped._st
-        for i, env in enumerate(singles):
-            if prev_done[i]:
-                resets += 1
-                o, inf = env.reset()
-                r, te, tr = 0.0, False, False
-            else:
-                o, r, te, tr, inf = env.step(actions[t, i])
+        vec_out, singles_out = step_alongside(venv, singles, actions[t], prev_done)
+        obs, _, terminated, truncated, info = vec_out
+        resets += int(prev_done.sum())
+        for i in range(n):
+            o, inf = singles_out[i][0], singles_out[i][4]
             reset_once[i] |= prev_done[i]
             if noisy and reset_once[i]:
                 continue
-            assert (te, tr) == (terminated[i], truncated[i])
-            assert abs(r - reward[i]) <= 1e-12
-            sst = env.unwrapped._st
-            np.testing.assert_allclose([*sst.q, *sst.w], [c[i] for c in (*vst.q, *vst.w)],
-                                       rtol=0, atol=1e-12)
+            assert_sub_env_matches(singles[i], singles_out[i], venv, vec_out, i)
             if not noisy:
                 np.testing.assert_allclose(o, obs[i], rtol=0, atol=1e-6)  # float32
             for key in KEYS:
