@@ -94,6 +94,9 @@ VARIANTS = {
                       env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
     "sac-precise": _v("sac", 55_000, _FIX, curriculum=_CUR,
                       env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
+    # ---- TQC (sb3-contrib): SAC with a distributional critic that drops the top quantiles,
+    # on the best SAC recipe (torque actions, curriculum, one update per env step)
+    "tqc-final": _v("tqc", 55_000, _UTD1, curriculum=_CUR, env_kwargs=_TORQUE, study="tqc"),
     # ---- PPO, shipped budget (2M env steps, 64 envs): the fuel weight of the reward
     **{f"ppo-fuel{w:g}": _v("ppo", 2_000_000, _PPO, n_envs=64, study="ppo",
                            env_kwargs={"reward_weights": {"fuel": w}})
@@ -258,7 +261,9 @@ def train_and_evaluate(name: str, spec: dict, seed: int = 0) -> dict:
     from stable_baselines3.common.vec_env import VecNormalize
 
     torch.set_num_threads(1)
-    algo = {"ppo": PPO, "sac": SAC, "td3": TD3}[spec["algo"]]
+    if spec["algo"] == "tqc":
+        from sb3_contrib import TQC  # the ecosystem extra
+    algo = {"ppo": PPO, "sac": SAC, "td3": TD3}.get(spec["algo"]) or TQC
     env = VecNormalize(make_env(spec, spec["n_envs"], seed),
                        gamma=spec["hyperparams"].get("gamma", 0.99))
     hp = copy.deepcopy(spec["hyperparams"])  # SB3 writes into policy_kwargs
