@@ -146,7 +146,9 @@ class SatelliteReorientEnv(AttitudeEnv):
 
     **Reward**: the sum of ``info["reward_<term>"]``: attitude ``−0.2·θ/π``, rate
     ``−0.05·min(|ω|/L, 1)``, fuel ``−0.05·Σu_iF_i/ΣF_i``, progress ``10·(θ_prev − θ)/π``, hold
-    ``+1`` per step inside the success thresholds, failure ``−25`` on loss of control.
+    ``+1`` per step inside the success thresholds, failure ``−25`` on loss of control, and
+    precision ``+w·θ_s/(θ_s + θ)`` (θ_s the success angle; weight 0 unless
+    ``reward_weights={"precision": w}``: a steep pull over the last degrees).
 
     **Episode end**: ``terminated`` with ``info["is_success"] = True`` when θ < 1° and
     |ω| < 0.01 rad/s (scene values) are held for the scene's hold time; ``terminated`` without
@@ -163,7 +165,9 @@ class SatelliteReorientEnv(AttitudeEnv):
     **Version History**
 
     * v0: first release. Episode starts are counter-based draws (since rbenv 0.2; rbenv 0.1
-      drew them from ``np_random``, so seeded episodes differ between the two).
+      drew them from ``np_random``, so seeded episodes differ between the two). rbenv 0.2 adds
+      the ``precision`` reward term, weight 0 by default: default rewards are unchanged to the
+      last bit, and ``info`` gains ``reward_precision``.
     """
 
     task_name: ClassVar[str] = "reorient"

@@ -94,6 +94,11 @@ VARIANTS = {
                       env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
     "sac-precise": _v("sac", 55_000, _FIX, curriculum=_CUR,
                       env_kwargs={**_TORQUE, "reward_weights": {"attitude": 4.0}}),
+    # ---- a near-target pull instead: the precision term +w·θ_s/(θ_s + θ), weight 1
+    "td3-pull": _v("td3", 55_000, {**_TD3, "n_steps": 3}, curriculum=_CUR, study="td3",
+                   env_kwargs={**_TORQUE, "reward_weights": {"precision": 1.0}}),
+    "sac-pull": _v("sac", 55_000, _FIX, curriculum=_CUR,
+                   env_kwargs={**_TORQUE, "reward_weights": {"precision": 1.0}}),
     # ---- TQC (sb3-contrib): SAC with a distributional critic that drops the top quantiles,
     # on the best SAC recipe (torque actions, curriculum, one update per env step)
     "tqc-final": _v("tqc", 55_000, _UTD1, curriculum=_CUR, env_kwargs=_TORQUE, study="tqc"),

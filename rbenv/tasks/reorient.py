@@ -35,7 +35,9 @@ class ReorientWeights(Weights):
 
     attitude ``−w·θ/π``; rate ``−w·min(|ω|/L, 1)``; fuel ``−w·Σu_iF_i/ΣF_i``; progress
     ``w·(θ_prev − θ)/π`` (potential-based shaping); hold ``+w`` per step inside the success
-    thresholds; failure ``−w`` once, on loss of control.
+    thresholds; failure ``−w`` once, on loss of control; precision ``+w·θ_s/(θ_s + θ)`` with
+    θ_s the success angle (off by default: a steep pull over the last degrees, for learners
+    that stop a few degrees short when the linear attitude term is all that is left).
     """
 
     attitude: float = 0.2
@@ -44,6 +46,7 @@ class ReorientWeights(Weights):
     progress: float = 10.0
     hold: float = 1.0
     failure: float = 25.0
+    precision: float = 0.0
 
 
 class ReorientTerms(NamedTuple):
@@ -55,6 +58,7 @@ class ReorientTerms(NamedTuple):
     progress: object
     hold: object
     failure: object
+    precision: object
 
 
 def initial_ranges(scene, max_angle_deg=None, max_rate=None) -> tuple[float, float]:
@@ -152,6 +156,9 @@ class Reorient(Task):
             wt.progress * _INV_PI * (st.angle - angle),
             wt.hold * inside,
             -wt.failure * failure,
+            # Last, so that with weight 0 the reward is the same sum to the last bit.
+            wt.precision * self.success_angle / (self.success_angle + angle)
+            if wt.precision else 0.0 * angle,
         ))
         st.angle = angle
         return terms, st.hold >= self.hold_steps, failure

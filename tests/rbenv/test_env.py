@@ -110,6 +110,31 @@ def test_step_types_info_keys_and_reward_terms_sum_exactly():
     assert info["time_s"] == pytest.approx(50 * scene.physics.control_dt)
 
 
+def test_precision_term_is_off_by_default_and_pulls_over_the_last_degrees():
+    """Off: exactly 0, so default rewards are unchanged. On: w·θ_s/(θ_s + θ) from the true
+    error angle, the full weight w on target."""
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1, 1, (40, 12))
+    default, pulled = make(), make(reward_weights={"precision": 2.0})
+    default.reset(seed=4)
+    pulled.reset(seed=4)
+    theta_s = math.radians(default.unwrapped.scene.episode.success_angle_deg)
+    for a in actions:
+        _, r0, *_, i0 = default.step(a)
+        _, r1, *_, i1 = pulled.step(a)
+        assert i0["reward_precision"] == 0.0
+        theta = math.radians(i1["attitude_error_deg"])
+        assert i1["reward_precision"] == pytest.approx(2.0 * theta_s / (theta_s + theta),
+                                                       rel=1e-12)
+        assert r1 - r0 == pytest.approx(i1["reward_precision"], abs=1e-9)
+    # On target and at rest the pull is the full weight (the disturbance bias moves it by
+    # far less than a degree in one step).
+    q = np.array([1.0, 0.0, 0.0, 0.0])
+    pulled.reset(seed=5, options={"q": q, "q_target": q, "omega_B": np.zeros(3)})
+    _, _, _, _, info = pulled.step(np.zeros(12))
+    assert info["reward_precision"] == pytest.approx(2.0, rel=1e-3)
+
+
 def test_observation_layout_matches_state():
     env = make()
     q_target = quaternion.from_axis_angle([0.0, 0.0, 1.0], 0.2)
