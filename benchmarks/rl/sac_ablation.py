@@ -99,6 +99,10 @@ VARIANTS = {
                    env_kwargs={**_TORQUE, "reward_weights": {"precision": 1.0}}),
     "sac-pull": _v("sac", 55_000, _FIX, curriculum=_CUR,
                    env_kwargs={**_TORQUE, "reward_weights": {"precision": 1.0}}),
+    "sac-pull-long": _v("sac", 240_000, _FIX, curriculum=_CUR,
+                        env_kwargs={**_TORQUE, "reward_weights": {"precision": 1.0}}),
+    "sac-pull3-long": _v("sac", 240_000, _FIX, curriculum=_CUR,
+                         env_kwargs={**_TORQUE, "reward_weights": {"precision": 3.0}}),
     # ---- TQC (sb3-contrib): SAC with a distributional critic that drops the top quantiles,
     # on the best SAC recipe (torque actions, curriculum, one update per env step)
     "tqc-final": _v("tqc", 55_000, _UTD1, curriculum=_CUR, env_kwargs=_TORQUE, study="tqc"),
