@@ -174,23 +174,6 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     return run / runs.FINAL_MODEL, int(read_json(run / runs.SUMMARY, "summary")["timesteps"])
 
 
-class MeanThrottle:
-    """A trained Gaussian policy acting with its mean throttle E[clip(μ + σε, 0, 1)]
-    (:meth:`agents.runs.RunPolicy.mean_throttle`), whatever the policy's own ``action``.
-
-    Under ``throttle = clip(a, 0, 1)`` PPO learns to set thruster means below zero and fire
-    them through its exploration noise; the usual deterministic action clip(μ, 0, 1) switches
-    that firing off. The mean throttle is the deterministic action that matches the policy it
-    was trained as.
-    """
-
-    def __init__(self, policy):
-        self.policy = policy  # an agents.runs.RunPolicy (model + observation statistics)
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        return self.policy.mean_throttle(observation), None
-
-
 def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED,
                      env_kwargs: dict | None = None) -> dict:
     """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes
@@ -203,8 +186,8 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
                    key=lambda c: c.steps)
     curve = {"timesteps": [], "success_rate": []}
     for ckpt in ckpts:
-        s = evaluate(MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes, seed=seed,
-                     scene=cell.scene, env_id=cell.env_id, record=0,
+        s = evaluate(SB3Policy(ckpt.model, action="mean_throttle"), episodes=episodes,
+                     seed=seed, scene=cell.scene, env_id=cell.env_id, record=0,
                      env_kwargs=env_kwargs).summary()
         curve["timesteps"].append(ckpt.steps)
         curve["success_rate"].append(s["success_rate"])
@@ -222,8 +205,9 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
               "record": 0}
     curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES))
     model, steps = select_checkpoint(run, curve)
-    policy = evaluate(MeanThrottle(SB3Policy(model)), name=cell.algo, **common).summary()
-    final = evaluate(MeanThrottle(SB3Policy(run)), name=f"{cell.algo} (final)",
+    policy = evaluate(SB3Policy(model, action="mean_throttle"), name=cell.algo,
+                      **common).summary()
+    final = evaluate(SB3Policy(run, action="mean_throttle"), name=f"{cell.algo} (final)",
                      **common).summary()
     clip_mean = evaluate(SB3Policy(run, action="mode"), name=f"{cell.algo} (final, clip(mean))",
                          **common).summary()
@@ -246,9 +230,8 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     ckpts = sorted(runs.checkpoints(cell_dir(cell, out) / "run" / runs.CHECKPOINTS,
                                     report=lambda _: None), key=lambda c: c.steps)
     for ckpt in ckpts:
-        s = evaluate(MeanThrottle(SB3Policy(ckpt.model)), episodes=episodes, seed=seed,
-                     scene=cell.scene,
-                     env_id=cell.env_id, record=0).summary()
+        s = evaluate(SB3Policy(ckpt.model, action="mean_throttle"), episodes=episodes,
+                     seed=seed, scene=cell.scene, env_id=cell.env_id, record=0).summary()
         rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
                      "final_error_deg_median": s["final_error_deg"]["median"],
                      "fuel_g": 1000 * s["fuel"]["mean"]})

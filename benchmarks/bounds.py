@@ -42,7 +42,7 @@ def ppo_policy(seed: int, suite: Path = SUITE):
     checkpoint it selected on validation episodes, acting with its mean throttle."""
     from agents.evaluate import SB3Policy
     from agents.runs import read_json
-    from agents.suite import MeanThrottle, select_checkpoint
+    from agents.suite import select_checkpoint
 
     folder = Path(suite) / "cells" / CELL.format(seed)
     result = read_json(folder / "result.json", "suite cell result")
@@ -50,7 +50,7 @@ def ppo_policy(seed: int, suite: Path = SUITE):
     meta = {"model": model.name, "timesteps": steps,
             "suite_success_rate": result["policy"]["success_rate"],
             "suite_fuel_mean_g": 1000 * result["policy"]["fuel"]["mean"]}
-    return MeanThrottle(SB3Policy(model)), meta
+    return SB3Policy(model, action="mean_throttle"), meta
 
 
 def trained_seeds(seeds, suite: Path = SUITE) -> list[int]:

@@ -5,7 +5,8 @@ user might pick for speed (integrator × substeps per 0.5 s control step), PPO i
 the shipped defaults (:func:`agents.suite.train_config`, :func:`agents.train.train`) on the
 default reorientation task, scene cubesat-12u, with only ``integrator`` and ``substeps``
 changed. Every policy is then evaluated, with the learning suite's mean-throttle action
-(:class:`agents.suite.MeanThrottle`) on the suite's 500 held-out episodes (seed 1,000,000 + i):
+(``action="mean_throttle"`` of :class:`agents.runs.RunPolicy`), on the suite's 500 held-out
+episodes (seed 1,000,000 + i):
 
 - on **reference physics** (:data:`REFERENCE`, RK4 with 16 substeps), checked to be converged by
   evaluating the PD, the bang-bang and every policy again on RK4 with 32 substeps;
@@ -162,8 +163,8 @@ def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, times
     curve = suite.validation_curve(cell, run, min(episodes, suite.VALIDATION_EPISODES),
                                    env_kwargs=setting.env_kwargs)
     model, steps = suite.select_checkpoint(run, curve)
-    selected = suite.MeanThrottle(SB3Policy(model))
-    final = suite.MeanThrottle(SB3Policy(run))
+    selected = SB3Policy(model, action="mean_throttle")
+    final = SB3Policy(run, action="mean_throttle")
     evals = {"reference": _evaluate(selected, REFERENCE, episodes, suite.EVAL_SEED),
              "check": _evaluate(selected, CHECK, episodes, suite.EVAL_SEED),
              "own": _evaluate(selected, setting, episodes, suite.EVAL_SEED),

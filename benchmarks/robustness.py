@@ -288,7 +288,7 @@ def evaluate_policy(spec: PolicySpec, condition: Condition, episodes: int, seed:
     from agents.evaluate import SB3Policy, evaluate
 
     if spec.model is not None:
-        policy = suite.MeanThrottle(SB3Policy(spec.model))
+        policy = SB3Policy(spec.model, action="mean_throttle")
     else:
         policy = scripted_controller(spec) if spec.options else spec.law or spec.group
     kwargs = {"randomize": condition.randomize if randomize is None else randomize}

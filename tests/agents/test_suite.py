@@ -170,10 +170,11 @@ def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite)
     from agents.runs import load_policy
 
     out, data = quick_suite
-    policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run")
+    policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run",
+                         action="mean_throttle")
     env = __import__("gymnasium").make(rbenv.DETUMBLE_ID)
     obs, _ = env.reset(seed=3)
-    expected, _ = suite.MeanThrottle(policy).predict(obs[None])
+    expected, _ = policy.predict(obs[None])
     torch.manual_seed(0)
     norm = torch.as_tensor(policy.normalize(obs[None]), dtype=torch.float32).repeat(20000, 1)
     with torch.no_grad():
