@@ -147,14 +147,17 @@ class EpisodeDraws:
         from it, saving NumPy calls; a large one hashes each request alone, which keeps its
         temporaries small. The numbers are the same either way.
         """
-        size = self._sizes.get(stream, _BLOCK)
-        if self.n * size > _BLOCK_ELEMENTS:
+        if self._per_request(stream):
             return self._hash_uniforms(stream, count, offset)
         block = self._blocks.get(stream)
         if block is None or len(block) < offset + count:
             block = self._blocks[stream] = self._hash_uniforms(
-                stream, max(offset + count, size), 0)
+                stream, max(offset + count, self._sizes.get(stream, _BLOCK)), 0)
         return block[offset:offset + count]
+
+    def _per_request(self, stream: str) -> bool:
+        """True when this batch is too large to cache a block of ``stream``."""
+        return self.n * self._sizes.get(stream, _BLOCK) > _BLOCK_ELEMENTS
 
     def normal_array(self, stream: str, count: int, offset: int = 0) -> np.ndarray:
         """(count, N) standard normals, Box–Muller on uniform slots ``offset + 2k, + 2k + 1``.
@@ -164,8 +167,7 @@ class EpisodeDraws:
         """
         if offset % 2:
             raise ValueError(f"normal draws start at an even slot, got offset {offset}")
-        if stream not in self._blocks and count > _NORMAL_CHUNK \
-                and self.n * 2 * count > _BLOCK_ELEMENTS:
+        if count > _NORMAL_CHUNK and self._per_request(stream):
             # A large batch hashed per request: a few normals at a time into the result, so
             # the uint64 and uniform temporaries stay a few rows tall (memory per sub-env).
             out = np.empty((count, self.n))
