@@ -11,12 +11,15 @@ forget it), exactly as for a recurrent SB3 policy.
 
 from __future__ import annotations
 
+import importlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from core.vec import cross
+from rbenv import registry
 from rbenv.allocation import axis_authority, make_allocator
 from rbenv.plant import Plant
 from rbenv.tasks import Task
@@ -263,14 +266,38 @@ class RandomPolicy:
         return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32), state
 
 
-BASELINES = {"reorient": {"pd": QuaternionPD, "bangbang": EigenaxisBangBang},
-             "detumble": {"pd": RateDamping},
-             "track": {"pd": TrackingPD}}
+def resolve_baseline(ref):
+    """A baseline class from a registry entry's reference: ``"module:Class"`` or the class."""
+    if not isinstance(ref, str):
+        return ref
+    module, _, attr = ref.partition(":")
+    try:
+        return getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"scripted baseline {ref!r} cannot be loaded: {exc}") from None
+
+
+class _Baselines(Mapping):
+    """Task name → {baseline name → class}, read from the task registry (rbenv.registry)."""
+
+    def __getitem__(self, task_name: str) -> dict:
+        spec = registry.by_name(task_name)
+        return {name: resolve_baseline(ref) for name, ref in spec.baselines.items()}
+
+    def __iter__(self):
+        return iter([s.name for s in registry.specs()])
+
+    def __len__(self):
+        return len(registry.specs())
+
+
+BASELINES = _Baselines()
 
 
 def baseline(env, name: str = "pd"):
-    """The scripted baseline ``name`` for ``env``'s task: "pd" (every task: quaternion PD,
-    rate damping, tracking PD) or "bangbang" (reorientation only)."""
+    """The scripted baseline ``name`` for ``env``'s task, as its registry entry names them:
+    "pd" (the shipped tasks: quaternion PD, rate damping, tracking PD) or "bangbang"
+    (reorientation only)."""
     _, task = env_parts(env)
     options = BASELINES[task.name]
     if name not in options:

@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 import rbenv
-from agents.controllers import RandomPolicy, ZeroPolicy, baseline
+from agents.controllers import BASELINES, RandomPolicy, ZeroPolicy, baseline, env_parts
 from agents.runs import RunPolicy
 
 SCRIPTED = ("pd", "bangbang", "zero", "random")
@@ -96,7 +96,7 @@ def _load_model_policy(name: str, action: str = "auto") -> tuple:
 
 def make_policy(name: str, env, seed: int = 0):
     """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``; env single or vector."""
-    if name in ("pd", "bangbang"):
+    if name in BASELINES[env_parts(env)[1].name]:
         return baseline(env, name)
     n_act = getattr(env, "single_action_space", env.action_space).shape[0]
     if name == "zero":
@@ -144,7 +144,8 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
     if isinstance(policy, str):
         policy = make_policy(policy, envs, seed)
     dt, hold = plant.control_dt, plant.scene.episode.hold_time
-    error_key = "attitude_error_deg" if "q_err" in task.observation_structure else "rate_dps"
+    error_key = task.error_info_key
+    nan = np.full(n, np.nan)
     obs, _ = envs.reset(seed=seed)
     alive = np.ones(n, bool)
     out = {k: np.full(n, np.nan) for k in ("settle_time_s", "fuel_kg", "final_error_deg",
@@ -161,8 +162,8 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
             if alive[i]:
                 tr = traces[i]
                 tr["time_s"].append(float(info["time_s"][i]))
-                tr["attitude_error_deg"].append(float(info[error_key][i]))
-                tr["rate_dps"].append(float(info["rate_dps"][i]))
+                tr["attitude_error_deg"].append(float(info.get(error_key, nan)[i]))
+                tr["rate_dps"].append(float(info.get("rate_dps", nan)[i]))
                 tr["throttle"].append(plant.throttle(np.asarray(action[i], float)).tolist())
         done = (term | trunc) & alive
         if done.any():
@@ -170,7 +171,7 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
             success[idx] = np.asarray(info["is_success"])[idx]
             out["episode_time_s"][idx] = np.asarray(info["time_s"])[idx]
             out["fuel_kg"][idx] = np.asarray(info["fuel_kg"])[idx]
-            out["final_error_deg"][idx] = np.asarray(info[error_key])[idx]
+            out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt
             alive[idx] = False

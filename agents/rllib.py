@@ -89,9 +89,7 @@ class RLlibConfig:
         return max(self.env_runners, 1) * self.envs_per_runner
 
     def resolve(self) -> RLlibConfig:
-        if self.env_id not in rbenv.ENV_IDS:
-            raise InvalidParameterError(f"env_id must be one of {sorted(rbenv.ENV_IDS)}, got "
-                                        f"{self.env_id!r}")
+        rbenv.registry.get(self.env_id)  # a named error for an id it does not hold
         if self.timesteps is None:
             self.timesteps = DEFAULT_TIMESTEPS
         if self.algo != "ppo":

@@ -28,15 +28,7 @@ import rbenv
 from agents.runs import RunFolderError, read_json, write_json
 
 RESULT_VERSION = 3  # 3: mean-throttle action, checkpoints selected on validation episodes
-# Short task names (the keys of agents.controllers.BASELINES) of the registered ids.
-TASKS = {"reorient": rbenv.ENV_ID, "detumble": rbenv.DETUMBLE_ID, "track": rbenv.TRACK_ID}
-TASK_OF = {env_id: task for task, env_id in TASKS.items()}
-# Training budget (timesteps) per algorithm and task for the full suite.
-BUDGETS = {"ppo": {"reorient": 1_000_000, "detumble": 300_000, "track": 1_000_000},
-           "sac": {"reorient": 200_000, "detumble": 100_000, "track": 200_000}}
-# Scenes that need more: PPO on boom-sat reorientation is at 4 % after 1 M steps and 92 % at
-# 3.8 M (benchmarks/results/suite/extension/).
-SCENE_BUDGETS = {("ppo", "reorient", "boom-sat"): 4_000_000}
+# The grid's tasks and their training budgets come from the task registry (rbenv.registry).
 EVAL_EPISODES, EVAL_SEED = 500, 1_000_000
 VALIDATION_EPISODES, VALIDATION_SEED = 100, 2_000_000  # checkpoint selection, not held out
 CURVE_POINTS = 10  # periodic evaluations per training run (the learning curve)
@@ -47,8 +39,8 @@ QUICK = {"algos": ["ppo"], "tasks": ["detumble", "reorient"], "scenes": ["cubesa
 
 def task_of(env_id: str) -> str:
     """Short name of a registered id ("reorient", "detumble", "track")."""
-    if env_id in TASK_OF:
-        return TASK_OF[env_id]
+    if env_id in tasks().values():
+        return rbenv.registry.get(env_id).name
     return re.sub(r"[^a-z0-9]+", "-", env_id.lower()).strip("-")
 
 
@@ -76,10 +68,14 @@ class Cell:
         return f"{self.algo}-{self.task}-{self.scene}-seed{self.seed}"
 
 
+def tasks() -> dict:
+    """Short task name → env id, for every registered task."""
+    return {spec.name: spec.env_id for spec in rbenv.registry.specs()}
+
+
 def default_timesteps(algo: str, env_id: str, scene: str) -> int:
-    """The full suite's budget for ``algo`` on ``env_id`` and ``scene``."""
-    task = task_of(env_id)
-    return SCENE_BUDGETS.get((algo, task, scene), BUDGETS[algo][task])
+    """The full suite's budget for ``algo`` on ``env_id`` and ``scene`` (its registry entry)."""
+    return rbenv.registry.get(env_id).timesteps(algo, scene)
 
 
 def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],
@@ -479,13 +475,13 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default runs/suite, "
                    "runs/suite-quick with --quick)")
     p.add_argument("--algos", nargs="+", default=None, help="default: ppo")
-    p.add_argument("--tasks", nargs="+", default=None, choices=sorted(TASKS),
+    p.add_argument("--tasks", nargs="+", default=None, choices=sorted(tasks()),
                    help="default: every task")
     p.add_argument("--scenes", nargs="+", default=None, help="default: every shipped scene")
     p.add_argument("--seeds", type=int, default=None, help="seeds 0..N-1 (default 3)")
     p.add_argument("--timesteps", type=int, default=None,
                    help="one budget for every cell (default: per task, "
-                   "agents.suite.BUDGETS)")
+                   "the task registry, rbenv.registry)")
     p.add_argument("--episodes", type=int, default=None,
                    help=f"held-out episodes (default {EVAL_EPISODES})")
     p.add_argument("--eval-seed", type=int, default=EVAL_SEED)
@@ -498,11 +494,11 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
 def cells_from_args(args) -> list[Cell]:
     quick = QUICK if args.quick else {}
     algos = args.algos or quick.get("algos", ["ppo"])
-    tasks = args.tasks or quick.get("tasks", list(TASKS))
+    names = args.tasks or quick.get("tasks", list(tasks()))
     scenes = args.scenes or quick.get("scenes", rbenv.list_scenes())
     seeds = args.seeds if args.seeds is not None else quick.get("seeds", 3)
     budget = args.timesteps or quick.get("timesteps") or default_timesteps
-    return grid(algos, [TASKS[t] for t in tasks], scenes, range(seeds), budget)
+    return grid(algos, [tasks()[t] for t in names], scenes, range(seeds), budget)
 
 
 def main(args) -> dict:

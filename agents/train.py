@@ -18,6 +18,7 @@ is also the fastest for these small MLPs) and the CPU kind.
 
 from __future__ import annotations
 
+import copy
 import numbers
 import platform
 import time
@@ -38,16 +39,20 @@ from agents.runs import RunFolderError, atomic_write, write_json
 from agents.sb3 import SB3VecEnv
 from core.errors import InvalidParameterError
 
-DEFAULT_HYPERPARAMS = {
-    "ppo": {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
-            "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
-            "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}},
-    "sac": {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
-            "learning_starts": 5_000, "train_freq": 1, "gradient_steps": 1, "gamma": 0.99,
-            "tau": 0.01, "policy_kwargs": {"net_arch": [256, 256]}},
-}
-DEFAULT_N_ENVS = {"ppo": 64, "sac": 8}
-DEFAULT_TIMESTEPS = {"ppo": 2_000_000, "sac": 200_000}
+# Keys of the zoo's settings that are not the algorithm's constructor arguments.
+ZOO_ONLY = ("policy", "n_envs", "n_timesteps", "normalize", "monitor_kwargs")
+
+
+def tuned(env_id: str, algo: str) -> tuple[dict, int, int]:
+    """(constructor hyperparameters, n_envs, timesteps) of ``algo`` for ``env_id``: the
+    registry entry's settings (rbenv.hyperparams.tuned, the zoo's files read the same dict)."""
+    settings = rbenv.registry.get(env_id).hyperparams.get(algo)
+    if settings is None:
+        raise InvalidParameterError(
+            f"algo must be one of {sorted(rbenv.registry.get(env_id).hyperparams)} for "
+            f"{env_id!r} (its tuned settings), got {algo!r}")
+    params = {k: copy.deepcopy(v) for k, v in settings.items() if k not in ZOO_ONLY}
+    return params, settings["n_envs"], settings["n_timesteps"]
 
 
 @dataclass
@@ -59,7 +64,7 @@ class TrainConfig:
     n_envs: int | None = None
     seed: int = 0
     scene: str = "cubesat-12u"
-    env_id: str = rbenv.ENV_ID  # the task: any id in rbenv.ENV_IDS
+    env_id: str = rbenv.ENV_ID  # the task: any id of the task registry (rbenv.registry)
     out: str | None = None
     env_kwargs: dict = field(default_factory=dict)
     hyperparams: dict = field(default_factory=dict)
@@ -72,15 +77,11 @@ class TrainConfig:
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
-        if self.env_id not in rbenv.ENV_IDS:
-            raise InvalidParameterError(f"env_id must be one of {sorted(rbenv.ENV_IDS)}, got "
-                                        f"{self.env_id!r}")
-        if self.algo not in DEFAULT_HYPERPARAMS:
-            raise InvalidParameterError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
+        params, n_envs, timesteps = tuned(self.env_id, self.algo)
         if self.timesteps is None:
-            self.timesteps = DEFAULT_TIMESTEPS[self.algo]
+            self.timesteps = timesteps
         if self.n_envs is None:
-            self.n_envs = DEFAULT_N_ENVS[self.algo]
+            self.n_envs = n_envs
         for name in ("timesteps", "n_envs", "threads", "checkpoint_every", "eval_every"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
@@ -90,7 +91,7 @@ class TrainConfig:
             if not isinstance(getattr(self, name), dict):
                 raise InvalidParameterError(f"{name} must be a dict (a JSON object), got "
                                             f"{getattr(self, name)!r}")
-        self.hyperparams = {**DEFAULT_HYPERPARAMS[self.algo], **self.hyperparams}
+        self.hyperparams = {**params, **self.hyperparams}
         self.out = self.out or f"runs/{self.algo}-{self.scene}-seed{self.seed}"
         starts = self.hyperparams.get("learning_starts", 0)
         if self.algo == "sac" and self.timesteps <= starts:

@@ -64,6 +64,11 @@ class FloatNamespace:
         return math.isfinite(sum(components))
 
     @staticmethod
+    def not_finite(components) -> bool:
+        """True when some component is not finite (one sum: any NaN or inf propagates)."""
+        return not math.isfinite(sum(components))
+
+    @staticmethod
     def any(x) -> bool:
         return bool(x)
 
@@ -97,6 +102,11 @@ class NumpyNamespace:
     def all_finite(components) -> bool:
         """True when every entry of every component is finite."""
         return bool(np.isfinite(sum(components)).all())
+
+    @staticmethod
+    def not_finite(components):
+        """(N,) bool: True where some component's entry is not finite."""
+        return ~np.isfinite(sum(components))
 
     @staticmethod
     def any(x) -> bool:

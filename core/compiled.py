@@ -186,7 +186,8 @@ def _make_loop(kernel):
                           np.empty(n_bodies))
         w0, w1, w2 = np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies)
         for n in range(n_bodies):
-            qn, wn = kernel(body, _at(q, n), _at(w, n), h, _at(tau_B, n), _at(tau_W, n))
+            qn, wn = kernel(body, _at(q, n), _at(w, n), h, _at(tau_B, n), _at(tau_W, n), None,
+                            None)  # no internal momentum: compiled rigid bodies only
             q0[n], q1[n], q2[n], q3[n] = qn
             w0[n], w1[n], w2[n] = wn
         return (q0, q1, q2, q3), (w0, w1, w2)
@@ -240,9 +241,9 @@ class CompiledIntegrator:
     def advance_one(self, body, q, w, h, tau_B=None, tau_W=None):
         """One body, components as floats: the compiled float kernel itself."""
         frozen = _compiled_body(body)
-        return self._entry(self.kernel, frozen, tau_B, tau_W)(
-            frozen, tuple(q), tuple(w), float(h), None if tau_B is None else tuple(tau_B),
-            None if tau_W is None else tuple(tau_W))
+        args = (frozen, tuple(q), tuple(w), float(h), None if tau_B is None else tuple(tau_B),
+                None if tau_W is None else tuple(tau_W))
+        return self._entry(self.kernel, frozen, tau_B, tau_W)(*args, None, None)
 
     def _entry(self, function, frozen, tau_B, tau_W):
         """``function`` compiled for this body and these torque arguments, as its entry point:
@@ -254,9 +255,11 @@ class CompiledIntegrator:
             item = types.float64 if function is self.kernel else types.Array(types.float64, 1,
                                                                               "C")
             vec = types.UniTuple(item, 3)
-            entry = self._entries[key] = function.compile(
-                (numba.typeof(frozen), types.UniTuple(item, 4), vec, types.float64,
-                 types.none if tau_B is None else vec, types.none if tau_W is None else vec))
+            sig = [numba.typeof(frozen), types.UniTuple(item, 4), vec, types.float64,
+                   types.none if tau_B is None else vec, types.none if tau_W is None else vec]
+            if function is self.kernel:  # momentum_B, momentum_rate_B: none (rigid body)
+                sig += [types.none, types.none]
+            entry = self._entries[key] = function.compile(tuple(sig))
         return entry
 
 

@@ -8,7 +8,13 @@ one body, (N,) arrays for a batch. The single env, the vector env, ``core.step``
 ``core.simulate`` all call these functions: the dynamics exist once.
 
 Equations (correcting the lecture, see docs/design.md, "Where the lecture is wrong"):
-    q̇ = ½ q ⊗ (0, ω_B),    I ω̇_B = τ_B − ω_B × I ω_B   (Euler's equations)
+    q̇ = ½ q ⊗ (0, ω_B),    I ω̇_B = τ_B − ω_B × (I ω_B + h_B) − ḣ_B   (Euler's equations)
+
+``h_B`` is the internal angular momentum of the actuators (reaction wheels), N·m·s, and ``ḣ_B``
+its rate, N·m; every integrator takes them as the keywords ``momentum_B`` and
+``momentum_rate_B`` (components; None: zero), with ``h_B`` moving linearly over the step. With
+None the step is the rigid body's, unchanged to the bit. The motor torque that spins a wheel
+up is internal: it moves momentum between bus and wheels and leaves ``I ω_B + h_B`` alone.
 """
 
 from __future__ import annotations
@@ -44,23 +50,40 @@ def body_torque(q, tau_B, tau_W):
     return total
 
 
-def angular_acceleration(body: RigidBody, w, tau):
-    """``ω̇_B = I⁻¹(τ_B − ω_B × I ω_B)`` (rad/s²); the gyroscopic term vanishes when isotropic."""
+def angular_acceleration(body: RigidBody, w, tau, h_B=None, h_dot_B=None):
+    """``ω̇_B = I⁻¹(τ_B − ω_B × (I ω_B + h_B) − ḣ_B)`` (rad/s²); without internal momentum the
+    gyroscopic term vanishes when isotropic."""
+    if h_B is not None or h_dot_B is not None:
+        m = body.inertia_times(w) if h_B is None else k.add(body.inertia_times(w), h_B)
+        tau = k.sub(tau, k.cross(w, m))
+        return body.inverse_times(tau if h_dot_B is None else k.sub(tau, h_dot_B))
     if body.is_isotropic:
         return body.inverse_times(tau)
     return body.inverse_times(k.sub(tau, k.cross(w, body.inertia_times(w))))
 
 
-def euler_seed(body, q, w, h, tau_B=None, tau_W=None):
+def _momentum_at(h_B, h_dot_B, t):
+    """Internal momentum ``h_B + t·ḣ_B`` a time t into the step (None stays None)."""
+    if h_B is None or h_dot_B is None:
+        return h_B
+    return k.add(h_B, h_dot_B, t)
+
+
+def euler_seed(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
+               momentum_rate_B=None):
     """The lecture, to the letter: ``q ← N(q + ½dt ω q)``, ``ω_W ← ω_W + dt I_W⁻¹ τ_W``.
 
     No gyroscopic term: inconsistent for asymmetric inertia (a torque-free body keeps ω_W fixed
     and never precesses). Kept for teaching and as the cheapest choice for isotropic bodies.
     ``I_W⁻¹ τ_W = R I⁻¹ Rᵀ τ_W`` is applied as rotate ∘ I⁻¹ ∘ rotate⁻¹; for isotropic inertia
-    the lecture's uniform-scale shortcut skips both rotations.
+    the lecture's uniform-scale shortcut skips both rotations. Internal momentum enters as the
+    lecture would have it: ``−ḣ_B`` adds to the torque, and ``h_B`` (a gyroscopic term) is
+    ignored like the body's own.
     """
     w_W = k.rotate(q, w)
     tau = body_torque(q, tau_B, tau_W)  # = Rᵀ τ_W
+    if momentum_rate_B is not None:
+        tau = k.sub(tau, momentum_rate_B)
     if body.is_isotropic:
         alpha_W = body.inverse_times(k.rotate(q, tau))
     else:
@@ -69,31 +92,34 @@ def euler_seed(body, q, w, h, tau_B=None, tau_W=None):
     return q_new, k.rotate_inverse(q_new, k.add(w_W, alpha_W, h))
 
 
-def euler(body, q, w, h, tau_B=None, tau_W=None):
+def euler(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None):
     """Explicit Euler with the gyroscopic term: the lecture's scheme made consistent (order 1).
 
     ``ω_W ← ω_W + h I_W⁻¹(τ_W − ω_W × I_W ω_W)`` at the old state, and the lecture's
     quaternion update with the old ω. Unstable for h·|ω| ≳ 0.5 on asymmetric bodies.
     """
-    alpha = angular_acceleration(body, w, body_torque(q, tau_B, tau_W))
+    alpha = angular_acceleration(body, w, body_torque(q, tau_B, tau_W), momentum_B,
+                                 momentum_rate_B)
     q_new = k.cayley(q, w, h)
     return q_new, k.rotate_inverse(q_new, k.rotate(q, k.add(w, alpha, h)))
 
 
-def semi_implicit(body, q, w, h, tau_B=None, tau_W=None):
+def semi_implicit(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
+                  momentum_rate_B=None):
     """Semi-implicit (symplectic) Euler, MuJoCo's default: velocity first, then exact exp map.
 
     ``ω_B ← ω_B + h α_B(q, ω_B)``, ``q ← q ⊗ exp(h ω_B⁺)``. Order 1; the explicit gyroscopic
     term still diverges at high spin (h·|ω| ≳ 0.5).
     """
-    w_new = k.add(w, angular_acceleration(body, w, body_torque(q, tau_B, tau_W)), h)
+    w_new = k.add(w, angular_acceleration(body, w, body_torque(q, tau_B, tau_W), momentum_B,
+                                          momentum_rate_B), h)
     return k.qnormalize(k.qmul(q, k.exp(k.scale(w_new, h)))), w_new
 
 
-def _rk4_rate(body, q, w, tau_B, tau_W):
+def _rk4_rate(body, q, w, tau_B, tau_W, h_B=None, h_dot_B=None):
     q_dot = k.qmul_vec(q, k.scale(w, 0.5))
     q_unit = q if tau_W is None else k.qnormalize(q)
-    return q_dot, angular_acceleration(body, w, body_torque(q_unit, tau_B, tau_W))
+    return q_dot, angular_acceleration(body, w, body_torque(q_unit, tau_B, tau_W), h_B, h_dot_B)
 
 
 def _qadd(q, dq, s):
@@ -117,23 +143,27 @@ def _rk4_combine_q(y, k1, k2, k3, k4, h):
     return (*_rk4_combine(y, k1, k2, k3, k4, h), _rk4_sum(y, k1, k2, k3, k4, h / 6.0, 3))
 
 
-def rk4(body, q, w, h, tau_B=None, tau_W=None):
+def rk4(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None):
     """Classical fourth-order Runge–Kutta on (q, ω_B), q normalised at the end of the step.
 
     Order 4; not conservative: it slowly loses energy once h·|ω| ≳ 1.
     """
-    k1q, k1w = _rk4_rate(body, q, w, tau_B, tau_W)
-    k2q, k2w = _rk4_rate(body, _qadd(q, k1q, 0.5 * h), k.add(w, k1w, 0.5 * h), tau_B, tau_W)
-    k3q, k3w = _rk4_rate(body, _qadd(q, k2q, 0.5 * h), k.add(w, k2w, 0.5 * h), tau_B, tau_W)
-    k4q, k4w = _rk4_rate(body, _qadd(q, k3q, h), k.add(w, k3w, h), tau_B, tau_W)
+    h0, h_dot = momentum_B, momentum_rate_B
+    h_mid, h1 = _momentum_at(h0, h_dot, 0.5 * h), _momentum_at(h0, h_dot, h)
+    k1q, k1w = _rk4_rate(body, q, w, tau_B, tau_W, h0, h_dot)
+    k2q, k2w = _rk4_rate(body, _qadd(q, k1q, 0.5 * h), k.add(w, k1w, 0.5 * h), tau_B, tau_W,
+                         h_mid, h_dot)
+    k3q, k3w = _rk4_rate(body, _qadd(q, k2q, 0.5 * h), k.add(w, k2w, 0.5 * h), tau_B, tau_W,
+                         h_mid, h_dot)
+    k4q, k4w = _rk4_rate(body, _qadd(q, k3q, h), k.add(w, k3w, h), tau_B, tau_W, h1, h_dot)
     q_new = _rk4_combine_q(q, k1q, k2q, k3q, k4q, h)
     w_new = _rk4_combine(w, k1w, k2w, k3w, k4w, h)
     return k.qnormalize(q_new), w_new
 
 
-def _residual(body, m, x, h):
-    """``F(x) = x − m − ½h x × I⁻¹x`` and ``I⁻¹x``."""
-    v = body.inverse_times(x)
+def _residual(body, m, x, h, hw=None):
+    """``F(x) = x − m − ½h x × I⁻¹(x − h_w)`` and ``I⁻¹(x − h_w)`` (h_w: internal momentum)."""
+    v = body.inverse_times(x if hw is None else k.sub(x, hw))
     c = k.cross(x, v)
     s = 0.5 * h
     return (x[0] - m[0] - s * c[0], x[1] - m[1] - s * c[1], x[2] - m[2] - s * c[2]), v
@@ -143,13 +173,13 @@ def _all(cond) -> bool:
     return bool(cond) if np.ndim(cond) == 0 else bool(np.all(cond))
 
 
-def _newton(body, m, x, h):
+def _newton(body, m, x, h, hw=None):
     """Newton iterations for the midpoint momentum; returns (x, converged) (bool or array)."""
     tol2 = (_NEWTON_RTOL * _NEWTON_RTOL) * (k.dot(m, m) + 1e-300)
     s = 0.5 * h
     inv_cols = body.inverse_columns
     for _ in range(_NEWTON_MAXITER):
-        r, v = _residual(body, m, x, h)
+        r, v = _residual(body, m, x, h, hw)
         ok = k.dot(r, r) <= tol2
         if _all(ok):
             return x, ok
@@ -157,11 +187,11 @@ def _newton(body, m, x, h):
         cols = [k.add(_E[j], k.add(k.cross(x, inv_cols[j]), k.cross(v, _E[j]), -1.0), -s)
                 for j in range(3)]
         x = k.add(x, k.solve3(*cols, r), -1.0)
-    r, _ = _residual(body, m, x, h)
+    r, _ = _residual(body, m, x, h, hw)
     return x, k.dot(r, r) <= 256.0 * tol2
 
 
-def _continuation(body, m, h, hw):
+def _continuation(body, m, h, hw, h_int=None):
     """Solve by continuation in h: Newton at h/K, 2h/K, …, h, each from the previous root.
 
     K is the smallest power of two with h·|ω|/K ≤ 1, doubled until every entry converges.
@@ -170,7 +200,7 @@ def _continuation(body, m, h, hw):
     while pieces <= _MAX_CONTINUATION:
         x, ok = m, True
         for j in range(1, pieces + 1):
-            x, okj = _newton(body, m, x, h * j / pieces)
+            x, okj = _newton(body, m, x, h * j / pieces, h_int)
             ok = ok & okj
         if _all(ok):
             return x
@@ -178,43 +208,50 @@ def _continuation(body, m, h, hw):
     return None
 
 
-def _solve_midpoint(body, m, h):
-    """Midpoint momentum ``m̄`` solving ``m̄ = m + ½h m̄ × I⁻¹m̄``.
+def _solve_midpoint(body, m, h, h_int=None):
+    """Midpoint momentum ``m̄`` solving ``m̄ = m + ½h m̄ × I⁻¹(m̄ − h_int)``.
 
     The wanted root is the branch that tends to m as h → 0. For h·|ω| ≤ 1.5 Newton from the
     explicit guess finds it. Beyond that Newton may fail (from h·|ω| ≈ 5) or, worse, converge to
     another root (seen from h·|ω| ≈ 4: invariants still exact, motion wrong), so those entries
     are solved by continuation in h. Returns NaN components if even that fails.
     """
-    w = body.inverse_times(m)
+    w = body.inverse_times(m if h_int is None else k.sub(m, h_int))
     hw = h * k.sqrt(k.dot(w, w))
     large = hw > _CONTINUATION_ABOVE
     if np.ndim(hw) == 0:
         if not large:
-            x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h)
+            x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h, h_int)
             if ok:
                 return x
-        x = _continuation(body, m, h, hw)
+        x = _continuation(body, m, h, hw, h_int)
         return (math.nan,) * 3 if x is None else x
-    x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h)
+    x, ok = _newton(body, m, k.add(m, k.cross(m, w), 0.5 * h), h, h_int)
     redo = large | ~ok
     if not redo.any():
         return x
     sub = tuple(np.broadcast_to(c, redo.shape)[redo] for c in m)
-    xs = _continuation(body, sub, h, hw[redo])
+    h_sub = None if h_int is None else tuple(np.broadcast_to(c, redo.shape)[redo]
+                                             for c in h_int)
+    xs = _continuation(body, sub, h, hw[redo], h_sub)
     out = tuple(np.array(np.broadcast_to(c, redo.shape), dtype=float) for c in x)
     for c, cs in zip(out, xs if xs is not None else (np.nan,) * 3, strict=True):
         c[redo] = cs
     return out
 
 
-def midpoint(body, q, w, h, tau_B=None, tau_W=None):
+def midpoint(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
+             momentum_rate_B=None):
     """Implicit midpoint on body momentum + Cayley attitude update (the default integrator).
 
     Torque enters by Strang splitting (half kick, free step, half kick). The free step solves
     ``m̄ = m + ½h m̄ × I⁻¹m̄``, sets ``m⁺ = 2m̄ − m`` and ``q⁺ = N(q ⊗ (1, ½h I⁻¹m̄))``; with no
     torque it conserves energy, |L| and the vector L_W to round-off at any h·|ω| (order 2).
+    With internal momentum m is the total ``I ω + h_B``, the body rate ``I⁻¹(m − h_B)`` with
+    h_B at the midpoint of the step, and ``|m|`` and L_W stay exact whatever ``ḣ_B``.
     """
+    if momentum_B is not None or momentum_rate_B is not None:
+        return _midpoint_internal(body, q, w, h, tau_B, tau_W, momentum_B, momentum_rate_B)
     forced = tau_B is not None or tau_W is not None
     m = body.inertia_times(w)
     if forced:
@@ -228,7 +265,26 @@ def midpoint(body, q, w, h, tau_B=None, tau_W=None):
     return q_new, body.inverse_times(m_new)
 
 
-def splitting(body, q, w, h, tau_B=None, tau_W=None):
+def _midpoint_internal(body, q, w, h, tau_B, tau_W, h_B, h_dot_B):
+    """:func:`midpoint` with internal momentum (the motor torque is internal: no kick)."""
+    zero = k.scale(w, 0.0)
+    h0 = zero if h_B is None else h_B
+    h_mid = h0 if h_dot_B is None else k.add(h0, h_dot_B, 0.5 * h)
+    h1 = h0 if h_dot_B is None else k.add(h0, h_dot_B, h)
+    forced = tau_B is not None or tau_W is not None
+    m = k.add(body.inertia_times(w), h0)
+    if forced:
+        m = k.add(m, body_torque(q, tau_B, tau_W), 0.5 * h)
+    m_mid = _solve_midpoint(body, m, h, h_mid)
+    q_new = k.cayley(q, body.inverse_times(k.sub(m_mid, h_mid)), h)
+    m_new = k.add(k.scale(m_mid, 2.0), m, -1.0)
+    if forced:
+        m_new = k.add(m_new, body_torque(q_new, tau_B, tau_W), 0.5 * h)
+    return q_new, body.inverse_times(k.sub(m_new, h1))
+
+
+def splitting(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
+              momentum_rate_B=None):
     """Explicit symplectic splitting of the free body (:mod:`core.splitting`), torque as kicks.
 
     Strang: half kick ``m += ½h τ``, the free step ``A(h/2) C(h) A(h/2) S(h)`` (each part an
@@ -236,6 +292,11 @@ def splitting(body, q, w, h, tau_B=None, tau_W=None):
     explicit (no iteration); with no torque |L| and L_W are conserved to round-off and the
     energy error stays bounded at any h·|ω|.
     """
+    if momentum_B is not None or momentum_rate_B is not None:
+        raise InvalidParameterError(
+            "integrator 'splitting' splits the free body into exact rotations about its "
+            "principal axes, which do not exist with internal angular momentum (momentum_B); "
+            "use 'midpoint' (exact invariants) or 'rk4'")
     forced = tau_B is not None or tau_W is not None
     m = body.inertia_times(w)
     if forced:
@@ -265,8 +326,12 @@ def chunked(kernel: Kernel) -> Kernel:
     The kernels are element-wise across bodies, so the result is bit-identical to one call;
     one body (floats) and batches up to 2·BATCH_CHUNK go straight to the kernel.
     """
-    def advance(body, q, w, h, tau_B=None, tau_W=None):
+    def advance(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
+                momentum_rate_B=None):
         c = q[0]
+        if momentum_B is not None or momentum_rate_B is not None:
+            return kernel(body, q, w, h, tau_B, tau_W, momentum_B=momentum_B,
+                          momentum_rate_B=momentum_rate_B)
         if type(c) is float or np.size(c) <= 2 * BATCH_CHUNK:
             return kernel(body, q, w, h, tau_B, tau_W)
         n = np.size(c)

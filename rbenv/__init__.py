@@ -18,13 +18,22 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
-import gymnasium as gym
-
-from rbenv.env import SatelliteDetumbleEnv, SatelliteReorientEnv, SatelliteTrackEnv
+from rbenv import registry
 from rbenv.randomization import Randomization
 from rbenv.scene import Scene, list_scenes, load_scene
+from rbenv.tasks import detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
-from rbenv.vector_env import (
+
+# The shipped tasks: one registry entry each (rbenv.registry). A new task adds its line here.
+for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC):
+    registry.register(_spec)
+
+from rbenv.env import (  # noqa: E402 (made by the registrations above)
+    SatelliteDetumbleEnv,
+    SatelliteReorientEnv,
+    SatelliteTrackEnv,
+)
+from rbenv.vector_env import (  # noqa: E402
     SatelliteDetumbleVectorEnv,
     SatelliteReorientVectorEnv,
     SatelliteTrackVectorEnv,
@@ -55,22 +64,10 @@ __all__ = [
     "load_scene",
 ]
 
-ENV_ID = "rbenv/SatelliteReorient-v0"
-DETUMBLE_ID = "rbenv/SatelliteDetumble-v0"
-TRACK_ID = "rbenv/SatelliteTrack-v0"
-# Control steps per episode of every shipped scene (80 s at 0.5 s, 160 s at 1 s, ...). The env
-# also truncates at its own scene's duration, so a shorter scene is honoured; for a custom scene
-# with more steps pass max_episode_steps=scene.episode_steps.
-MAX_EPISODE_STEPS = 160
-# id -> (single env class, vector env class), both in this package.
-ENV_IDS = {
-    ENV_ID: ("SatelliteReorientEnv", "SatelliteReorientVectorEnv"),
-    DETUMBLE_ID: ("SatelliteDetumbleEnv", "SatelliteDetumbleVectorEnv"),
-    TRACK_ID: ("SatelliteTrackEnv", "SatelliteTrackVectorEnv"),
-}
-
-for _id, (_single, _vector) in ENV_IDS.items():
-    if _id not in gym.registry:
-        gym.register(id=_id, entry_point=f"rbenv.env:{_single}",
-                     vector_entry_point=f"rbenv.vector_env:{_vector}",
-                     max_episode_steps=MAX_EPISODE_STEPS)
+ENV_ID = reorient.SPEC.env_id
+DETUMBLE_ID = detumble.SPEC.env_id
+TRACK_ID = track.SPEC.env_id
+MAX_EPISODE_STEPS = registry.MAX_EPISODE_STEPS
+# id -> (single env class name, vector env class name), for every registered task.
+ENV_IDS = {s.env_id: (s.class_stem + "Env", s.class_stem + "VectorEnv")
+           for s in registry.specs()}

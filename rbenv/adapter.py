@@ -55,8 +55,8 @@ class TaskAdapter:
                 f"render_mode must be None or one of {list(render_modes)}, got {render_mode!r}")
         self.render_mode = render_mode
         self.observation_structure = dict(self.task.observation_structure)
-        self._kinds = transition.state_kinds(self.task)
-        self._block_slots = {"task": self.task.start_slots, "plant": self.plant.start_slots}
+        self._layout = transition.layout(self.plant, self.task)
+        self._block_slots = {"task": self.task.start_slots, **self.plant.block_slots}
         size = self.task.observation_size()
         return (gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32),
                 gym.spaces.Box(-1.0, 1.0, (size,), np.float32))

@@ -377,5 +377,5 @@ def episode_starts(episodes: int, seed: int, scene=None, **env_kwargs) -> dict:
     return {"angle": np.asarray(start["angle"], float),
             "q": np.stack(start["q"], axis=-1).astype(float),
             "q_target": target_conj * np.array([1.0, -1.0, -1.0, -1.0]),
-            "omega_B": np.stack(start["w"], axis=-1).astype(float),
+            "omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
             "bias_B": np.broadcast_to(bias, (episodes, 3)).astype(float)}

@@ -5,8 +5,10 @@ env with (N,) arrays (``xp`` is the :mod:`core.backend` namespace of the state):
 
 * :func:`start` builds episode starts for the envs being reset from their counter-based draws
   (:mod:`rbenv.draws`) and the reset options;
-* :func:`step` applies an action: plant actuation, physics, target motion, task evaluation,
-  observation and info, in that order;
+* :func:`step` applies an action and returns ``(new_state, outcome)``: actuation, physics,
+  target motion, task evaluation, observation and info, in that order. It never changes the
+  state it is given, and it does not raise on divergence: ``outcome.diverged`` flags the
+  satellites whose state left float64, and the adapters raise (:func:`raise_diverged`);
 * :func:`observe` and :func:`info` give the observation components and the info dict.
 """
 
@@ -17,17 +19,19 @@ from typing import NamedTuple
 import numpy as np
 
 from core import validation
-from core.errors import InvalidParameterError, NonFiniteError
-from rbenv.plant import STATE_FIELDS, Plant, StepNoise, nan_action_error
+from core.errors import InvalidParameterError
+from rbenv.plant import Plant, StepNoise, nan_action_error
+from rbenv.state import Layout
 
-__all__ = ["Outcome", "info", "observe", "start", "state_kinds", "step"]
+__all__ = ["Outcome", "info", "layout", "observe", "raise_diverged", "start", "step"]
 
 MAX_RESET_RATE = 1e6  # rad/s: |ω_B| allowed in reset options (squares stay far from overflow)
 
 
 class Outcome(NamedTuple):
-    """What one step returns: observation components, reward, its terms (the task's
-    NamedTuple), success and failure flags, and the info dict."""
+    """What one step returns besides the new state: observation components, reward, its terms
+    (the task's NamedTuple), success and failure flags, the info dict, and ``diverged`` (bool,
+    or (N,) bool: the state left float64; the other fields are then None)."""
 
     obs: tuple
     reward: object
@@ -35,61 +39,70 @@ class Outcome(NamedTuple):
     success: object
     failure: object
     info: dict
+    diverged: object
 
 
-def state_kinds(task) -> dict:
-    """Field name → storage kind for the plant and ``task`` together."""
-    return {**STATE_FIELDS, **task.state_fields}
+def layout(plant: Plant, task) -> Layout:
+    """The state layout of the plant, its actuators and ``task`` (a name clash raises)."""
+    return Layout((*plant.state_parts, (f"task {task.name!r}", task.state_fields)))
+
+
+def reward_sum(terms):
+    """The reward: the terms added left to right (one order for floats and arrays alike)."""
+    total = terms[0]
+    for t in terms[1:]:
+        total = total + t
+    return total
 
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
-         own_action: bool = False) -> Outcome:
-    """Advance ``st`` by one control step under ``action`` (float64, validated shape).
+         own_action: bool = False) -> tuple:
+    """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64,
+    validated shape). ``st`` is not changed.
 
     own_action: the caller made ``action`` for this call, so it may be clipped in place.
     """
-    u = plant.throttle(action, in_place=own_action)
-    if st.health is not None or st.pending is not None:
-        u = plant.apply_faults_and_delay(st, u, noise.faults)
-    st.throttle = u
-    wrench = plant.wrench(st, u, xp)
-    try:
-        plant.advance_state(st, wrench, noise.disturbance, xp)
-    except NonFiniteError:
-        # A NaN action (throttle mode lets it through to the thrust) is the caller's error.
-        if np.isnan(np.asarray(action, dtype=float)).any():
-            raise nan_action_error(action) from None
-        raise
+    new = st.copy()
+    contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
+    diverged = plant.advance(new, contribution, noise.disturbance, xp)
+    if xp.any(diverged):  # the eager paths stop here; the adapter raises
+        return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged))
     if task.moving_target:
-        task.advance_target(st)
-    terms, success, failure = task.evaluate(st, wrench.thrust_N * plant.inv_total_thrust, xp)
-    obs = task.observe(st, st.q, st.w, xp) if noise.sensor is None else \
-        observe(plant, task, st, noise.sensor, xp)
-    return tuple.__new__(Outcome, (obs, sum(terms), terms, success, failure,
-                                   info(plant, task, st, terms, success, xp)))
+        task.advance_target(new)
+    terms, success, failure = task.evaluate(new, contribution.effort, xp)
+    obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None else \
+        observe(plant, task, new, noise.sensor, xp)
+    return new, tuple.__new__(Outcome, (obs, reward_sum(terms), terms, success, failure,
+                                        info(plant, task, new, terms, success, xp), diverged))
+
+
+def raise_diverged(plant: Plant, st, action) -> None:
+    """Raise for a diverged step: the named NaN-action error when ``action`` holds NaN (throttle
+    mode lets it through to the thrust), else the plant's :class:`NonFiniteError`."""
+    if np.isnan(np.asarray(action, dtype=float)).any():
+        raise nan_action_error(action)
+    raise plant.divergence_error(st.q, st.omega_B)
 
 
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     """Observation components; with sensor noise, from the noisy measurement."""
     if sensor_noise is None:
-        return task.observe(st, st.q, st.w, xp)
+        return task.observe(st, st.q, st.omega_B, xp)
     q, w = plant.measure(st, sensor_noise)
     return task.observe(st, q, w, xp)
 
 
 def info(plant: Plant, task, st, terms, success, xp) -> dict:
-    """The info dict: the task's values, plant bookkeeping, success and the reward terms."""
+    """The info dict: the task's values, the actuators' bookkeeping, the time, success and the
+    reward terms (and the speed with translation)."""
     out = task.info(st, xp)
-    out["fuel_kg"] = st.fuel_kg
-    out["impulse_Ns"] = st.impulse_Ns
+    out.update(plant.info(st, xp))
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)
     if st.x is not None:
         v = st.v
         out["speed_mps"] = xp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    if st.health is not None:
-        out["failed_thrusters"] = plant.n - st.health.sum(axis=-1)
     return out
 
 
@@ -103,7 +116,7 @@ def render_values(plant: Plant, task, st, index: int | None = None) -> dict:
 
     q = np.array([pick(c) for c in st.q])
     target = task.target(st)
-    w = np.array([pick(c) for c in st.w])
+    w = np.array([pick(c) for c in st.omega_B])
     throttle = st.throttle if index is None else st.throttle[index]
     angle = task.error_angle(st)
     return {"q": q, "q_target": None if target is None else np.array([pick(c) for c in target]),
@@ -127,19 +140,10 @@ def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
     options: the reset options (names in ``task.reset_options``); for the vector env their
     leading axis is num_envs and ``rows`` selects the rows of the envs being reset.
     """
-    xp, m = draws.xp, draws.n
     s = task.sample_start(draws)
     _override(task, s, options, rows, draws)
     s.update(plant.sample_start(draws))
-    task.complete_start(s, xp)
-    zero = xp.zeros(m)
-    s.update(w=s.pop("omega_B"), fuel_kg=zero, impulse_Ns=zero, steps=zero,
-             throttle=np.zeros((m, plant.n)))
-    if plant.translation:
-        s["x"] = s["v"] = (zero, zero, zero)
-    rnd = plant.randomization
-    if rnd is not None and rnd.delay_probability > 0.0:
-        s["pending"] = np.zeros((m, plant.n))
+    task.complete_start(s, draws.xp)
     return s
 
 

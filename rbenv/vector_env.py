@@ -121,9 +121,9 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         idx = np.flatnonzero(mask)
         start = self._start(idx, options)
         if self._st is None or mask.all():
-            self._st = from_start(self._kinds, start, single=False)
+            self._st = from_start(self._layout, start, single=False)
         else:
-            assign(self._st, self._kinds, idx, start)
+            assign(self._st, self._layout, idx, start)
         self._prev_done[idx] = False
         terms = transition.zero_terms(self.task, np.zeros(n))
         obs = self._observation()
@@ -177,9 +177,12 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                 f"sub-envs {np.flatnonzero(self._prev_done).tolist()} have ended; with "
                 "autoreset_mode DISABLED reset them with reset(options={'reset_mask': mask}) "
                 "before the next step")
-        out = transition.step(self.plant, self.task, st, a,
-                              self.plant.draw_step_noise(self.np_random, self.num_envs), NUMPY,
-                              own_action=True)
+        st, out = transition.step(self.plant, self.task, st, a,
+                                  self.plant.draw_step_noise(self.np_random, self.num_envs),
+                                  NUMPY, own_action=True)
+        if out.diverged.any():
+            transition.raise_diverged(self.plant, st, a)
+        self._st = st
         terms, reward, success = out.terms, out.reward, out.success
         terminated = out.failure | (success & self.task.success_terminates)
         truncated = st.steps >= self._max_steps
@@ -206,7 +209,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``,
         and their rows of ``terms`` and ``flags`` (this step's fresh arrays) zeroed in place."""
         start = self._start(idx)
-        assign(self._st, self._kinds, idx, start)
+        assign(self._st, self._layout, idx, start)
         view = State()
         view.__dict__.update(start)  # the new episodes alone, as a state of len(idx)
         noise = self.plant.draw_sensor_noise(self.np_random, len(idx))
@@ -268,19 +271,16 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             self._renderer = None
 
 
-class SatelliteReorientVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteReorientEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_name: ClassVar[str] = "reorient"
-
-
-class SatelliteDetumbleVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteDetumbleEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_name: ClassVar[str] = "detumble"
-
-
-class SatelliteTrackVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteTrackEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_name: ClassVar[str] = "track"
+def vector_env_class(spec) -> type:
+    """The vector-env class of a registry entry (:mod:`rbenv.registry`), e.g.
+    ``SatelliteReorientVectorEnv``: :class:`AttitudeVectorEnv` naming the entry's task. It is
+    made once per entry and kept in this module, so it pickles by reference."""
+    name = spec.class_stem + "VectorEnv"
+    cls = globals().get(name)
+    if cls is None or cls.task_name != spec.name:
+        doc = (f"Vector form of :class:`rbenv.{spec.class_stem}Env` (see "
+               ":class:`AttitudeVectorEnv`).")
+        cls = type(name, (AttitudeVectorEnv,), {"task_name": spec.name, "__doc__": doc,
+                                                "__module__": __name__, "__qualname__": name})
+        globals()[name] = cls
+    return cls

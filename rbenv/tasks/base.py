@@ -9,13 +9,14 @@ task, written here as pure functions of explicit state, as Brax writes its ``ste
 
 A task class declares:
 
-* ``name`` and its registered ``env_id``;
+* ``name`` (its registry entry, :mod:`rbenv.registry`, holds the env id);
 * ``observation_structure``: name → width, in observation order (Gymnasium MuJoCo's habit),
   and ``observation_scale``: name → the physical unit of one observation unit (e.g. the rate
   limit in rad/s), so controllers decode observations by name (:meth:`Task.decode`);
 * ``Terms``: a NamedTuple of reward terms (``info["reward_<name>"]``; they sum to the reward);
 * ``state_fields``: its per-episode state, name → :data:`rbenv.state` kind;
-* ``reset_options``: the names accepted in ``reset(options=...)`` and their widths.
+* ``reset_options``: the names accepted in ``reset(options=...)`` and their widths;
+* ``error_info_key``: the info entry that measures how far from the goal it is (reports).
 
 and implements :meth:`sample_start`, :meth:`complete_start`, :meth:`observe`,
 :meth:`evaluate` and :meth:`info`, plus :meth:`advance_target` when the target moves.
@@ -73,13 +74,13 @@ class Task:
     """Base class of the tasks; subclasses are frozen dataclasses built by :func:`make_task`."""
 
     name: ClassVar[str]
-    env_id: ClassVar[str]
     observation_structure: ClassVar[dict]
     Terms: ClassVar[type]
     state_fields: ClassVar[dict]
     reset_options: ClassVar[dict] = {}
     OPTIONS: ClassVar[dict] = {}
     success_terminates: ClassVar[bool] = True
+    error_info_key: ClassVar[str | None] = None  # the info key of its error measure (reports)
     moving_target: ClassVar[bool] = False  # advance_target is called every step
     start_slots: ClassVar[int] = 32  # slots of stream "task" that sample_start draws (a hint)
     WeightsType: ClassVar[type] = Weights
@@ -146,8 +147,10 @@ class Task:
         """Observation components from the measured attitude ``q`` and rate ``w``."""
         raise NotImplementedError
 
-    def evaluate(self, st, thrust_fraction, xp):
-        """After a physics step: ``(terms, success, failure)``; updates the task's state."""
+    def evaluate(self, st, effort, xp):
+        """After a physics step: ``(terms, success, failure)``; sets the task's own fields on
+        ``st`` (the transition's new state). effort: the actuators' effort over the step, a
+        fraction of their full rate (:class:`rbenv.actuators.Contribution`)."""
         raise NotImplementedError
 
     def info(self, st, xp) -> dict:

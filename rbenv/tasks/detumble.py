@@ -14,6 +14,8 @@ from typing import ClassVar, NamedTuple
 
 from core import kernels as k
 from core import validation
+from rbenv.hyperparams import tuned
+from rbenv.registry import TaskSpec
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
 
 
@@ -47,9 +49,9 @@ class Detumble(Task):
     """Bring |ω| below the success rate and keep it there (see the module docstring)."""
 
     name: ClassVar[str] = "detumble"
-    env_id: ClassVar[str] = "rbenv/SatelliteDetumble-v0"
     observation_structure: ClassVar[dict] = {"omega_B": 3}
     start_slots: ClassVar[int] = 15
+    error_info_key: ClassVar[str] = "rate_dps"
     Terms: ClassVar[type] = DetumbleTerms
     WeightsType: ClassVar[type] = DetumbleWeights
     state_fields: ClassVar[dict] = {"rate": "f", "hold": "i"}
@@ -92,9 +94,9 @@ class Detumble(Task):
         clip = xp.clip
         return (clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0), clip(w[2] * s, -1.0, 1.0))
 
-    def evaluate(self, st, thrust_fraction, xp):
+    def evaluate(self, st, effort, xp):
         wt = self.weights
-        w = st.w
+        w = st.omega_B
         rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         inside = rate < self.success_rate
         st.hold = xp.where(inside, st.hold + 1, 0)
@@ -103,7 +105,7 @@ class Detumble(Task):
         terms = tuple.__new__(DetumbleTerms, (
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
             wt.progress * inv_limit * (st.rate - rate),
-            -wt.fuel * thrust_fraction,
+            -wt.fuel * effort,
             wt.hold * inside,
             -wt.failure * failure,
         ))
@@ -127,3 +129,35 @@ def make_detumble(plant, reward_weights=None, max_initial_angle_deg=None,
     task = Detumble(plant=plant, weights=DetumbleWeights.from_mapping(reward_weights),
                     min_rate=lo * limit, max_rate=hi * limit)
     return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
+
+
+ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propellant as possible.
+
+    Made by ``gym.make("rbenv/SatelliteDetumble-v0", **kwargs)``; arguments as
+    :class:`SatelliteReorientEnv`, with ``max_initial_rate`` (rad/s) the largest initial
+    tumble and ``task_options`` a dict overriding the scene's ``[tasks.detumble]`` table
+    (``min_rate_fraction``, ``max_rate_fraction``: the initial |ω| is uniform between these
+    fractions of the rate limit, about a uniformly random axis).
+
+    **Action**: as the reorientation env. **Observation** ``Box(-1, 1, (3,), float32)``,
+    ``{"omega_B": 3}``: ``ω_B / rate_limit``, clipped.
+
+    **Reward**: rate ``−0.2·|ω|/L``, progress ``10·(|ω|_prev − |ω|)/L``, fuel
+    ``−0.5·Σu_iF_i/ΣF_i``, hold ``+1`` per step below the success rate, failure ``−25`` on
+    loss of control (``reward_weights`` overrides these).
+
+    **Episode end**: ``terminated`` with success when |ω| < ``success_rate`` is held for the
+    hold time; ``terminated`` without success when |ω| > rate limit; ``truncated`` at the
+    scene's duration. **Info**: ``rate_dps``, ``fuel_kg``, ``impulse_Ns``, ``time_s``,
+    ``is_success``, ``reward_<term>``. **Reset options**: ``{"q": (4,), "omega_B": (3,)}``.
+
+    **Version History**
+
+    * v0: first release.
+    """
+
+# The registry entry (rbenv.registry): registered by rbenv/__init__.py.
+SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
+                baselines={"pd": "agents.controllers:RateDamping"},
+                budget={"ppo": 300_000, "sac": 100_000},
+                hyperparams={"ppo": tuned.PPO, "sac": tuned.SAC}, env_doc=ENV_DOC)

@@ -21,6 +21,8 @@ from typing import ClassVar, NamedTuple
 
 from core import kernels as k
 from core import validation
+from rbenv.hyperparams import tuned
+from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
     _DEG,
     Task,
@@ -67,9 +69,9 @@ class Track(Task):
     """Follow a target turning at a constant rate (see the module docstring)."""
 
     name: ClassVar[str] = "track"
-    env_id: ClassVar[str] = "rbenv/SatelliteTrack-v0"
     observation_structure: ClassVar[dict] = {"q_err": 4, "omega_err_B": 3, "omega_target_B": 3}
     start_slots: ClassVar[int] = 29
+    error_info_key: ClassVar[str] = "attitude_error_deg"
     Terms: ClassVar[type] = TrackTerms
     WeightsType: ClassVar[type] = TrackWeights
     success_terminates: ClassVar[bool] = False
@@ -156,10 +158,10 @@ class Track(Task):
         return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
                 *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
 
-    def evaluate(self, st, thrust_fraction, xp):
+    def evaluate(self, st, effort, xp):
         wt = self.weights
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
-        w = st.w
+        w = st.omega_B
         st.omega_target_B = w_t = k.rotate_inverse(st.q, st.omega_target_W)
         e0, e1, e2 = w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2]
         st.rate_error = rate_err = xp.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
@@ -170,7 +172,7 @@ class Track(Task):
         terms = tuple.__new__(TrackTerms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
-            -wt.fuel * thrust_fraction,
+            -wt.fuel * effort,
             wt.progress * _INV_PI * (st.angle - angle),
             wt.on_target * on,
             -wt.failure * failure,
@@ -214,3 +216,40 @@ def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initi
                  max_initial_rate=plant.scene.episode.max_initial_rate,
                  min_track_fraction=share)
     return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
+
+
+ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointing spacecraft does.
+
+    Made by ``gym.make("rbenv/SatelliteTrack-v0", **kwargs)``; arguments as
+    :class:`SatelliteReorientEnv`; ``task_options`` overrides the scene's ``[tasks.track]``
+    table: ``max_target_rate_fraction`` (the target turns about a random world-fixed axis at a
+    rate uniform up to this), ``max_initial_angle_deg`` (initial tracking error),
+    ``min_track_fraction`` (success threshold, below).
+
+    **Observation** ``Box(-1, 1, (10,), float32)``, ``{"q_err": 4, "omega_err_B": 3,
+    "omega_target_B": 3}``: the canonical error quaternion to the *moving* target, the rate
+    error ``ω_B − ω_target_B`` and the target's rate in body axes, both divided by the rate
+    limit and clipped.
+
+    **Reward**: attitude ``−0.2·θ/π``, rate ``−0.05·min(|ω − ω_t|/L, 1)``, fuel
+    ``−0.05·Σu_iF_i/ΣF_i``, progress ``10·(θ_prev − θ)/π``, on-target ``+1`` per step with
+    θ < success angle and |ω − ω_t| < success rate, failure ``−25``.
+
+    **Episode end**: the episode runs to the scene's duration (``truncated``) unless control is
+    lost (``terminated``). ``info["is_success"]`` is True on the last step when the satellite
+    was on target for at least ``min_track_fraction`` (default 0.9) of the steps in the second
+    half of the episode: success is a property of the tracking over time, not of the end.
+    **Info**: ``attitude_error_deg``, ``rate_error_dps``, ``track_fraction``, plant values,
+    ``reward_<term>``. **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,),
+    "omega_target_W": (3,)}``.
+
+    **Version History**
+
+    * v0: first release.
+    """
+
+# The registry entry (rbenv.registry): registered by rbenv/__init__.py.
+SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
+                baselines={"pd": "agents.controllers:TrackingPD"},
+                budget={"ppo": 1_000_000, "sac": 200_000},
+                hyperparams={"ppo": tuned.PPO, "sac": tuned.SAC}, env_doc=ENV_DOC)

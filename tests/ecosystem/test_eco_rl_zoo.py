@@ -28,16 +28,20 @@ def test_every_registered_id_has_zoo_settings():
 
 
 def test_zoo_settings_are_rbenv_trains_ppo_defaults():
-    """One set of PPO settings: the zoo file says what ``rbenv train`` does."""
+    """One set of PPO settings: the zoo file and ``rbenv train`` both read the registry entry,
+    which points at rbenv.hyperparams.tuned.PPO."""
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")
-    from agents.train import DEFAULT_HYPERPARAMS, DEFAULT_N_ENVS, DEFAULT_TIMESTEPS
+    from agents.train import ZOO_ONLY, TrainConfig
+    from rbenv.hyperparams import tuned
 
     for env_id, settings in ppo.hyperparams.items():
-        algo = {k: v for k, v in settings.items() if k in DEFAULT_HYPERPARAMS["ppo"]}
-        assert algo == DEFAULT_HYPERPARAMS["ppo"], env_id
-        assert settings["n_envs"] == DEFAULT_N_ENVS["ppo"]
-        assert settings["n_timesteps"] == DEFAULT_TIMESTEPS["ppo"]
+        assert rbenv.registry.get(env_id).hyperparams["ppo"] is tuned.PPO
+        assert settings == tuned.PPO, env_id
+        cfg = TrainConfig(env_id=env_id).resolve()
+        assert cfg.hyperparams == {k: v for k, v in settings.items() if k not in ZOO_ONLY}
+        assert cfg.n_envs == settings["n_envs"]
+        assert cfg.timesteps == settings["n_timesteps"]
         assert settings["normalize"] is True  # rbenv train wraps the env in VecNormalize
 
 

@@ -30,7 +30,7 @@ def assert_sub_env_matches(single_env, single_out, venv, vec_out, i):
     assert (te, tr) == (terminated[i], truncated[i])
     assert abs(r - reward[i]) <= 1e-12
     sst, vst = single_env.unwrapped._st, venv.unwrapped._st
-    np.testing.assert_allclose([*sst.q, *sst.w], [c[i] for c in (*vst.q, *vst.w)],
+    np.testing.assert_allclose([*sst.q, *sst.omega_B], [c[i] for c in (*vst.q, *vst.omega_B)],
                                rtol=0, atol=1e-12)
 
 

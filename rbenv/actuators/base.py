@@ -1,0 +1,88 @@
+"""What every actuator is: a component of the plant with its own action, state and scene table.
+
+An actuator turns its slice of the action into a command, and its state plus the command into
+its :class:`Contribution` to the equations of motion over one control step. The plant sums the
+contributions of its actuators and integrates (:mod:`rbenv.plant`)::
+
+    I ω̇_B = −ω_B × (I ω_B + h_B) − ḣ_B + τ_B        (h_B: internal angular momentum)
+
+Thrusters (:mod:`rbenv.actuators.thrusters`) are the first implementation; they store no
+momentum (h = ḣ = None). A new actuator is one module with a class that satisfies
+:class:`Actuator`, its scene table parser, and one entry in :data:`rbenv.actuators.ACTUATORS`.
+
+Values are components as in :mod:`core.kernels`: Python floats for one satellite, (N,) arrays
+for N; ``xp`` is the :mod:`core.backend` namespace that matches them.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, NamedTuple, Protocol, runtime_checkable
+
+__all__ = ["Actuator", "Contribution"]
+
+
+class Contribution(NamedTuple):
+    """One actuator's share of a control step, held constant over the step (body frame).
+
+    torque_B: 3 components, N·m. force_B: 3 components, N, through the centre of mass, or None
+    (no translation modelled). momentum_B: internal angular momentum h_B, 3 components, N·m·s,
+    or None (stores none). momentum_rate_B: ḣ_B, 3 components, N·m, or None. effort: the
+    fraction of the actuator's full effort rate spent in the step, in [0, 1] (propellant flow
+    for thrusters, electrical power for wheels and magnetorquers); tasks price it.
+    """
+
+    torque_B: tuple
+    force_B: tuple | None
+    momentum_B: tuple | None
+    momentum_rate_B: tuple | None
+    effort: object
+
+
+@runtime_checkable
+class Actuator(Protocol):
+    """The interface the plant calls; each actuator is a frozen dataclass built from a scene.
+
+    Declarations (class or instance attributes):
+
+    * ``scene_table``: the TOML table that configures it (``"thrusters"``);
+    * ``action_shape`` and ``action_bounds``: its slice of the action and its (low, high);
+    * ``state_fields``: its episode state, name → :mod:`rbenv.state` kind (names must not
+      clash with the plant's, the task's or another actuator's: the layout refuses them);
+    * ``observation_structure``: name → width of its part of the observation ({} for none);
+    * ``info_keys``: the info entries it adds;
+    * ``start_stream`` and ``start_slots``: the stream of :class:`rbenv.draws.EpisodeDraws`
+      that :meth:`sample_start` draws from (its ``scene_table``, or ``"plant"`` after the
+      plant's own slots) and how many slots (a hint);
+    * ``needs_account``: whether :meth:`account` must run after the physics;
+    * ``stores_momentum``: whether its contribution carries internal angular momentum.
+    """
+
+    scene_table: ClassVar[str]
+    start_stream: ClassVar[str]
+    needs_account: ClassVar[bool]
+    stores_momentum: ClassVar[bool]
+    action_shape: tuple
+    action_bounds: tuple
+    state_fields: dict
+    observation_structure: dict
+    info_keys: tuple
+    start_slots: int
+
+    def command(self, action, in_place: bool = False):
+        """The physical command from its (clipped) action slice; NaN raises a named error."""
+
+    def actuate(self, st, command, noise, xp) -> Contribution:
+        """Its contribution under ``command`` from state ``st``; sets its own fields on ``st``
+        (the transition's new state) for what happens before the physics (faults, delay)."""
+
+    def account(self, st, contribution: Contribution, dt: float, xp) -> None:
+        """After the physics: its bookkeeping over the step (propellant, energy), on ``st``."""
+
+    def sample_start(self, draws) -> dict:
+        """Its part of an episode start (values of its state fields) for ``draws.n`` envs."""
+
+    def observe(self, st, xp) -> tuple:
+        """Its observation components (empty when ``observation_structure`` is {})."""
+
+    def info(self, st, xp) -> dict:
+        """Its info values (units in the key names)."""

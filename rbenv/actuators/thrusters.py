@@ -1,0 +1,227 @@
+"""Thrusters: body-fixed nozzles at lever arms, fired as duty cycles over a control step.
+
+The first actuator of the plant (:mod:`rbenv.actuators.base`). Its scene table is
+``[thrusters]`` (positions, directions, max_force, isp). Three action modes turn its action
+slice into throttles u in [0, 1]: ``throttle`` (one entry per thruster, ``clip(a, 0, 1)``),
+``on_off`` (``a > 0`` fires at full throttle) and ``torque`` (a body torque as a fraction of the
+per-axis authority, turned into throttles by an allocator, :mod:`rbenv.allocation`). Faults
+(thrusters stuck off, at reset or mid-episode), a one-step control delay and the episode's
+randomized layout (:mod:`rbenv.randomization`) act on the throttles before they fire.
+
+Its effort is the thrust fraction ``Σu_iF_i / ΣF_i`` (propellant flow relative to all thrusters
+at full throttle); it accounts the impulse ``Σu_iF_i·dt`` and the propellant
+``impulse / (Isp g0)``. It stores no angular momentum.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from core import validation
+from core.backend import FLOAT
+from core.errors import InvalidParameterError
+from rbenv.actuators.base import Contribution
+from rbenv.scene import G0
+
+__all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
+
+ACTION_MODES = ("throttle", "on_off", "torque")
+ALLOCATORS = ("pinv", "nnls", "lp")
+# tuple.__new__ builds a NamedTuple without its Python-level __new__ (fields given in order).
+_new = tuple.__new__
+
+
+@dataclass(frozen=True, eq=False)
+class Thrusters:
+    """The scene's thrusters with their action mode, precomputed for the per-step path.
+
+    layout: :class:`core.forces.ThrusterLayout` (body axes). isp: s. ``action_matrix`` (n, 4
+    or 7) maps throttles to ``[τ_B (3, N·m), Σu_iF_i (N), F_B (3, N, translation only)]``.
+    """
+
+    scene_table: ClassVar[str] = "thrusters"
+    observation_structure: ClassVar[dict] = {}
+    info_keys: ClassVar[tuple] = ("fuel_kg", "impulse_Ns")
+    needs_account: ClassVar[bool] = False
+    stores_momentum: ClassVar[bool] = False
+    start_stream: ClassVar[str] = "plant"  # its start draws follow the plant's bias slots
+
+    layout: object
+    isp: float
+    control_dt: float  # s
+    translation: bool = False
+    fault_model: str = "none"  # "none" | "random"
+    p_reset: float = 0.0  # probability a thruster starts failed (random faults)
+    p_fault: float = 0.0  # per-step fault probability (0: none)
+    delay: bool = False  # a one-step control delay is possible (randomization)
+    action_mode: str = "throttle"
+    allocator_name: str = "pinv"
+    n: int = field(init=False)
+    action_shape: tuple = field(init=False)
+    action_bounds: tuple = field(init=False, repr=False)
+    action_matrix: np.ndarray = field(init=False, repr=False)
+    allocator: object = field(init=False, repr=False)
+    torque_authority: np.ndarray = field(init=False, repr=False)
+    inv_total_thrust: float = field(init=False)  # 1/N: thrust fraction = Σu_iF_i / ΣF_i
+    fuel_per_impulse: float = field(init=False)  # kg/(N·s) = 1 / (Isp g0)
+    state_fields: dict = field(init=False, repr=False)
+    start_slots: int = field(init=False)
+
+    def __post_init__(self):
+        validation.choice("action_mode", self.action_mode, ACTION_MODES)
+        validation.choice("allocator", self.allocator_name, ALLOCATORS)
+        lay = self.layout
+        torque = self.action_mode == "torque"
+        shape = (3,) if torque else (lay.n,)
+        low, high = np.full(shape, -1.0 if torque else 0.0), np.ones(shape)
+        for arr in (low, high):  # arrays: clipping against them is cheaper than scalars
+            arr.setflags(write=False)
+        # health: 1 (working) / 0 (failed) per thruster, with faults only. throttle: the
+        # throttles fired in the last step. pending: throttles commanded last step (delay
+        # only). fuel_kg, impulse_Ns: cumulative.
+        fields = {"health": "row", "throttle": "row", "pending": "row", "fuel_kg": "f",
+                  "impulse_Ns": "f"}
+        values = {"n": lay.n, "action_shape": shape, "action_bounds": (low, high),
+                  "allocator": None, "torque_authority": None,
+                  "action_matrix": action_matrix(lay.torque_matrix_B, lay.max_force,
+                                                 lay.force_matrix_B if self.translation
+                                                 else None),
+                  "inv_total_thrust": 1.0 / float(lay.max_force.sum()),
+                  "fuel_per_impulse": 1.0 / (self.isp * G0), "state_fields": fields,
+                  # The plant's stream: slots 0-5 are its disturbance bias, then one uniform
+                  # per thruster with random faults (kept there: seeded episodes unchanged).
+                  "start_slots": lay.n if self.fault_model == "random" else 0}
+        if torque:
+            from rbenv.allocation import axis_authority, make_allocator
+
+            values["allocator"] = make_allocator(self.allocator_name, lay.torque_matrix_B)
+            values["torque_authority"] = axis_authority(lay.torque_matrix_B)
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    # ------------------------------------------------------------------- command
+
+    def command(self, a: np.ndarray, in_place: bool = False) -> np.ndarray:
+        """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
+
+        throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
+        torque: ``clip(a, -1, 1) · authority`` (N·m per axis) through the allocator. NaN is
+        rejected; in throttle mode by the adapters from the propagated NaN thrust, which the
+        state's finiteness flag catches (no extra check on the hot path). ``in_place``: the
+        caller owns ``a`` and lets throttle mode clip it in place (the vector env's batch).
+        """
+        mode = self.action_mode
+        low, high = self.action_bounds
+        if mode == "throttle":
+            if in_place:
+                np.maximum(a, low, out=a)
+                return np.minimum(a, high, out=a)
+            return np.minimum(np.maximum(a, low), high)
+        if np.isnan(a).any():
+            raise nan_action_error(a)
+        if mode == "on_off":
+            return (a > 0.0).astype(float)
+        return self.allocator(np.minimum(np.maximum(a, low), high) * self.torque_authority)
+
+    # ------------------------------------------------------------------- per step
+
+    def actuate(self, st, u: np.ndarray, noise, xp) -> Contribution:
+        """The wrench of throttles ``u`` after faults and delay; sets health, pending,
+        throttle, impulse_Ns and fuel_kg on ``st`` (the new state)."""
+        if st.health is not None or st.pending is not None:
+            u = self._faults_and_delay(st, u, noise.faults)
+        st.throttle = u
+        matrix = self.action_matrix if st.model is None else st.model.action_matrix
+        if xp is FLOAT:
+            parts = (u @ matrix).tolist()  # a list of floats: the kernels index it alike
+        elif matrix.ndim == 2:
+            parts = tuple(matrix.T @ u.T)
+        else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
+            parts = tuple(np.einsum("ni,nik->kn", u, matrix))
+        thrust = parts[3]
+        impulse = thrust * self.control_dt
+        st.impulse_Ns = st.impulse_Ns + impulse
+        st.fuel_kg = st.fuel_kg + impulse * self.fuel_per_impulse
+        force = (parts[4], parts[5], parts[6]) if len(parts) > 4 else None
+        return _new(Contribution, ((parts[0], parts[1], parts[2]), force, None, None,
+                                   thrust * self.inv_total_thrust))
+
+    def _faults_and_delay(self, st, u: np.ndarray, fault_draw) -> np.ndarray:
+        """Throttles that actually fire: mid-episode faults, failed thrusters, control delay."""
+        if st.health is not None:
+            if fault_draw is not None:
+                st.health = st.health * (fault_draw >= self.p_fault)
+            u = u * st.health
+        if st.pending is not None:
+            fired = np.where(np.expand_dims(st.model.delayed, -1), st.pending, u)
+            st.pending = u
+            u = fired
+        return u
+
+    def account(self, st, contribution: Contribution, dt: float, xp) -> None:
+        """Nothing after the physics: the propellant is accounted in :meth:`actuate`."""
+
+    # ------------------------------------------------------------------- start, sensing
+
+    def sample_start(self, draws) -> dict:
+        """Zero propellant and throttles; ``health`` (m, n) of 1/0 with random faults
+        (stream "plant", uniforms from slot 6); ``pending`` zeros with a control delay."""
+        m, xp = draws.n, draws.xp
+        zero = xp.zeros(m)
+        health = None
+        if self.fault_model == "random":
+            u = draws.uniform_array("plant", self.n, offset=6)
+            health = (u.T >= self.p_reset).astype(float)
+        return {"health": health, "fuel_kg": zero, "impulse_Ns": zero,
+                "throttle": np.zeros((m, self.n)),
+                "pending": np.zeros((m, self.n)) if self.delay else None}
+
+    def observe(self, st, xp) -> tuple:
+        """No observation of its own."""
+        return ()
+
+    def info(self, st, xp) -> dict:
+        """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""
+        out = {"fuel_kg": st.fuel_kg, "impulse_Ns": st.impulse_Ns}
+        if st.health is not None:
+            out["failed_thrusters"] = self.n - st.health.sum(axis=-1)
+        return out
+
+
+def make_thrusters(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Thrusters:
+    """The scene's thrusters (its ``[thrusters]``, faults and randomization) in a mode."""
+    faults, rnd = scene.faults, scene.randomization
+    return Thrusters(layout=scene.thrusters, isp=scene.isp,
+                     control_dt=scene.physics.control_dt,
+                     translation=scene.physics.translation, fault_model=faults.model,
+                     p_reset=faults.p_reset if faults.model == "random" else 0.0,
+                     p_fault=faults.p_step if faults.model == "random" else 0.0,
+                     delay=bool(rnd.enabled and rnd.delay_probability > 0.0),
+                     action_mode=action_mode, allocator_name=allocator)
+
+
+def action_matrix(torque_matrix_B, max_force, force_matrix_B=None) -> np.ndarray:
+    """(n, 4) or (n, 7) read-only map from throttles to ``[τ_B, Σu_iF_i, F_B]``.
+
+    torque_matrix_B: (3, n) N·m per unit throttle; max_force: (n,) N; force_matrix_B: (3, n)
+    N per unit throttle, or None without translation.
+    """
+    cols = [np.asarray(torque_matrix_B).T, np.asarray(max_force)[:, None]]
+    if force_matrix_B is not None:
+        cols.append(np.asarray(force_matrix_B).T)
+    matrix = np.ascontiguousarray(np.hstack(cols), dtype=float)
+    matrix.setflags(write=False)
+    return matrix
+
+
+def nan_action_error(action) -> InvalidParameterError:
+    """The named error (a ValueError) for an action containing NaN, naming the first bad index."""
+    bad = np.argwhere(np.isnan(np.asarray(action, dtype=float)))
+    where = tuple(int(i) for i in bad[0]) if len(bad) else ()
+    return InvalidParameterError(
+        f"action must not contain NaN (got NaN at index {where}); actions outside [-1, 1] are "
+        "clipped to the action space, but NaN has no meaning"
+    )

@@ -1,0 +1,179 @@
+"""One registry of tasks: everything a task id needs, in one entry, checked when it is made.
+
+A :class:`TaskSpec` holds a task's env id, its class and maker, its scripted baselines, its
+training budget and its tuned hyperparameters. :func:`register` checks the entry (a missing
+baseline, budget or hyperparameter set is named here, never after training), makes the env
+classes (single and vector) and registers the id with Gymnasium. Everything else derives from
+the registry: ``rbenv.ENV_IDS``, the RL Zoo files in :mod:`rbenv.hyperparams`, ``rbenv train``'s
+defaults, the evaluation report's baselines and the learning suite's grid.
+
+A new task is one module (a :class:`rbenv.tasks.base.Task` subclass and its maker) plus one
+:func:`register` call::
+
+    register(TaskSpec(env_id="myorg/PointSun-v0", task=PointSun, make=make_point_sun,
+                      baselines={"pd": "mypkg.controllers:SunPD"},
+                      budget={"ppo": 500_000}, hyperparams={"ppo": PPO}))
+
+Baselines are named by ``"module:attribute"`` strings (resolved by ``agents``, which sits above
+this package) or given as objects; each resolves to a class with ``from_env(env)`` whose
+instances have SB3's ``predict(obs, state)``.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import gymnasium as gym
+
+from core.errors import InvalidParameterError
+
+__all__ = ["TaskSpec", "by_name", "get", "register", "specs", "zoo_hyperparams"]
+
+_ID = re.compile(r"^[A-Za-z0-9_.-]+/[A-Za-z0-9_.]+-v\d+$")
+_REF = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+MAX_EPISODE_STEPS = 160  # control steps of every shipped scene (the scene may end sooner)
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """A registered task (see the module docstring).
+
+    env_id: Gymnasium id ``"namespace/Name-vN"``. task: the Task subclass. make: its maker,
+    ``make(plant, reward_weights=, max_initial_angle_deg=, max_initial_rate=, task_options=)``.
+    baselines: scripted policy name → ``"module:Class"`` or class with ``from_env``.
+    budget: algorithm → training timesteps. scene_budgets: (algorithm, scene) → timesteps,
+    where a scene needs more. hyperparams: algorithm → settings in RL Zoo's format (every
+    algorithm of ``budget`` needs one). env_doc: the env classes' docstring.
+    """
+
+    env_id: str
+    task: type
+    make: Callable
+    baselines: Mapping[str, object]
+    budget: Mapping[str, int]
+    hyperparams: Mapping[str, dict]
+    scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
+    max_episode_steps: int = MAX_EPISODE_STEPS
+    env_doc: str = ""
+
+    @property
+    def name(self) -> str:
+        """The task's short name (``task.name``: "reorient", ...)."""
+        return self.task.name
+
+    @property
+    def class_stem(self) -> str:
+        """``SatelliteReorient`` for ``rbenv/SatelliteReorient-v0`` (env class names)."""
+        stem = self.env_id.split("/", 1)[1].rsplit("-v", 1)
+        return stem[0] + ("" if stem[1] == "0" else f"V{stem[1]}")
+
+    def timesteps(self, algo: str, scene: str | None = None) -> int:
+        """The training budget of ``algo`` (on ``scene``, where it needs more)."""
+        return self.scene_budgets.get((algo, scene), self.budget[algo])
+
+
+_SPECS: dict[str, TaskSpec] = {}
+
+
+def _check(spec: TaskSpec) -> None:
+    """Refuse an incomplete entry, naming what is missing."""
+    from rbenv.tasks.base import Task
+
+    where = f"task entry {spec.env_id!r}"
+    if not isinstance(spec.env_id, str) or not _ID.match(spec.env_id):
+        raise InvalidParameterError(
+            f"task entry env_id must look like 'namespace/Name-v0', got {spec.env_id!r}")
+    if not (isinstance(spec.task, type) and issubclass(spec.task, Task)):
+        raise InvalidParameterError(f"{where}: task must be a rbenv.tasks.base.Task subclass, "
+                                    f"got {spec.task!r}")
+    if not callable(spec.make):
+        raise InvalidParameterError(f"{where}: make must be callable, got {spec.make!r}")
+    if not isinstance(spec.baselines, Mapping) or not spec.baselines:
+        raise InvalidParameterError(
+            f"{where}: baselines must name at least one scripted policy (name -> "
+            f"'module:Class'), got {spec.baselines!r}; `rbenv train` compares every policy "
+            "with them")
+    for name, ref in spec.baselines.items():
+        if not (isinstance(ref, str) and _REF.match(ref)) and not hasattr(ref, "from_env"):
+            raise InvalidParameterError(
+                f"{where}: baselines[{name!r}] must be 'module:Class' or a class with "
+                f"from_env(env), got {ref!r}")
+    if not isinstance(spec.budget, Mapping) or "ppo" not in spec.budget:
+        raise InvalidParameterError(
+            f"{where}: budget must give the training timesteps of 'ppo' (the default "
+            f"algorithm), got {spec.budget!r}")
+    for algo, steps in {**spec.budget, **{a: s for (a, _), s in spec.scene_budgets.items()}
+                        }.items():
+        if not isinstance(steps, int) or steps <= 0:
+            raise InvalidParameterError(
+                f"{where}: budget[{algo!r}] must be a positive int of timesteps, got {steps!r}")
+        if algo not in spec.hyperparams:
+            raise InvalidParameterError(
+                f"{where}: hyperparams has no settings for {algo!r}, which has a budget; "
+                f"give hyperparams[{algo!r}] (RL Zoo format)")
+        if not isinstance(spec.hyperparams[algo], Mapping):
+            raise InvalidParameterError(
+                f"{where}: hyperparams[{algo!r}] must be a dict of settings, got "
+                f"{spec.hyperparams[algo]!r}")
+
+
+def register(spec: TaskSpec) -> TaskSpec:
+    """Check ``spec``, make its env classes and register its id with Gymnasium.
+
+    Registering the same id again replaces the entry (a reload); a different task under an id
+    already taken raises.
+    """
+    from rbenv import env as single_env
+    from rbenv import vector_env
+
+    _check(spec)
+    old = _SPECS.get(spec.env_id)
+    if old is not None and old.task is not spec.task:
+        raise InvalidParameterError(
+            f"task entry {spec.env_id!r} is already registered for task {old.task.name!r}")
+    names = {s.name: s.env_id for s in _SPECS.values() if s.env_id != spec.env_id}
+    if spec.name in names and _SPECS[names[spec.name]].task is not spec.task:
+        raise InvalidParameterError(
+            f"task name {spec.name!r} of {spec.env_id!r} is already used by {names[spec.name]!r}")
+    _SPECS[spec.env_id] = spec
+    single = single_env.env_class(spec)
+    vector = vector_env.vector_env_class(spec)
+    if spec.env_id in gym.registry:
+        del gym.registry[spec.env_id]
+    gym.register(id=spec.env_id, entry_point=f"{single.__module__}:{single.__name__}",
+                 vector_entry_point=f"{vector.__module__}:{vector.__name__}",
+                 max_episode_steps=spec.max_episode_steps)
+    return spec
+
+
+def get(env_id: str) -> TaskSpec:
+    """The entry of a registered id; the error lists the registered ids."""
+    try:
+        return _SPECS[env_id]
+    except (KeyError, TypeError):
+        raise InvalidParameterError(
+            f"env id must be one of the registered rbenv tasks {sorted(_SPECS)}, got "
+            f"{env_id!r}") from None
+
+
+def by_name(task_name: str) -> TaskSpec:
+    """The entry whose task is named ``task_name`` ("reorient", ...)."""
+    for spec in _SPECS.values():
+        if spec.name == task_name:
+            return spec
+    raise InvalidParameterError(
+        f"task must be one of {sorted(s.name for s in _SPECS.values())}, got {task_name!r}")
+
+
+def specs() -> tuple:
+    """Every registered entry, in registration order."""
+    return tuple(_SPECS.values())
+
+
+def zoo_hyperparams(algo: str) -> dict:
+    """RL Zoo's table for ``algo``: env id → settings, for every entry that has them."""
+    return {s.env_id: copy.deepcopy(dict(s.hyperparams[algo])) for s in _SPECS.values()
+            if algo in s.hyperparams}

@@ -1,0 +1,187 @@
+"""A new task is one module plus one registry entry: this file is the module.
+
+It defines "point a body axis at the Sun" (nothing else in the repository knows it), registers
+it with :func:`rbenv.registry.register`, and then uses it as a user would: ``gym.make`` and
+``gym.make_vec`` by id, Gymnasium's and SB3's env checkers, and ``rbenv train`` for 4096 steps,
+which ends with the report that compares the policy with the entry's scripted baseline.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import ClassVar, NamedTuple
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import rbenv
+from core import kernels as k
+from core.errors import InvalidParameterError
+from rbenv import registry, transition
+from rbenv.hyperparams import tuned
+from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
+
+SUN_ID = "rbenvtest/PointSun-v0"
+_AXIS_B = (1.0, 0.0, 0.0)  # the body axis that must point at the Sun (a panel normal)
+
+
+@dataclass(frozen=True)
+class SunWeights(Weights):
+    """Reward weights: pointing error ``−w·θ/π`` and ``+w`` per step on target."""
+
+    pointing: float = 1.0
+    on_target: float = 1.0
+
+
+class SunTerms(NamedTuple):
+    pointing: object
+    on_target: object
+
+
+@dataclass(frozen=True, eq=False)
+class PointSun(Task):
+    """Point body +x at a fixed Sun direction (world frame); any roll about it is fine."""
+
+    name: ClassVar[str] = "point_sun"
+    observation_structure: ClassVar[dict] = {"sun_B": 3, "omega_B": 3}
+    error_info_key: ClassVar[str] = "sun_angle_deg"
+    Terms: ClassVar[type] = SunTerms
+    WeightsType: ClassVar[type] = SunWeights
+    state_fields: ClassVar[dict] = {"sun_W": "c3", "sun_angle": "f", "on_target": "i"}
+
+    weights: SunWeights = SunWeights()
+
+    def sample_start(self, draws) -> dict:
+        g = draws.normal("task", 7)
+        return {"q": k.qnormalize(g[0:4]), "omega_B": (0.0 * g[0],) * 3,
+                "sun_W": unit(g[4:7], draws.xp)}
+
+    def complete_start(self, start: dict, xp) -> None:
+        angle = self._angle(start["q"], start["sun_W"], xp)
+        start.update(sun_angle=angle, on_target=0 * angle)
+
+    @staticmethod
+    def _angle(q, sun_W, xp):
+        c = k.dot(k.rotate(q, _AXIS_B), sun_W)
+        return xp.atan2(xp.sqrt(xp.maximum(1.0 - c * c, 0.0)), c)
+
+    def observe(self, st, q, w, xp) -> tuple:
+        s = self.inv_rate_limit
+        return (*k.rotate_inverse(q, st.sun_W),
+                *(xp.clip(w[i] * s, -1.0, 1.0) for i in range(3)))
+
+    def evaluate(self, st, effort, xp):
+        angle = self._angle(st.q, st.sun_W, xp)
+        w = st.omega_B
+        rate = xp.sqrt(k.dot(w, w))
+        inside = (angle < self.success_angle) & (rate < self.success_rate)
+        st.on_target = xp.where(inside, st.on_target + 1, 0)
+        st.sun_angle = angle
+        terms = SunTerms(-self.weights.pointing * angle / math.pi,
+                         self.weights.on_target * inside)
+        return terms, st.on_target >= self.hold_steps, rate > self.rate_limit
+
+    def info(self, st, xp) -> dict:
+        return {"sun_angle_deg": st.sun_angle * _DEG}
+
+
+def make_point_sun(plant, reward_weights=None, max_initial_angle_deg=None,
+                   max_initial_rate=None, task_options=None) -> PointSun:
+    option_table(plant.scene, PointSun, task_options)
+    return PointSun(plant=plant, weights=SunWeights.from_mapping(reward_weights))
+
+
+class SunHold:
+    """The entry's scripted baseline: damp the rate (it never turns toward the Sun)."""
+
+    def __init__(self, n_act: int):
+        self.n_act = n_act
+
+    @classmethod
+    def from_env(cls, env):
+        return cls(getattr(env, "single_action_space", env.action_space).shape[0])
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation)
+        shape = (self.n_act,) if obs.ndim == 1 else (obs.shape[0], self.n_act)
+        return np.zeros(shape, np.float32), state
+
+
+SPEC = registry.TaskSpec(env_id=SUN_ID, task=PointSun, make=make_point_sun,
+                         baselines={"hold": SunHold}, budget={"ppo": 4096},
+                         hyperparams={"ppo": tuned.PPO},
+                         env_doc="Point body +x at the Sun (a test task).")
+registry.register(SPEC)
+
+
+# --------------------------------------------------------------------------- the tests
+
+
+def test_registered_task_makes_single_and_vector_envs_by_id():
+    env = gym.make(SUN_ID)
+    obs, info = env.reset(seed=3)
+    assert obs.shape == (6,) and "sun_angle_deg" in info
+    np.testing.assert_allclose(np.linalg.norm(obs[:3]), 1.0, rtol=1e-6)
+    venv = gym.make_vec(SUN_ID, num_envs=4)
+    vobs, _ = venv.reset(seed=3)
+    np.testing.assert_array_equal(vobs[0], obs)  # sub-env 0 meets the single env's episode
+    assert type(env.unwrapped).__name__ == "PointSunEnv"
+    assert rbenv.registry.get(SUN_ID) is SPEC
+
+
+def test_both_checkers_pass_on_the_new_task():
+    from gymnasium.utils.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(SUN_ID).unwrapped, skip_render_check=True)
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker",
+                              reason="stable-baselines3 is not installed (train extra)")
+    sb3.check_env(gym.make(SUN_ID), warn=True)
+
+
+def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
+    pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
+                        "(train extra)")
+    from agents.cli import main
+
+    out = tmp_path / "sun"
+    main(["train", "--env-id", SUN_ID, "--timesteps", "4096", "--n-envs", "16",
+          "--out", str(out), "--no-progress", "--checkpoint-every", "4096",
+          "--eval-every", "4096", "--hyperparams", '{"n_steps": 64, "batch_size": 256}'])
+    report = (out / "report.md").read_text()
+    assert "hold" in report  # the entry's baseline was evaluated beside the policy
+    assert (out / "model.zip").exists()
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    ({"baselines": {}}, "baselines"),
+    ({"baselines": {"pd": 3}}, "baselines['pd']"),
+    ({"budget": {"sac": 1000}}, "'ppo'"),
+    ({"hyperparams": {}}, "hyperparams has no settings for 'ppo'"),
+    ({"env_id": "PointSun"}, "namespace/Name-v0"),
+    ({"task": object}, "Task subclass"),
+])
+def test_an_incomplete_entry_is_refused_when_registered(change, named):
+    from dataclasses import replace
+
+    bad = replace(SPEC, env_id="rbenvtest/Broken-v0", **change) if "env_id" not in change \
+        else replace(SPEC, **change)
+    with pytest.raises(InvalidParameterError, match=named.replace("[", r"\[").replace("]", r"\]")):
+        registry.register(bad)
+    assert "rbenvtest/Broken-v0" not in gym.registry
+
+
+def test_a_state_field_declared_twice_is_refused_naming_both_owners():
+    from dataclasses import dataclass as dc
+
+    @dc(frozen=True, eq=False)
+    class Clash(PointSun):
+        name: ClassVar[str] = "clash"
+        state_fields: ClassVar[dict] = {"q": "c4", "fuel_kg": "f"}
+
+    with pytest.raises(InvalidParameterError, match="'q' is declared by both plant and task"):
+        transition.layout(gym.make(SUN_ID).unwrapped.plant, Clash)
