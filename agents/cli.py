@@ -3,10 +3,10 @@
     rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
                 [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
                 [--checkpoint-every N] [--eval-every N] [--hyperparams JSON]
-                [--env-kwargs JSON] [--no-report] [--no-progress]
-    rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|model.zip --episodes N --seed S
+                [--env-kwargs JSON] [--no-report] [--no-progress] [--trust-pickle]
+    rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|policy.pt --episodes N --seed S
                    [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
-                   [--video OUT.gif] [--out DIR]
+                   [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv bench NAME [--out DIR]
 
 Only what is asked for is written: evaluate prints its table and writes files only with
@@ -101,6 +101,10 @@ def _parser() -> argparse.ArgumentParser:
     mode.add_argument("--resume", action="store_true",
                       help="continue the run in --out from its last complete checkpoint, with "
                            "its saved configuration (a finished run is left as it is)")
+    t.add_argument("--trust-pickle", action="store_true",
+                   help="let --resume unpickle a run folder written before rbenv's pickle-free "
+                        "format (or an RLlib run's checkpoints); unpickling runs any code in "
+                        "the files, so only for folders from a source you trust")
     mode.add_argument("--force", action="store_true",
                       help="start a new run in a non-empty --out, deleting the old run's files")
     t.add_argument("--threads", type=_positive, default=None,
@@ -125,8 +129,12 @@ def _parser() -> argparse.ArgumentParser:
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
     e.add_argument("--policy", required=True,
-                   help="pd, bangbang, zero, random, a run folder, its model.zip or a "
-                        "checkpoint model_N.zip (a model is evaluated in its run's env options)")
+                   help="pd, bangbang, zero, random, a run folder, its policy.pt or a "
+                        "checkpoint policy_N.pt (a model is evaluated in its run's env options)")
+    e.add_argument("--trust-pickle", action="store_true",
+                   help="allow a pickle-based policy file (an older run's model.zip and "
+                        "vecnormalize.pkl, a foreign SB3 .zip, an RLlib run); unpickling runs "
+                        "any code in it, so only for files from a source you trust")
     e.add_argument("--episodes", type=_positive, default=100)
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--scene", default=None)
@@ -187,7 +195,8 @@ def _train(args) -> int:
                       hyperparams=args.hyperparams, env_kwargs=args.env_kwargs,
                       threads=args.threads or (None if args.resume else 1))
     train(cfg, resume=args.resume, force=args.force, tensorboard=args.tensorboard,
-          progress_bar=not args.no_progress, report=not args.no_report)
+          progress_bar=not args.no_progress, report=not args.no_report,
+          trust_pickle=args.trust_pickle)
     return 0
 
 
@@ -195,7 +204,8 @@ def _evaluate(args) -> int:
     from agents.evaluate import evaluate, format_table, record_video, write_json
 
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
-                      env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action)
+                      env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action,
+                      trust_pickle=args.trust_pickle)
     print(format_table([result]))
     json_path, plot_path = args.json, args.plot
     if args.out:
@@ -209,7 +219,9 @@ def _evaluate(args) -> int:
 
         print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
-        print(f"video: {record_video(args.policy, args.video, seed=args.seed, scene=args.scene)}")
+        video = record_video(args.policy, args.video, seed=args.seed, scene=args.scene,
+                             trust_pickle=args.trust_pickle)
+        print(f"video: {video}")
     return 0
 
 

@@ -58,29 +58,34 @@ class EvalResult:
 
 
 class SB3Policy(RunPolicy):
-    """A saved SB3 model with its VecNormalize statistics, behind the ``predict`` interface.
+    """A saved SB3 model with its observation statistics, behind the ``predict`` interface.
 
-    ``model_path`` is a run folder, a final ``model.zip`` (statistics: ``vecnormalize.pkl``
-    beside it) or a checkpoint ``model_<N>.zip`` (statistics: its own ``vecnormalize_<N>.pkl``);
+    ``model_path`` is a run folder, a final ``policy.pt`` (statistics: ``obs_stats.npz``
+    beside it) or a checkpoint ``policy_<N>.pt`` (statistics: its own ``obs_stats_<N>.npz``);
     ``vecnormalize_path`` overrides the statistics; ``action`` as :class:`agents.runs.RunPolicy`
-    (default: the mean throttle for PPO/A2C in throttle mode). Same as
-    :func:`agents.runs.load_policy`.
+    (default: the mean throttle for PPO/A2C in throttle mode). Pickle-based files (an older
+    run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``) load only with
+    ``trust_pickle=True``. Same as :func:`agents.runs.load_policy`.
     """
 
-    def __init__(self, model_path, vecnormalize_path=None, action: str = "auto"):
+    def __init__(self, model_path, vecnormalize_path=None, action: str = "auto",
+                 trust_pickle: bool = False):
         from agents import runs
 
         files = runs.locate(model_path)
         algo = (files.config or {}).get("algo")
         stats = vecnormalize_path or files.stats
-        super().__init__(runs.load_model(files.model, algo if algo in ("ppo", "sac") else None),
-                         runs.load_stats(stats) if stats else None, files.config,
-                         source=str(files.model), action=action)
+        model = runs.load_model(files.model, algo if algo in ("ppo", "sac") else None,
+                                trust_pickle=trust_pickle)
+        super().__init__(model, runs.load_stats(stats, trust_pickle=trust_pickle)
+                         if stats else None, files.config, source=str(files.model),
+                         action=action)
 
 
-def _load_model_policy(name: str, action: str = "auto") -> tuple:
+def _load_model_policy(name: str, action: str = "auto", trust_pickle: bool = False) -> tuple:
     """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib);
-    ``action`` as :class:`agents.runs.RunPolicy` (SB3 models)."""
+    ``action`` as :class:`agents.runs.RunPolicy` (SB3 models); ``trust_pickle``: allow
+    pickle-based files (older SB3 runs, foreign .zip files, RLlib checkpoints)."""
     from agents import runs
 
     path = Path(name)
@@ -89,8 +94,8 @@ def _load_model_policy(name: str, action: str = "auto") -> tuple:
         if config.get("engine") == "rllib":  # needs the ray extra (agents.rllib says so)
             from agents.rllib import RLlibPolicy
 
-            return RLlibPolicy(path), runs.env_kwargs_of(config)
-    policy = SB3Policy(name, action=action)
+            return RLlibPolicy(path, trust_pickle=trust_pickle), runs.env_kwargs_of(config)
+    policy = SB3Policy(name, action=action, trust_pickle=trust_pickle)
     return policy, policy.env_kwargs
 
 
@@ -106,22 +111,24 @@ def make_policy(name: str, env, seed: int = 0):
     if Path(name).exists():
         return _load_model_policy(name)[0]
     raise ValueError(f"policy must be one of {list(SCRIPTED)} or a path to a saved model "
-                     f"(.zip), got {name!r}")
+                     f"(a run folder or policy.pt), got {name!r}")
 
 
 def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = None,
              name: str | None = None, record: int = 3, env_kwargs: dict | None = None,
-             batch: int = 1000, env_id: str = rbenv.ENV_ID, action: str = "auto") -> EvalResult:
+             batch: int = 1000, env_id: str = rbenv.ENV_ID, action: str = "auto",
+             trust_pickle: bool = False) -> EvalResult:
     """Run ``episodes`` seeded episodes of ``policy`` (str name or object with ``predict``).
 
     env_id: any registered rbenv id (reorient, detumble, track); episode i is seeded
     ``seed + i``, so every policy evaluated with the same seed meets the same episodes.
     action: for a model given by path, how it acts (:class:`agents.runs.RunPolicy`).
+    trust_pickle: a model given by path may be a pickle-based file (see :class:`SB3Policy`).
     """
     env_kwargs = dict(env_kwargs or {})
     label = name or (policy if isinstance(policy, str) else type(policy).__name__)
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
-        policy, run_kwargs = _load_model_policy(policy, action)  # the run's env options too
+        policy, run_kwargs = _load_model_policy(policy, action, trust_pickle)  # + env options
         env_kwargs = {**run_kwargs, **env_kwargs}
     if scene is not None:
         env_kwargs["scene"] = scene
@@ -238,13 +245,14 @@ def write_json(results: list[EvalResult], path) -> Path:
 
 
 def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: float = 8.0,
-                 env_kwargs: dict | None = None, env_id: str = rbenv.ENV_ID) -> Path:
+                 env_kwargs: dict | None = None, env_id: str = rbenv.ENV_ID,
+                 trust_pickle: bool = False) -> Path:
     """Render one seeded episode of ``policy`` to a GIF or MP4 (needs the render extra)."""
     from rbenv.rendering import save_video
 
     kwargs = dict(env_kwargs or {})
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
-        policy, run_kwargs = _load_model_policy(policy)
+        policy, run_kwargs = _load_model_policy(policy, trust_pickle=trust_pickle)
         kwargs = {**run_kwargs, **kwargs}
     if scene is not None:
         kwargs["scene"] = scene

@@ -57,10 +57,10 @@ def task_name(env_id: str) -> str:
 
 
 def write_report(run_dir, cfg, summary: dict) -> Path:
-    """Evaluate model.zip and the task's scripted baselines on the same seeded episodes; write
-    report.md."""
+    """Evaluate the final policy and the task's scripted baselines on the same seeded episodes;
+    write report.md."""
     run_dir = Path(run_dir)
-    trained = SB3Policy(run_dir / "model.zip", run_dir / "vecnormalize.pkl")
+    trained = SB3Policy(run_dir)
     env_id = getattr(cfg, "env_id", rbenv.ENV_ID)
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs, "env_id": env_id}
@@ -84,7 +84,7 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
         "for the scene's hold time",
         f"- load the policy with `agents.runs.load_policy({str(run_dir)!r})`: it applies the "
-        "observation normalisation (`vecnormalize.pkl`) that a bare `PPO.load` lacks",
+        "observation normalisation (`obs_stats.npz`) that the bare weights lack",
     ]
     return finish_report(run_dir, lines, table, curve)
 

@@ -14,7 +14,7 @@ instance (all cores) or, with ``address``, on a running cluster. The run folder:
     run.lock                held by the live training process
     checkpoints/            ckpt_<steps>/ (RLlib's own checkpoint folders), latest.json
     eval/evaluations.npz    periodic evaluations (the SB3 format), kept across resumes
-    policy/                 the final RLModule; load with RLlibPolicy(run folder)
+    policy/                 the final RLModule; load with RLlibPolicy(run folder, trust_pickle=True)
     training.json, report.md, evaluation.json, episode.png, training_curve.png
 
 A checkpoint folder is written under a temporary name and renamed, and latest.json moves only
@@ -172,13 +172,19 @@ class RLlibPolicy:
     ``path``: a run folder (its final ``policy/``, else its latest checkpoint), a checkpoint
     folder ``ckpt_<N>``, or an RLModule folder. Observations are the raw env ones (the run
     adds no observation filter); deterministic actions are the Gaussian's mean, clipped.
+
+    RLlib's checkpoint format pickles (``class_and_ctor_args.pkl``, the module state), so
+    loading runs code from the folder: it is refused unless ``trust_pickle=True``
+    (``rbenv evaluate --trust-pickle``).
     """
 
-    def __init__(self, path):
+    def __init__(self, path, *, trust_pickle: bool = False):
+        self.source = module_dir(Path(path))
+        runs.require_trust(self.source, "an RLlib checkpoint (RLlib pickles its modules)",
+                           trust_pickle)
         import torch
         from ray.rllib.core.rl_module.rl_module import RLModule
 
-        self.source = module_dir(Path(path))
         self.module = RLModule.from_checkpoint(self.source)
         self.module.eval()
         self._dist = self.module.get_inference_action_dist_cls()
@@ -316,12 +322,18 @@ def resumed_config(out: Path, timesteps: int | None) -> RLlibConfig:
 
 
 def train(cfg: RLlibConfig, *, resume: bool = False, force: bool = False,
-          address: str | None = None, report: bool = True, progress: bool = True) -> Path:
+          address: str | None = None, report: bool = True, progress: bool = True,
+          trust_pickle: bool = False) -> Path:
     """Train (or resume) PPO with RLlib into ``cfg.out``; returns the run folder.
 
     ``address``: None for a private Ray instance on this machine, ``"auto"`` or ``HOST:PORT``
-    for a running cluster (env runners are placed on its nodes).
+    for a running cluster (env runners are placed on its nodes). ``resume`` restores RLlib's
+    own checkpoint, which is pickle-based, so it needs ``trust_pickle=True``
+    (``--trust-pickle``); without it the resume is refused before anything is loaded.
     """
+    if resume and not trust_pickle:
+        runs.require_trust(Path(cfg.out) / runs.CHECKPOINTS,
+                           "an RLlib run's checkpoint folder (RLlib pickles its state)", False)
     require_ray("--engine rllib")
     cfg = resumed_config(Path(cfg.out), cfg.timesteps) if resume else cfg.resolve()
     out = Path(cfg.out)
@@ -347,7 +359,8 @@ def train(cfg: RLlibConfig, *, resume: bool = False, force: bool = False,
             shutdown(started)
     if report:
         write_report(out, cfg, summary)
-    print(f"run saved in {out}; load the policy with agents.rllib.RLlibPolicy({str(out)!r})")
+    print(f"run saved in {out}; load the policy with agents.rllib.RLlibPolicy({str(out)!r}, "
+          "trust_pickle=True) (RLlib checkpoints are pickles)")
     return out
 
 
@@ -453,7 +466,9 @@ def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
 
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs, "env_id": cfg.env_id}
-    results = [evaluate(RLlibPolicy(out), name="ppo (RLlib, trained)", **kwargs),
+    # The run this process just wrote: its pickles are our own.
+    results = [evaluate(RLlibPolicy(out, trust_pickle=True), name="ppo (RLlib, trained)",
+                        **kwargs),
                *(evaluate(name, **kwargs) for name in BASELINES[task_name(cfg.env_id)])]
     table = format_table(results)
     plot_episodes(results, out / "episode.png")
@@ -469,8 +484,8 @@ def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
         + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else ""),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy",
-        f"- load the policy with `agents.rllib.RLlibPolicy({str(out)!r})` (SB3-style "
-        "`predict`)",
+        f"- load the policy with `agents.rllib.RLlibPolicy({str(out)!r}, trust_pickle=True)` "
+        "(SB3-style `predict`; RLlib checkpoints are pickles)",
     ]
     return finish_report(out, lines, table, curve)
 
@@ -503,7 +518,8 @@ def train_from_args(args) -> Path:
     """``rbenv train --engine rllib``: the train command's arguments plus add_arguments'."""
     cfg = config_from_args(args)
     return train(cfg, resume=args.resume, force=args.force, address=args.address,
-                 report=not args.no_report, progress=not getattr(args, "no_progress", False))
+                 report=not args.no_report, progress=not getattr(args, "no_progress", False),
+                 trust_pickle=getattr(args, "trust_pickle", False))
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -526,12 +542,14 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--env-kwargs", type=json.loads, default={})
     p.add_argument("--report-episodes", type=int, default=500)
     p.add_argument("--no-report", action="store_true")
+    p.add_argument("--trust-pickle", action="store_true",
+                   help="let --resume load RLlib's pickle-based checkpoint")
     add_arguments(p)
     args = p.parse_args(argv)
     cfg = config_from_args(args)
     cfg.report_episodes = args.report_episodes
     return train(cfg, resume=args.resume, force=args.force, address=args.address,
-                 report=not args.no_report)
+                 report=not args.no_report, trust_pickle=args.trust_pickle)
 
 
 if __name__ == "__main__":

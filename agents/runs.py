@@ -4,9 +4,17 @@ A run folder (written by ``rbenv train``)::
 
     config.json             resolved TrainConfig (scene, env_kwargs, hyperparameters, threads)
     run.lock                held (fcntl) by the live training process; pid and start time inside
-    checkpoints/            model_<steps>.zip + vecnormalize_<steps>.pkl, latest.json
+    checkpoints/            policy_<steps>.pt + policy_<steps>.json + obs_stats_<steps>.npz
+                            (+ replay_buffer_<steps>.npz for SAC), latest.json
     eval/evaluations.npz    periodic evaluations over the whole run (kept across resumes)
-    model.zip, vecnormalize.pkl, training.json, report.md, *.png    the finished run
+    policy.pt, policy.json, obs_stats.npz, training.json, report.md, *.png    the finished run
+
+A run folder is data: weights are tensors loaded with ``torch.load(weights_only=True)``, the
+rest JSON or ``.npz`` loaded without pickle (:mod:`agents.weights`). Run folders written before
+issue 19 (``model.zip``, ``vecnormalize.pkl``, ``model_<N>.zip``, ``vecnormalize_<N>.pkl``,
+``replay_buffer_<N>.pkl``) and foreign SB3 ``.zip`` files are pickles: unpickling runs any code
+their author put in them, so they load only with ``trust_pickle=True`` (``--trust-pickle``)
+and are refused otherwise with :class:`UntrustedPickleError`.
 
 Loading a trained policy for plain ``gym.make`` code::
 
@@ -16,8 +24,8 @@ Loading a trained policy for plain ``gym.make`` code::
     obs, _ = env.reset(seed=0)
     action, _ = policy.predict(obs)                           # observations normalised inside
 
-``PPO.load("model.zip")`` alone gives a policy that expects normalised observations: it fails
-silently on raw ones. Use :func:`load_policy`, or apply ``vecnormalize.pkl`` yourself.
+The bare weights give a policy that expects normalised observations: it fails silently on raw
+ones. Use :func:`load_policy`, or apply ``obs_stats.npz`` yourself.
 
 This module imports neither torch nor Stable-Baselines3 until a model is loaded.
 """
@@ -43,16 +51,21 @@ CONFIG = "config.json"
 LOCK = "run.lock"
 CHECKPOINTS = "checkpoints"
 LATEST = "latest.json"
-FINAL_MODEL, FINAL_STATS, SUMMARY = "model.zip", "vecnormalize.pkl", "training.json"
+FINAL_MODEL, FINAL_STATS, SUMMARY = "policy.pt", "obs_stats.npz", "training.json"
+FINAL_CONFIG = "policy.json"
+# The pickle-based names of run folders written before issue 19 (need trust_pickle).
+LEGACY_MODEL, LEGACY_STATS = "model.zip", "vecnormalize.pkl"
 EVAL_LOG = Path("eval") / "evaluations.npz"
 # Everything `rbenv train` writes into a run folder; `--force` removes exactly these.
-RUN_FILES = (CONFIG, FINAL_MODEL, FINAL_STATS, SUMMARY, "report.md", "evaluation.json",
-             "episode.png", "training_curve.png")
+RUN_FILES = (CONFIG, FINAL_MODEL, FINAL_CONFIG, FINAL_STATS, LEGACY_MODEL, LEGACY_STATS, SUMMARY,
+             "report.md", "evaluation.json", "episode.png", "training_curve.png")
 RUN_DIRS = (CHECKPOINTS, "eval")
-_MODEL_RE = re.compile(r"model_(\d+)\.zip")
+_MODEL_RE = re.compile(r"policy_(\d+)\.pt")
+_LEGACY_RE = re.compile(r"model_(\d+)\.zip")
+TRUST_FLAG = "trust_pickle=True (rbenv: --trust-pickle)"
 LOAD_HINT = ("load it with agents.runs.load_policy(PATH), which applies the run's observation "
-             "normalisation (vecnormalize.pkl); a bare PPO.load/SAC.load model expects "
-             "normalised observations and fails silently on raw ones")
+             "normalisation (obs_stats.npz); the bare weights expect normalised observations "
+             "and fail silently on raw ones")
 
 
 class RunFolderError(RbenvValueError):
@@ -61,6 +74,30 @@ class RunFolderError(RbenvValueError):
 
 class RunLockedError(RunFolderError):
     """Another live process is training into the same run folder."""
+
+
+class UntrustedPickleError(RunFolderError):
+    """A pickle-based file (an SB3 ``.zip``, a ``.pkl``) was to be loaded without trust."""
+
+
+def require_trust(path: Path, what: str, trust_pickle: bool) -> None:
+    """Refuse the pickle-based file ``path`` unless ``trust_pickle``, naming the flag."""
+    if not trust_pickle:
+        raise UntrustedPickleError(
+            f"{str(path)!r} is {what}, a pickle-based file: loading it runs any code its author "
+            f"put in it. Pass {TRUST_FLAG} only for a file from a source you trust. Run "
+            "folders written by this rbenv hold no pickle (policy.pt, policy.json, "
+            "obs_stats.npz); retrain, or load an old folder once with the flag")
+
+
+def stats_name(model: Path) -> Path:
+    """The statistics file that belongs to a model file (final or checkpoint, either format)."""
+    model = Path(model)
+    for pattern, stats in ((_MODEL_RE, "obs_stats_{}.npz"), (_LEGACY_RE, "vecnormalize_{}.pkl")):
+        m = pattern.fullmatch(model.name)
+        if m:
+            return model.with_name(stats.format(m.group(1)))
+    return model.with_name(FINAL_STATS if model.suffix == ".pt" else LEGACY_STATS)
 
 
 # --- files ------------------------------------------------------------------------------------
@@ -124,7 +161,8 @@ def read_config(run_dir: Path) -> dict:
 def is_finished(run_dir: Path) -> dict | None:
     """training.json of a run that completed (and wrote its final model), else None."""
     run_dir = Path(run_dir)
-    if not ((run_dir / SUMMARY).is_file() and (run_dir / FINAL_MODEL).is_file()):
+    final = (run_dir / FINAL_MODEL).is_file() or (run_dir / LEGACY_MODEL).is_file()
+    if not ((run_dir / SUMMARY).is_file() and final):
         return None
     try:
         summary = read_json(run_dir / SUMMARY, "training summary")
@@ -239,10 +277,11 @@ def _lock_record(fd: int) -> dict:
 class Checkpoint:
     """One checkpoint: the model and its own observation statistics, both inside the run."""
 
-    steps: int
+    steps: int  # as claimed by latest.json or the file name; the model's own count wins
     model: Path
     stats: Path
     wall_time_s: float | None = None  # cumulative training wall time when it was written
+    source: Path | None = None  # the file that claims ``steps`` (latest.json), None: the name
 
 
 def confined(directory: Path, name, what: str) -> Path:
@@ -266,7 +305,8 @@ def checkpoint_pointer(directory: Path) -> Checkpoint:
     try:
         steps = int(info["timesteps"])
         model = confined(directory, info["model"], f"{pointer}: 'model'")
-        stats = confined(directory, info["vecnormalize"], f"{pointer}: 'vecnormalize'")
+        key = "stats" if "stats" in info else "vecnormalize"  # the name before issue 19
+        stats = confined(directory, info[key], f"{pointer}: {key!r}")
     except KeyError as e:
         raise RunFolderError(f"checkpoint pointer {str(pointer)!r} lacks the key {e}") from None
     except (TypeError, ValueError) as e:
@@ -275,13 +315,17 @@ def checkpoint_pointer(directory: Path) -> Checkpoint:
         raise RunFolderError(f"checkpoint pointer {str(pointer)!r}: 'timesteps' must be an "
                              f"integer, got {info.get('timesteps')!r}") from None
     wall = info.get("wall_time_s")
-    return Checkpoint(steps, model, stats, float(wall) if isinstance(wall, int | float) else None)
+    return Checkpoint(steps, model, stats, float(wall) if isinstance(wall, int | float) else None,
+                      pointer)
 
 
 def checkpoints(directory: Path, report: Callable[[str], object] = print) -> list[Checkpoint]:
-    """Checkpoints to try, best first: latest.json's, then every model_<N>.zip by N descending.
+    """Checkpoints to try, best first: latest.json's, then every policy_<N>.pt (and, from run
+    folders before issue 19, model_<N>.zip) by N descending, the pickle-free first at equal N.
 
-    Problems with latest.json are passed to ``report`` (naming the file) and skipped.
+    Problems with latest.json are passed to ``report`` (naming the file) and skipped. A model
+    file that latest.json names is listed again under its own N if the pointer claims another
+    count, so that a pointer that disagrees with its checkpoint can be skipped.
     """
     directory = Path(directory)
     found: list[Checkpoint] = []
@@ -291,13 +335,14 @@ def checkpoints(directory: Path, report: Callable[[str], object] = print) -> lis
         except RunFolderError as e:
             report(f"ignoring {e}")
     on_disk = []
-    for path in directory.glob("model_*.zip") if directory.is_dir() else ():
-        m = _MODEL_RE.fullmatch(path.name)
-        if m:
-            steps = int(m.group(1))
-            on_disk.append(Checkpoint(steps, path, directory / f"vecnormalize_{steps}.pkl"))
-    for ckpt in sorted(on_disk, key=lambda c: -c.steps):
-        if all(c.model != ckpt.model for c in found):
+    for rank, pattern in enumerate((_MODEL_RE, _LEGACY_RE)):
+        for path in directory.iterdir() if directory.is_dir() else ():
+            m = pattern.fullmatch(path.name)
+            if m:
+                on_disk.append((-int(m.group(1)), rank,
+                                Checkpoint(int(m.group(1)), path, stats_name(path))))
+    for *_, ckpt in sorted(on_disk, key=lambda t: t[:2]):
+        if all((c.model, c.steps) != (ckpt.model, ckpt.steps) for c in found):
             found.append(ckpt)
     return found
 
@@ -310,12 +355,13 @@ def latest_checkpoint(directory: Path) -> dict | None:
         return None
     if not (ckpt.model.is_file() and ckpt.stats.is_file()):
         return None
-    return {"timesteps": ckpt.steps, "model": ckpt.model.name, "vecnormalize": ckpt.stats.name,
+    return {"timesteps": ckpt.steps, "model": ckpt.model.name, "stats": ckpt.stats.name,
             "wall_time_s": ckpt.wall_time_s}
 
 
 def check_model_file(path: Path) -> None:
-    """Cheap integrity check of an SB3 ``.zip`` (CRCs of every member); raises naming it."""
+    """Cheap integrity check of a model file, an SB3 ``.zip`` or a torch ``.pt`` (both zip
+    archives): the CRCs of every member; raises naming it. Nothing is unpickled."""
     import zipfile
 
     try:
@@ -325,20 +371,34 @@ def check_model_file(path: Path) -> None:
     except (OSError, zipfile.BadZipFile, EOFError, ValueError) as e:
         raise RunFolderError(f"model file {str(path)!r} is missing or not a valid zip: {e}"
                              ) from None
-    if bad is not None or not {"data", "policy.pth"} <= names:
+    torch_file = any(n.endswith("/data.pkl") for n in names)
+    complete = torch_file if Path(path).suffix == ".pt" else {"data", "policy.pth"} <= names
+    if bad is not None or not complete:
         raise RunFolderError(f"model file {str(path)!r} is corrupt "
                              f"({'bad member ' + bad if bad else 'members missing'})")
 
 
-def load_stats(path: Path, venv=None):
-    """VecNormalize statistics from ``path``; :class:`RunFolderError` naming it if corrupt."""
+def load_stats(path: Path, venv=None, *, trust_pickle: bool = False):
+    """Observation statistics from ``path``: ``.npz`` (no pickle), or a legacy
+    ``vecnormalize*.pkl`` only with ``trust_pickle``. With ``venv``: a ``VecNormalize`` over
+    it; without: an object with ``normalize_obs`` and ``obs_rms``. Errors name the file."""
+    path = Path(path)
+    if path.suffix != ".pkl":
+        from agents import weights
+
+        stats = weights.load_stats(path)
+        return stats if venv is None else stats.vecnormalize(venv)
+    if not path.is_file():
+        raise RunFolderError(f"normalisation statistics {str(path)!r} do not exist")
+    require_trust(path, "a pickled VecNormalize", trust_pickle)
+    return _unpickle_stats(path, venv)
+
+
+def _unpickle_stats(path: Path, venv):
     import pickle
 
     from stable_baselines3.common.vec_env import VecNormalize
 
-    path = Path(path)
-    if not path.is_file():
-        raise RunFolderError(f"normalisation statistics {str(path)!r} do not exist")
     try:
         with open(path, "rb") as f:
             stats = pickle.load(f)
@@ -353,16 +413,34 @@ def load_stats(path: Path, venv=None):
     return stats
 
 
-def load_model(path: Path, algo: str | None = None, **kwargs):
-    """An SB3 model from ``path`` (PPO or SAC; ``algo`` if known); raises naming the file."""
+def load_model(path: Path, algo: str | None = None, *, env=None, hyperparams=None,
+               seed: int | None = None, trust_pickle: bool = False):
+    """A model from ``policy*.pt`` + its ``.json`` (no pickle), or from an SB3 ``.zip`` (PPO or
+    SAC; ``algo`` if known) only with ``trust_pickle``; raises naming the file.
+
+    With ``env``, the model is rebuilt for training on it, with ``hyperparams`` (the run's)
+    and ``seed``, and every saved state (optimizers too) is restored; without, it is built for
+    inference from the saved spaces.
+    """
+    path = Path(path)
+    check_model_file(path)
+    if path.suffix == ".pt":
+        from agents import weights
+
+        return weights.load_model(path, env=env, hyperparams=hyperparams, seed=seed)
+    require_trust(path, "a Stable-Baselines3 .zip (it holds cloudpickled objects)",
+                  trust_pickle)
+    return _load_zip(path, algo, env)
+
+
+def _load_zip(path: Path, algo: str | None, env):
     from stable_baselines3 import PPO, SAC
 
-    check_model_file(path)
     classes = {"ppo": (PPO,), "sac": (SAC,)}.get(algo, (PPO, SAC))
     errors = []
     for cls in classes:
         try:
-            return cls.load(path, device="cpu", **kwargs)
+            return cls.load(path, device="cpu", **({} if env is None else {"env": env}))
         except Exception as e:  # wrong algorithm or a corrupt member
             errors.append(f"{cls.__name__}: {type(e).__name__}: {e}")
     raise RunFolderError(f"model file {str(path)!r} could not be loaded as "
@@ -382,35 +460,28 @@ class RunFiles:
 
 
 def locate(path) -> RunFiles:
-    """Resolve a run folder, a final ``model.zip`` or a checkpoint ``model_<N>.zip``.
+    """Resolve a run folder, its final ``policy.pt`` or a checkpoint ``policy_<N>.pt`` (or the
+    pickle-based ``model.zip`` / ``model_<N>.zip`` of older runs and foreign SB3 files).
 
-    A checkpoint is paired with its own ``vecnormalize_<N>.pkl``, a final model with
-    ``vecnormalize.pkl``; the run's ``config.json`` is found beside the model or one level up.
+    A checkpoint is paired with its own statistics (``obs_stats_<N>.npz``), a final model with
+    ``obs_stats.npz`` (``vecnormalize*.pkl`` for the older names); the run's ``config.json`` is
+    found beside the model or one level up. Nothing is opened but JSON.
     """
     path = Path(path)
     if path.is_dir():
-        config = read_config(path)
-        if (path / FINAL_MODEL).is_file():
-            model, stats = path / FINAL_MODEL, path / FINAL_STATS
-        else:
-            ckpt = next(iter(checkpoints(path / CHECKPOINTS)), None)
-            if ckpt is None:
-                raise RunFolderError(f"run folder {str(path)!r} has no {FINAL_MODEL} and no "
-                                     "checkpoint yet")
-            model, stats = ckpt.model, ckpt.stats
-        return RunFiles(model, stats, config, path)
+        return _locate_in_run(path)
     if not path.is_file():
         raise RunFolderError(f"policy {str(path)!r} is neither a run folder nor a model file")
-    m = _MODEL_RE.fullmatch(path.name)
-    stats = path.with_name(f"vecnormalize_{m.group(1)}.pkl" if m else FINAL_STATS)
-    zoo_stats = path.with_suffix("") / FINAL_STATS  # RL Zoo keeps them in a folder named so
-    if not m and not stats.is_file() and zoo_stats.is_file():
+    checkpoint = _MODEL_RE.fullmatch(path.name) or _LEGACY_RE.fullmatch(path.name)
+    stats = stats_name(path)
+    zoo_stats = path.with_suffix("") / LEGACY_STATS  # RL Zoo keeps them in a folder named so
+    if not checkpoint and not stats.is_file() and zoo_stats.is_file():
         stats = zoo_stats
-    if not m and not stats.is_file():
-        warnings.warn(f"no {FINAL_STATS} beside {str(path)!r} (nor in the RL Zoo's "
+    if not checkpoint and not stats.is_file():
+        warnings.warn(f"no {stats.name} beside {str(path)!r} (nor the RL Zoo's "
                       f"{str(zoo_stats)!r}): the policy sees raw observations, which is right "
-                      "only for a model trained without VecNormalize", stacklevel=2)
-    if m and not stats.is_file():
+                      "only for a model trained without VecNormalize", stacklevel=3)
+    if checkpoint and not stats.is_file():
         raise RunFolderError(f"checkpoint {str(path)!r} has no statistics file {str(stats)!r}; "
                              "without them the policy sees unnormalised observations")
     for run_dir in (path.parent, path.parent.parent):
@@ -418,6 +489,18 @@ def locate(path) -> RunFiles:
             return RunFiles(path, stats if stats.is_file() else None, read_config(run_dir),
                             run_dir)
     return RunFiles(path, stats if stats.is_file() else None, None, None)
+
+
+def _locate_in_run(path: Path) -> RunFiles:
+    config = read_config(path)
+    for model, stats in ((FINAL_MODEL, FINAL_STATS), (LEGACY_MODEL, LEGACY_STATS)):
+        if (path / model).is_file():
+            return RunFiles(path / model, path / stats, config, path)
+    ckpt = next(iter(checkpoints(path / CHECKPOINTS)), None)
+    if ckpt is None:
+        raise RunFolderError(f"run folder {str(path)!r} has no {FINAL_MODEL} and no "
+                             "checkpoint yet")
+    return RunFiles(ckpt.model, ckpt.stats, config, path)
 
 
 def env_kwargs_of(config: dict | None) -> dict:
@@ -537,22 +620,21 @@ def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
             + norm.sf(hi))
 
 
-def load_policy(path, action: str = "auto") -> RunPolicy:
-    """A ready policy from a run folder, its ``model.zip`` or a checkpoint ``model_<N>.zip``.
+def load_policy(path, action: str = "auto", *, trust_pickle: bool = False) -> RunPolicy:
+    """A ready policy from a run folder, its ``policy.pt`` or a checkpoint ``policy_<N>.pt``.
 
-    The model comes with its own VecNormalize statistics and the run's configuration
-    (``policy.make_env()`` builds the env it was trained on). A final model without
-    ``vecnormalize.pkl`` beside it (a model trained without VecNormalize) is used as is, with a
-    warning; a checkpoint without its own statistics is an error.
+    The model comes with its own observation statistics and the run's configuration
+    (``policy.make_env()`` builds the env it was trained on). A final model without statistics
+    beside it (a model trained without VecNormalize) is used as is, with a warning; a
+    checkpoint without its own statistics is an error. Nothing is unpickled: a pickle-based
+    file (an older run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``) raises
+    :class:`UntrustedPickleError` unless ``trust_pickle=True``.
     """
     files = locate(path)
     algo = (files.config or {}).get("algo")
-    model = load_model(files.model, algo if algo in ("ppo", "sac") else None)
-    if files.stats is None:
-        import warnings
-
-        warnings.warn(f"no {FINAL_STATS} beside {str(files.model)!r}: observations are passed "
-                      "unnormalised, which is right only for a model trained without "
-                      "VecNormalize", stacklevel=2)
-    stats = load_stats(files.stats) if files.stats is not None else None
+    if files.stats is not None and files.stats.suffix == ".pkl":
+        require_trust(files.stats, "a pickled VecNormalize", trust_pickle)
+    model = load_model(files.model, algo if algo in ("ppo", "sac") else None,
+                       trust_pickle=trust_pickle)
+    stats = load_stats(files.stats, trust_pickle=trust_pickle) if files.stats else None
     return RunPolicy(model, stats, files.config, source=str(files.model), action=action)

@@ -135,7 +135,7 @@ class _Every(BaseCallback):
 
 
 class AtomicCheckpoint(_Every):
-    """Every ``every`` timesteps save model + VecNormalize atomically and update latest.json."""
+    """Every ``every`` timesteps save model + statistics atomically and update latest.json."""
 
     def __init__(self, directory: Path, every: int, clock: WallClock):
         super().__init__(every)
@@ -251,45 +251,52 @@ class WallClock:
 # --- checkpoints ------------------------------------------------------------------------------
 
 def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None) -> None:
-    """Write model_<steps>.zip and vecnormalize_<steps>.pkl, then point latest.json at them."""
+    """Write policy_<steps>.pt/.json and obs_stats_<steps>.npz (and an off-policy model's
+    replay_buffer_<steps>.npz), then point latest.json at them. No file is a pickle."""
+    from agents import weights
+
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    model_path = directory / f"model_{steps}.zip"
-    stats_path = directory / f"vecnormalize_{steps}.pkl"
-    atomic_write(model_path, lambda p: _save_to(model, p))
-    atomic_write(stats_path, model.get_vec_normalize_env().save)
-    buffer = directory / f"replay_buffer_{steps}.pkl"
+    model_path = directory / f"policy_{steps}.pt"
+    stats_path = directory / f"obs_stats_{steps}.npz"
+    weights.save_model(model, model_path)
+    atomic_write(stats_path, lambda p: weights.save_stats(model.get_vec_normalize_env(), p))
+    buffer = directory / f"replay_buffer_{steps}.npz"
     if getattr(model, "replay_buffer", None) is not None:  # off-policy: keep the latest only
-        atomic_write(buffer, lambda p: _save_buffer(model, p))
+        atomic_write(buffer, lambda p: weights.save_replay_buffer(model, p))
     write_json(directory / runs.LATEST, {"timesteps": steps, "model": model_path.name,
-                                         "vecnormalize": stats_path.name,
+                                         "stats": stats_path.name,
                                          "wall_time_s": wall_time_s})
-    for old in directory.glob("replay_buffer_*.pkl"):
+    for old in directory.glob("replay_buffer_*.*"):
         if old != buffer:
             old.unlink(missing_ok=True)
 
 
-def _save_buffer(model, path: Path) -> None:
-    with open(path, "wb") as f:
-        model.save_replay_buffer(f)
+def load_replay_buffer(model, directory: Path, steps: int, trust_pickle: bool = False) -> None:
+    """Restore an off-policy model's replay buffer saved with checkpoint ``steps``, if any:
+    ``replay_buffer_<steps>.npz``, or an older run's ``.pkl`` only with ``trust_pickle``."""
+    from agents import weights
 
-
-def load_replay_buffer(model, directory: Path, steps: int) -> None:
-    """Restore an off-policy model's replay buffer saved with checkpoint ``steps``, if any."""
     if getattr(model, "replay_buffer", None) is None:
         return
-    path = Path(directory) / f"replay_buffer_{steps}.pkl"
-    if not path.is_file():
-        print(f"no replay buffer saved with checkpoint {steps}; {type(model).__name__} refills "
-              "it from the resumed policy")
-        return
+    path = Path(directory) / f"replay_buffer_{steps}.npz"
+    legacy = path.with_suffix(".pkl")
     try:
-        model.load_replay_buffer(str(path))
-    except Exception as e:  # a corrupt pickle can raise almost anything
-        print(f"replay buffer {str(path)!r} is unreadable ({type(e).__name__}: {e}); "
+        if path.is_file():
+            size = weights.load_replay_buffer(model, path)
+        elif legacy.is_file():
+            runs.require_trust(legacy, "a pickled replay buffer", trust_pickle)
+            model.load_replay_buffer(str(legacy))
+            path, size = legacy, model.replay_buffer.size()
+        else:
+            print(f"no replay buffer saved with checkpoint {steps}; {type(model).__name__} "
+                  "refills it from the resumed policy")
+            return
+    except Exception as e:  # refused, torn or foreign: train on, say what was lost
+        print(f"replay buffer not restored ({type(e).__name__}: {e}); "
               f"{type(model).__name__} refills it from the resumed policy")
         return
-    print(f"replay buffer restored: {model.replay_buffer.size()} transitions ({path.name})")
+    print(f"replay buffer restored: {size} transitions ({path.name})")
 
 
 def latest_checkpoint(directory: Path) -> dict | None:
@@ -297,38 +304,66 @@ def latest_checkpoint(directory: Path) -> dict | None:
     return runs.latest_checkpoint(directory)
 
 
-def load_checkpoint(cfg: TrainConfig, directory: Path, base) -> tuple:
+def load_checkpoint(cfg: TrainConfig, directory: Path, base, trust_pickle: bool = False):
     """(model, env, checkpoint) from the newest checkpoint that loads, or None if none exists.
 
-    A checkpoint that fails (missing or corrupt file) is reported, naming the file, and the next
-    older one is tried. Raises :class:`RunFolderError` if complete checkpoints exist but none
-    loads; only incomplete ones (a kill during the first checkpoint) mean starting from 0.
+    A checkpoint that fails (missing or corrupt file, a pickle without ``trust_pickle``, or a
+    claimed step count that its model contradicts) is reported, naming the file, and the next
+    older one is tried. The model's own ``num_timesteps`` is the truth; the returned
+    checkpoint carries it. Raises :class:`RunFolderError` if complete checkpoints exist but
+    none loads; only incomplete ones (a kill during the first checkpoint) mean starting from 0.
     """
-    tried, incomplete = [], []
+    tried, incomplete, untrusted = [], [], False
     for ckpt in runs.checkpoints(directory):
-        if not (ckpt.model.is_file() and ckpt.stats.is_file()):
-            # A kill between the two writes of a checkpoint; never pointed to by latest.json.
-            missing = ckpt.stats if ckpt.model.is_file() else ckpt.model
+        missing = _missing_file(ckpt)
+        if missing is not None:
+            # A kill between the writes of a checkpoint; never pointed to by latest.json.
             print(f"checkpoint at {ckpt.steps} timesteps is incomplete ({str(missing)!r} is "
                   "missing); skipping it")
             incomplete.append(ckpt.model.name)
             continue
         try:
-            runs.check_model_file(ckpt.model)
-            env = runs.load_stats(ckpt.stats, base)
-            model = runs.load_model(ckpt.model, cfg.algo, env=env)
+            model, env = _load_pair(cfg, ckpt, base, trust_pickle)
         except RunFolderError as e:
             print(f"checkpoint at {ckpt.steps} timesteps is unusable: {e}")
             tried.append(ckpt.model.name)
+            untrusted |= isinstance(e, runs.UntrustedPickleError)
             continue
         if tried or incomplete:
             print(f"falling back to the last complete checkpoint: {ckpt.model} "
                   f"({ckpt.steps} timesteps)")
         return model, env, ckpt
     if tried:
+        hint = (f"; they are pickles of an older run: pass {runs.TRUST_FLAG} if you trust "
+                "them" if untrusted else "")
         raise RunFolderError(f"no usable checkpoint in {str(directory)!r} (tried "
-                             f"{', '.join(tried)}); pass --force without --resume to start over")
+                             f"{', '.join(tried)}){hint}; pass --force without --resume to "
+                             "start over")
     return None
+
+
+def _missing_file(ckpt: runs.Checkpoint) -> Path | None:
+    from agents import weights
+
+    needed = [ckpt.model, ckpt.stats]
+    if ckpt.model.suffix == ".pt":
+        needed.append(weights.config_path(ckpt.model))
+    return next((p for p in needed if not p.is_file()), None)
+
+
+def _load_pair(cfg: TrainConfig, ckpt: runs.Checkpoint, base, trust_pickle: bool) -> tuple:
+    """(model, VecNormalize env) of one checkpoint; RunFolderError if it is unusable,
+    including when its model's own num_timesteps is not the count claimed for it."""
+    runs.check_model_file(ckpt.model)
+    env = runs.load_stats(ckpt.stats, base, trust_pickle=trust_pickle)
+    model = runs.load_model(ckpt.model, cfg.algo, env=env, hyperparams=cfg.hyperparams,
+                            seed=cfg.seed, trust_pickle=trust_pickle)
+    own = int(model.num_timesteps)
+    if own != ckpt.steps:
+        claim = ckpt.source or ckpt.model
+        raise RunFolderError(f"{str(claim)!r} claims {ckpt.steps} timesteps but the model "
+                             f"{str(ckpt.model)!r} holds {own}; the checkpoint is the truth")
+    return model, env
 
 
 def _algo_class(name: str):
@@ -387,11 +422,13 @@ def resumed_config(out: Path, timesteps: int | None = None,
 
 def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
           tensorboard: str | None = None, progress_bar: bool = True, report: bool = True,
-          verbose: int = 0) -> Path:
+          verbose: int = 0, trust_pickle: bool = False) -> Path:
     """Train (or resume) and save the run; returns the run directory.
 
     With ``resume``, the run in ``cfg.out`` defines the experiment; only ``cfg.timesteps`` (a
-    new total) and ``cfg.threads`` are taken from ``cfg``.
+    new total) and ``cfg.threads`` are taken from ``cfg``. ``trust_pickle``: a resume may
+    unpickle the checkpoints of a run folder written before issue 19 (never needed for runs
+    written now, which hold no pickle).
     """
     out = Path(cfg.out or TrainConfig(algo=cfg.algo, scene=cfg.scene, seed=cfg.seed)
                .resolve().out)
@@ -414,7 +451,8 @@ def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
         else:
             runs.prepare_new_run(out, force)
             write_json(out / runs.CONFIG, {**asdict(cfg), "versions": _versions()})
-        summary = _train_locked(cfg, out, resume, tensorboard, progress_bar, verbose)
+        summary = _train_locked(cfg, out, resume, tensorboard, progress_bar, verbose,
+                                trust_pickle)
     if report:
         from agents.report import write_report
 
@@ -424,16 +462,16 @@ def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
 
 
 def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progress_bar,
-                  verbose) -> dict:
+                  verbose, trust_pickle: bool = False) -> dict:
     set_threads(cfg.threads)
     ckpt_dir = out / runs.CHECKPOINTS
     base = make_vec_env(cfg, cfg.n_envs, cfg.seed)
-    loaded = load_checkpoint(cfg, ckpt_dir, base) if resume else None
+    loaded = load_checkpoint(cfg, ckpt_dir, base, trust_pickle) if resume else None
     if loaded is not None:
         model, env, ckpt = loaded
-        done, clock = ckpt.steps, WallClock(ckpt.wall_time_s or 0.0)
+        done, clock = int(model.num_timesteps), WallClock(ckpt.wall_time_s or 0.0)
         print(f"resuming {cfg.algo} in {str(out)!r} from {done} timesteps ({ckpt.model.name})")
-        load_replay_buffer(model, ckpt_dir, done)
+        load_replay_buffer(model, ckpt_dir, done, trust_pickle)
     else:
         if resume:
             print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 "
@@ -463,8 +501,10 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
     latest = latest_checkpoint(ckpt_dir)
     if latest is None or latest["timesteps"] != steps:
         save_checkpoint(model, ckpt_dir, steps, clock.total())  # a longer resume continues here
-    atomic_write(out / runs.FINAL_MODEL, lambda p: _save_to(model, p))
-    atomic_write(out / runs.FINAL_STATS, env.save)
+    from agents import weights
+
+    weights.save_model(model, out / runs.FINAL_MODEL)
+    atomic_write(out / runs.FINAL_STATS, lambda p: weights.save_stats(env, p))
     updates = int(getattr(model, "_n_updates", 0))
     summary = {"timesteps": steps, "wall_time_s": clock.total(),
                "session_wall_time_s": clock.session(),
@@ -478,9 +518,3 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
     env.close()
     eval_env.close()
     return summary
-
-
-def _save_to(model, path: Path) -> None:
-    # model.save appends ".zip" to a path without it, so write through an open file.
-    with open(path, "wb") as f:
-        model.save(f)

@@ -130,14 +130,28 @@ def _symmetrised(arr: np.ndarray) -> np.ndarray:
     return sym if np.isfinite(sym).all() else 0.5 * arr + 0.5 * arr.T
 
 
+def _require_symmetric(name: str, arr: np.ndarray, scale: float) -> None:
+    """Raise :class:`InvalidInertiaError` unless ``arr`` is symmetric within _RTOL·scale."""
+    unit = arr / scale if scale > 0.0 else arr  # divided first: no overflow near 1e308
+    asym = float(np.abs(unit - unit.T).max())
+    if asym > _RTOL:
+        raise InvalidInertiaError(
+            f"{name} must be symmetric (max |A − Aᵀ| <= {_RTOL} of the largest entry), got "
+            f"{describe(arr)} (max |A − Aᵀ| = {asym * (scale or 1.0):.3g})")
+
+
 def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments and axes of a symmetric (3, 3) tensor.
 
     Returns ``(moments, R)``: moments (3,) ascending; R (3, 3) a proper rotation (det +1) whose
     columns are the principal axes in body coordinates, so ``inertia == R @ diag(moments) @ R.T``.
+    A tensor that is not symmetric (max |A − Aᵀ| above 1e-9 of its largest entry, the tolerance
+    of :func:`validate`) raises :class:`InvalidInertiaError`: eigh would silently read only
+    one triangle of it.
     """
     arr = check.array("inertia", inertia, (3, 3))
     scale = float(np.abs(arr).max())
+    _require_symmetric("inertia", arr, scale)
     if 1e-150 < scale < 1e150:
         moments, R = np.linalg.eigh(0.5 * (arr + arr.T))
     else:  # near over- or underflow: decompose the tensor divided by its largest entry

@@ -18,6 +18,10 @@ from core.errors import InvalidParameterError, describe
 from core.vec import dot
 
 _EPS = np.finfo(float).eps
+# A rotation matrix must satisfy |RᵀR − E| <= this entrywise (and det R > 0). Matrices built in
+# float64 from quaternions are orthonormal to ~1e-15; 1e-6 also admits matrices written with
+# seven significant digits (as CAD tools and papers print them), as UNIT_TOL does for |q|.
+ROTATION_TOL = 1e-6
 
 
 def _split(q: np.ndarray):
@@ -67,18 +71,25 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors by unit quaternions: ``q ⊗ (0, v) ⊗ q*``. q: (..., 4), v: (..., 3).
 
     With body→world ``q`` this maps ``v_B`` to ``v_W``; ``rotate(conjugate(q), v_W)`` gives ``v_B``.
+    A non-unit ``q`` (|q| off 1 by more than ``core.validation.UNIT_TOL``), which would scale
+    the vectors by |q|², raises :class:`InvalidParameterError`.
     """
-    return kernels.pack(kernels.rotate(_parts(q), _parts(v)))
+    q = check.unit_quaternion("q", q)
+    return kernels.pack(kernels.rotate(_parts(q), _parts(check.vectors("v", v, 3))))
 
 
 def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate by the inverse of unit ``q``: ``q* ⊗ (0, v) ⊗ q`` (world→body for body→world q)."""
-    return kernels.pack(kernels.rotate_inverse(_parts(q), _parts(v)))
+    q = check.unit_quaternion("q", q)
+    return kernels.pack(kernels.rotate_inverse(_parts(q), _parts(check.vectors("v", v, 3))))
 
 
 def to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix ``R`` with ``R v = rotate(q, v)``. q: (..., 4) unit. Returns (..., 3, 3)."""
-    w, x, y, z = _split(np.asarray(q, dtype=float))
+    """Rotation matrix ``R`` with ``R v = rotate(q, v)``. q: (..., 4) unit. Returns (..., 3, 3).
+
+    A q of another shape or not of unit length raises :class:`InvalidParameterError`.
+    """
+    w, x, y, z = _split(check.unit_quaternion("q", q))
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
@@ -94,9 +105,11 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (canonical, ``w >= 0``) of rotation matrices R: (..., 3, 3).
 
     Uses Shepperd's method: pick the largest of ``w², x², y², z²`` as pivot, so the result is
-    accurate for every rotation, including angles near π.
+    accurate for every rotation, including angles near π. A matrix that is not a proper
+    rotation (orthonormal within :data:`ROTATION_TOL`, det +1) raises
+    :class:`InvalidParameterError`: a reflection or a scaled matrix has no quaternion.
     """
-    R = np.asarray(R, dtype=float)
+    R = rotation_matrix("R", R)
     m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
     trace = m00 + m11 + m22
     # Four candidate solutions, one per pivot; each row is (w, x, y, z) times 4*pivot.
@@ -118,6 +131,21 @@ def from_matrix(R: np.ndarray) -> np.ndarray:
     best = np.argmax(pivots, axis=-1)
     q = np.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
     return canonical(normalize(q))
+
+
+def rotation_matrix(name: str, value) -> np.ndarray:
+    """``value`` as finite (..., 3, 3) proper rotation matrices, else a named error."""
+    R = check.finite_array(name, value)
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise InvalidParameterError(f"{name} must have shape (3, 3) or (..., 3, 3), got "
+                                    f"{describe(R)} of shape {R.shape}")
+    off = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(initial=0.0)
+    det = np.linalg.det(R)
+    if not off <= ROTATION_TOL or (det <= 0.0).any():
+        raise InvalidParameterError(
+            f"{name} must be a rotation matrix (RᵀR = E within {ROTATION_TOL} and det R = +1), "
+            f"got {describe(R)} with max |RᵀR − E| = {off:.3g} and det R = {describe(det)}")
+    return R
 
 
 def from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:

@@ -22,20 +22,33 @@ ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "
                "task_options", "compiled")
 
 
-def action_array(value, shape: tuple, *, copy: bool = False) -> np.ndarray:
+def action_array(value, shape: tuple, *, copy: bool = False, name: str = "action") -> np.ndarray:
     """An action as float64 of ``shape``; a named error for anything else.
 
-    copy: always return a new array (the caller may clip it in place).
+    Real numbers only, as ``Box.contains`` requires: strings (even numeric ones), complex
+    numbers, bools, None and other objects raise ``TypeError``; a wrong shape raises
+    :class:`InvalidParameterError` (a ``ValueError``). Each message names ``name``, the value
+    and its shape. copy: always return a new array (the caller may clip it in place).
     """
+    arr = value if isinstance(value, np.ndarray) else _as_array(value, shape, name)
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers (int or float) of shape {shape}, got "
+                        f"{validation.show(value)} of dtype {arr.dtype} and shape {arr.shape}")
+    if arr.shape != shape:
+        raise InvalidParameterError(f"{name} must have shape {shape}, got "
+                                    f"{validation.show(value)} of shape {arr.shape}")
+    return np.array(arr, dtype=np.float64) if copy else np.asarray(arr, dtype=np.float64)
+
+
+def _as_array(value, shape: tuple, name: str) -> np.ndarray:
     try:
-        a = np.array(value, dtype=np.float64) if copy else np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(
-            f"action must be real numbers of shape {shape}, got {validation.show(value)} of "
-            f"type {type(value).__name__}") from None
-    if a.shape != shape:
-        raise InvalidParameterError(f"action must have shape {shape}, got shape {a.shape}")
-    return a
+        return np.asarray(value)
+    except ValueError:  # ragged nested sequences
+        raise InvalidParameterError(f"{name} must be a rectangular array of shape {shape}, got "
+                                    f"{validation.show(value)}") from None
+    except (TypeError, RecursionError, OverflowError):
+        raise TypeError(f"{name} must be real numbers of shape {shape}, got "
+                        f"{validation.show(value)} of type {type(value).__name__}") from None
 
 
 class TaskAdapter:

@@ -23,6 +23,13 @@ from rbenv.state import from_start
 RENDER_MODES = ("human", "rgb_array")
 
 
+def unknown_options(owner: str, unknown: dict, valid) -> None:
+    """Raise the TypeError of an unexpected keyword (as Python does), naming the valid ones."""
+    bad = ", ".join(repr(k) for k in sorted(unknown))
+    raise TypeError(f"{owner} got unexpected option(s) {bad}; the valid options are "
+                    f"{', '.join(sorted(valid))}")
+
+
 class AttitudeEnv(TaskAdapter, gym.Env):
     """A satellite, its thrusters and one task, as a Gymnasium env (see the subclasses)."""
 
@@ -31,7 +38,9 @@ class AttitudeEnv(TaskAdapter, gym.Env):
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
                  max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
-                 render_mode=None, compiled=False):
+                 render_mode=None, compiled=False, **unknown):
+        if unknown:
+            unknown_options(type(self).__name__, unknown, (*ENV_OPTIONS, "render_mode"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.action_space, self.observation_space = self._setup(options, render_mode,
                                                                 RENDER_MODES)

@@ -146,16 +146,28 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         return [s + i for i in range(self.num_envs)]
 
     def _reset_mask(self, mask) -> np.ndarray:
+        """The (N,) bool mask of ``options["reset_mask"]``, checked in Gymnasium's order and
+        with its exception types (``SyncVectorEnv.reset``): not a NumPy array or not bool ->
+        TypeError; wrong shape or all False -> ValueError. Remembers a partial mask for the
+        reset's :meth:`_info`, which zeroes the other rows as ``SyncVectorEnv`` does."""
+        self._info_rows = None
         if mask is None:
             return np.ones(self.num_envs, dtype=bool)
-        arr = np.asarray(mask)
-        if arr.dtype != bool or arr.shape != (self.num_envs,):
-            raise InvalidParameterError(
-                f"options['reset_mask'] must be a bool array of shape ({self.num_envs},), got "
-                f"dtype {arr.dtype} and shape {arr.shape}")
-        if self._st is None and not arr.all():
+        rule = f"options['reset_mask'] must be a NumPy bool array of shape ({self.num_envs},)"
+        if not isinstance(mask, np.ndarray):
+            raise TypeError(f"{rule} with at least one True, got {validation.show(mask)} of "
+                            f"type {type(mask).__name__}")
+        if mask.shape != (self.num_envs,):
+            raise InvalidParameterError(f"{rule}, got shape {mask.shape}")
+        if mask.dtype != np.bool_:
+            raise TypeError(f"{rule}, got dtype {mask.dtype}")
+        if not mask.any():
+            raise InvalidParameterError(f"options['reset_mask'] must contain at least one True "
+                                        f"(a sub-env to reset), got {mask.tolist()}")
+        if self._st is None and not mask.all():
             raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
-        return arr
+        self._info_rows = None if mask.all() else mask.copy()
+        return mask.copy()
 
     def _start(self, idx: np.ndarray, options=None) -> dict:
         """Start values for sub-envs ``idx`` from their counter-based draws."""
@@ -219,11 +231,14 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             arr[idx] = 0
 
     def _actions(self, actions) -> np.ndarray:
-        """Actions as float64 (N, k); TypeError for a non-array, ValueError for a bad shape."""
+        """Actions as float64 (N, k); TypeError for a non-array or non-real values (None,
+        strings, complex), a ValueError subclass for a bad shape; each names the shape."""
+        self._info_rows = None  # a step's info covers every sub-env
         if np.isscalar(actions) or actions is None:
-            raise TypeError(f"actions must be an array of shape {self.action_space.shape}, got "
-                            f"{type(actions).__name__} {actions!r}")
-        return action_array(actions, self.action_space.shape, copy=True)  # clipped in place
+            raise TypeError(f"actions must be an array of shape {self.action_space.shape} (one "
+                            f"row per sub-env), got {type(actions).__name__} {actions!r}")
+        return action_array(actions, self.action_space.shape, copy=True,  # clipped in place
+                            name="actions")
 
     def _final(self, done, obs, info) -> dict:
         """SAME_STEP: the finished sub-envs' last observation and info, masked by ``done``."""
@@ -249,10 +264,20 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
 
     def _info(self, terms, success) -> dict:
+        """Info of every sub-env, or, in a partial reset (the mask :meth:`_reset_mask` kept),
+        of the reset ones only: the other rows hold zeros and ``_key`` is False there, as
+        ``SyncVectorEnv`` builds it from the sub-envs it reset."""
+        rows = getattr(self, "_info_rows", None)
+        self._info_rows = None
         values = transition.info(self.plant, self.task, self._st, terms, success, NUMPY)
-        out, mask = {}, self._mask
+        out, mask = {}, self._mask if rows is None else rows
         for key, value in values.items():
-            out[key] = np.broadcast_to(value, mask.shape) if np.ndim(value) == 0 else value
+            if np.ndim(value) == 0:
+                value = np.broadcast_to(value, mask.shape)
+            # A copy or a fresh array: some values are the state's own arrays, which a later
+            # reset overwrites in place (SyncVectorEnv's info never changes after return).
+            out[key] = np.array(value) if rows is None else \
+                np.where(rows, value, np.zeros_like(value))
             out["_" + key] = mask
         return out
 

@@ -57,16 +57,16 @@ def summary(out):
 
 
 def params(out):
-    from stable_baselines3 import PPO
+    from agents import weights
 
-    return PPO.load(out / "model.zip", device="cpu").policy.state_dict()
+    return weights.read_tensors(out / "policy.pt")["params"]["policy"]
 
 
 # --- resume ------------------------------------------------------------------------------------
 
 def test_base_run_has_checkpoints_history_and_a_trained_summary(base_run):
-    names = sorted(p.name for p in (base_run / "checkpoints").glob("model_*.zip"))
-    assert names == ["model_128.zip", "model_256.zip", "model_384.zip", "model_512.zip"]
+    names = sorted(p.name for p in (base_run / "checkpoints").glob("policy_*.pt"))
+    assert names == ["policy_128.pt", "policy_256.pt", "policy_384.pt", "policy_512.pt"]
     s = summary(base_run)
     assert s["timesteps"] == 512 and s["trained"] and s["gradient_updates"] > 0
     assert s["wall_time_s"] > 0 and s["threads"] == 1
@@ -80,7 +80,7 @@ def test_resume_continues_the_folder_given_not_the_one_in_config_json(copy, base
     before = {p: p.stat().st_mtime_ns for p in base_run.rglob("*")}
     run(TrainConfig(out=str(copy), timesteps=640), resume=True)
     assert summary(copy)["timesteps"] == 640 and summary(copy)["resumed_from"] == 512
-    assert (copy / "checkpoints" / "model_640.zip").exists()
+    assert (copy / "checkpoints" / "policy_640.pt").exists()
     assert {p: p.stat().st_mtime_ns for p in base_run.rglob("*")} == before
 
 
@@ -112,7 +112,7 @@ def test_resume_refuses_a_folder_that_is_not_a_run(tmp_path):
 def test_resume_with_no_checkpoint_yet_starts_from_zero_and_says_so(copy, capsys):
     for name in ("checkpoints", "eval"):
         shutil.rmtree(copy / name)
-    for name in ("model.zip", "training.json"):
+    for name in ("policy.pt", "training.json"):
         (copy / name).unlink()
     run(TrainConfig(out=str(copy), timesteps=256), resume=True)
     assert "no checkpoint in" in capsys.readouterr().out
@@ -133,14 +133,18 @@ def _flip_bytes(path):
 
 
 CORRUPTIONS = {
-    "model truncated": lambda d: _truncate(d / "model_512.zip"),
-    "model bytes flipped": lambda d: _flip_bytes(d / "model_512.zip"),
-    "model missing": lambda d: (d / "model_512.zip").unlink(),
-    "model empty": lambda d: (d / "model_512.zip").write_bytes(b""),
-    "stats truncated": lambda d: _truncate(d / "vecnormalize_512.pkl"),
-    "stats garbage": lambda d: (d / "vecnormalize_512.pkl").write_bytes(b"\x80\x04garbage"),
-    "stats missing": lambda d: (d / "vecnormalize_512.pkl").unlink(),
+    "model truncated": lambda d: _truncate(d / "policy_512.pt"),
+    "model bytes flipped": lambda d: _flip_bytes(d / "policy_512.pt"),
+    "model missing": lambda d: (d / "policy_512.pt").unlink(),
+    "model empty": lambda d: (d / "policy_512.pt").write_bytes(b""),
+    "stats truncated": lambda d: _truncate(d / "obs_stats_512.npz"),
+    "stats garbage": lambda d: (d / "obs_stats_512.npz").write_bytes(b"PK\x03\x04garbage"),
+    "stats missing": lambda d: (d / "obs_stats_512.npz").unlink(),
+    "config garbage": lambda d: (d / "policy_512.json").write_text('{"algo": "ppo"'),
+    "config foreign": lambda d: (d / "policy_512.json").write_text('{"algo": "dqn"}'),
+    "config missing": lambda d: (d / "policy_512.json").unlink(),
 }
+NAMED = {"model": "policy_512.pt", "stats": "obs_stats_512.npz", "config": "policy_512.json"}
 
 
 @pytest.mark.parametrize("corrupt", CORRUPTIONS, ids=list(CORRUPTIONS))
@@ -148,22 +152,22 @@ def test_resume_falls_back_past_a_corrupt_checkpoint_and_names_the_file(copy, ca
     CORRUPTIONS[corrupt](copy / "checkpoints")
     run(TrainConfig(out=str(copy), timesteps=640), resume=True)
     out = capsys.readouterr().out
-    named = "vecnormalize_512.pkl" if corrupt.startswith("stats") else "model_512.zip"
+    named = NAMED[corrupt.split()[0]]
     assert named in out and ("incomplete" if corrupt.endswith("missing") else "unusable") in out
-    assert "falling back to the last complete checkpoint" in out and "model_384.zip" in out
+    assert "falling back to the last complete checkpoint" in out and "policy_384.pt" in out
     assert summary(copy)["resumed_from"] == 384 and summary(copy)["timesteps"] == 640
 
 
 LATEST = {
     "not json": "{nope",
     "a list": "[1, 2]",
-    "missing key": '{"timesteps": 512, "model": "model_512.zip"}',
-    "bad steps": '{"timesteps": "x", "model": "model_512.zip", '
-                 '"vecnormalize": "vecnormalize_512.pkl"}',
+    "missing key": '{"timesteps": 512, "model": "policy_512.pt"}',
+    "bad steps": '{"timesteps": "x", "model": "policy_512.pt", '
+                 '"stats": "obs_stats_512.npz"}',
     "path outside": '{"timesteps": 512, "model": "../../../../etc/passwd", '
-                    '"vecnormalize": "vecnormalize_512.pkl"}',
-    "absolute path": '{"timesteps": 512, "model": "model_512.zip", '
-                     '"vecnormalize": "/tmp/evil.pkl"}',
+                    '"stats": "obs_stats_512.npz"}',
+    "absolute path": '{"timesteps": 512, "model": "policy_512.pt", '
+                     '"stats": "/tmp/evil.npz"}',
 }
 
 
@@ -178,17 +182,17 @@ def test_a_bad_latest_json_is_reported_and_the_newest_checkpoint_on_disk_is_used
 
 
 def test_a_symlink_out_of_the_run_folder_is_refused(copy, tmp_path):
-    outside = tmp_path / "elsewhere.pkl"
-    shutil.copy(copy / "checkpoints" / "vecnormalize_512.pkl", outside)
-    (copy / "checkpoints" / "link.pkl").symlink_to(outside)
+    outside = tmp_path / "elsewhere.npz"
+    shutil.copy(copy / "checkpoints" / "obs_stats_512.npz", outside)
+    (copy / "checkpoints" / "link.npz").symlink_to(outside)
     with pytest.raises(RunFolderError, match="resolves outside"):
-        runs.confined(copy / "checkpoints", "link.pkl", "vecnormalize")
+        runs.confined(copy / "checkpoints", "link.npz", "stats")
 
 
 def test_every_checkpoint_corrupt_is_an_error_naming_them(copy):
-    for p in (copy / "checkpoints").glob("model_*.zip"):
+    for p in (copy / "checkpoints").glob("policy_*.pt"):
         _truncate(p)
-    with pytest.raises(RunFolderError, match=r"no usable checkpoint.*model_512.zip.*model_128.zip"):
+    with pytest.raises(RunFolderError, match=r"no usable checkpoint.*policy_512.pt.*policy_128.pt"):
         run(TrainConfig(out=str(copy), timesteps=640), resume=True)
 
 
@@ -201,7 +205,7 @@ def test_a_corrupt_config_json_is_an_error_naming_it(copy, text):
         run(TrainConfig(out=str(copy), timesteps=640), resume=True)
 
 
-@pytest.mark.parametrize("target", ["model.zip", "vecnormalize.pkl"])
+@pytest.mark.parametrize("target", ["policy.pt", "obs_stats.npz", "policy.json"])
 def test_loading_a_corrupt_final_file_names_it(copy, target):
     _truncate(copy / target)
     with pytest.raises(RunFolderError, match=re.escape(target)):
@@ -224,7 +228,7 @@ def test_a_new_run_into_a_non_empty_folder_needs_force(copy):
     assert summary(copy)["timesteps"] == 512  # untouched
     run(tiny(copy, timesteps=128, checkpoint_every=64), force=True)
     assert summary(copy)["timesteps"] == 128
-    assert not (copy / "checkpoints" / "model_512.zip").exists()  # the old run is gone
+    assert not (copy / "checkpoints" / "policy_512.pt").exists()  # the old run is gone
     assert (copy / "mine.txt").read_text() == "keep me"  # files that are not the run's stay
 
 
@@ -273,7 +277,7 @@ def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     assert codes == [0, 2], results
     assert "rbenv: error:" in errors and ("is in use by pid" in errors or "not empty" in errors)
     assert summary(out)["timesteps"] == 2048
-    steps = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("model_*.zip"))
+    steps = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("policy_*.pt"))
     assert steps == list(range(256, 2049, 256))
     assert not list(out.rglob("*.tmp"))
 
@@ -330,16 +334,15 @@ def test_bad_counts_are_named(tmp_path, field, value):
 # --- loading for deployment -------------------------------------------------------------------
 
 def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import VecNormalize  # noqa: F401 (pickle class)
+    from agents import weights
 
     policy = load_policy(base_run, action="mode")  # SB3's own deterministic action
     env = policy.make_env()
     assert env.spec.max_episode_steps == SHORT["max_episode_steps"]  # the run's env options
     obs, _ = env.reset(seed=3)
     action, _ = policy.predict(obs)
-    stats = runs.load_stats(base_run / "vecnormalize.pkl")
-    expected, _ = PPO.load(base_run / "model.zip", device="cpu").predict(
+    stats = runs.load_stats(base_run / "obs_stats.npz")
+    expected, _ = weights.load_model(base_run / "policy.pt").predict(
         stats.normalize_obs(obs), deterministic=True)
     assert action.shape == (12,) and np.array_equal(action, expected)
     with pytest.raises(ValueError, match="observation shape"):
@@ -347,18 +350,18 @@ def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
 
 
 def test_a_checkpoint_is_paired_with_its_own_statistics(base_run):
-    ckpt = load_policy(base_run / "checkpoints" / "model_128.zip")
-    own = runs.load_stats(base_run / "checkpoints" / "vecnormalize_128.pkl")
-    final = runs.load_stats(base_run / "vecnormalize.pkl")
+    ckpt = load_policy(base_run / "checkpoints" / "policy_128.pt")
+    own = runs.load_stats(base_run / "checkpoints" / "obs_stats_128.npz")
+    final = runs.load_stats(base_run / "obs_stats.npz")
     assert np.array_equal(ckpt.vecnormalize.obs_rms.mean, own.obs_rms.mean)
     assert not np.allclose(ckpt.vecnormalize.obs_rms.mean, final.obs_rms.mean)
     assert ckpt.config["n_envs"] == 4 and ckpt.env_kwargs["scene"] == "cubesat-12u"
 
 
 def test_a_checkpoint_without_its_statistics_is_refused(copy):
-    (copy / "checkpoints" / "vecnormalize_256.pkl").unlink()
-    with pytest.raises(RunFolderError, match=r"vecnormalize_256.pkl"):
-        load_policy(copy / "checkpoints" / "model_256.zip")
+    (copy / "checkpoints" / "obs_stats_256.npz").unlink()
+    with pytest.raises(RunFolderError, match=r"obs_stats_256.npz"):
+        load_policy(copy / "checkpoints" / "policy_256.pt")
 
 
 def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
@@ -367,7 +370,7 @@ def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
     out = tmp_path / "torque"
     run(tiny(out, timesteps=256, env_kwargs={**SHORT, "action_mode": "torque"}))
     summary_path = tmp_path / "ckpt.json"
-    assert cli_main(["evaluate", "--policy", str(out / "checkpoints" / "model_128.zip"),
+    assert cli_main(["evaluate", "--policy", str(out / "checkpoints" / "policy_128.pt"),
                      "--episodes", "3", "--json", str(summary_path)]) == 0
     assert json.loads(summary_path.read_text())["episodes"] == 3
 
@@ -430,10 +433,10 @@ def test_progress_bar_counts_this_sessions_steps_at_the_average_rate(copy, monke
 
 # Kill moments: during imports, then right after each of these files appears (so the kill lands
 # between the writes of a checkpoint, an evaluation, or the final files).
-KILL_WHEN = ("1 s after start", "config.json", "checkpoints/model_128.zip",
-             "checkpoints/vecnormalize_256.pkl", "eval/evaluations.npz",
-             "checkpoints/model_768.zip", "checkpoints/model_1536.zip", "model.zip",
-             "training.json")
+KILL_WHEN = ("1 s after start", "config.json", "checkpoints/policy_128.pt",
+             "checkpoints/policy_128.json", "checkpoints/obs_stats_256.npz",
+             "eval/evaluations.npz", "checkpoints/policy_768.pt", "checkpoints/policy_1536.pt",
+             "policy.pt", "policy.json", "training.json")
 
 
 @pytest.mark.slow
@@ -479,16 +482,16 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     out = tmp_path / "sac"
     hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
     run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper))
-    buffers = sorted(p.name for p in (out / "checkpoints").glob("replay_buffer_*.pkl"))
-    assert buffers == ["replay_buffer_256.pkl"]  # only the latest is kept
+    buffers = sorted(p.name for p in (out / "checkpoints").glob("replay_buffer_*"))
+    assert buffers == ["replay_buffer_256.npz"]  # only the latest is kept
     run(TrainConfig(out=str(out), timesteps=384), resume=True)
     restored = re.search(r"replay buffer restored: (\d+) transitions", capsys.readouterr().out)
     # 64 steps of 4 envs, less the last one: SB3 stores a transition after the callbacks run
     assert restored and 60 <= int(restored.group(1)) <= 64
-    _truncate(out / "checkpoints" / "replay_buffer_384.pkl")
+    _truncate(out / "checkpoints" / "replay_buffer_384.npz")
     run(TrainConfig(out=str(out), timesteps=512), resume=True)
     printed = capsys.readouterr().out
-    assert "replay_buffer_384.pkl" in printed and "unreadable" in printed
+    assert "replay_buffer_384.npz" in printed and "not restored" in printed
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
 
 
@@ -512,15 +515,18 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
     assert isinstance(env.venv, SB3VecEnv)
     PPO("MlpPolicy", env, n_steps=8, batch_size=16, seed=0, device="cpu").save(
         tmp_path / "model.zip")
+    with pytest.raises(runs.UntrustedPickleError, match="trust_pickle=True"):
+        load_policy(tmp_path / "model.zip")  # a foreign SB3 .zip holds cloudpickled objects
     with pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):
-        policy = load_policy(tmp_path / "model.zip")
+        policy = load_policy(tmp_path / "model.zip", trust_pickle=True)
     assert policy.vecnormalize is None and policy.config is None
     assert policy.predict(np.zeros((3, 7), np.float32))[0].shape == (3, 12)
 
 
 def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
     """RL Zoo keeps vecnormalize.pkl in a folder named like the model; without any, a warning."""
-    from agents.runs import FINAL_STATS, locate
+    from agents.runs import LEGACY_STATS as FINAL_STATS
+    from agents.runs import locate
 
     model = tmp_path / "rbenv-SatelliteReorient-v0.zip"
     model.write_bytes(b"zip")

@@ -103,7 +103,7 @@ def test_quick_suite_writes_every_file_and_evaluates_baselines_on_the_same_episo
 def test_a_finished_cell_is_not_trained_again(quick_suite):
     out, data = quick_suite
     cell = Cell(**data["cells"][0]["cell"])
-    model = Path(out) / "cells" / cell.name / "run" / "model.zip"
+    model = Path(out) / "cells" / cell.name / "run" / "policy.pt"
     before = model.stat().st_mtime_ns
     again = run_cell(cell, out, eval_episodes=suite.QUICK["episodes"], eval_seed=suite.EVAL_SEED)
     assert again == json.loads((out / "cells" / cell.name / "result.json").read_text())

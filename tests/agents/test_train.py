@@ -9,9 +9,8 @@ import time
 import numpy as np
 import pytest
 import torch
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import VecNormalize
 
+from agents import weights
 from agents.cli import main as cli_main
 from agents.evaluate import SB3Policy
 from agents.train import TrainConfig, latest_checkpoint, make_vec_env, train
@@ -33,7 +32,8 @@ def run_dir(tmp_path_factory):
 
 
 def test_run_directory_has_everything(run_dir):
-    for name in ("config.json", "model.zip", "vecnormalize.pkl", "training.json", "report.md",
+    for name in ("config.json", "policy.pt", "policy.json", "obs_stats.npz", "training.json",
+                 "report.md",
                  "episode.png", "evaluation.json", "eval/evaluations.npz"):
         assert (run_dir / name).exists(), name
     config = json.loads((run_dir / "config.json").read_text())
@@ -49,23 +49,23 @@ def test_run_directory_has_everything(run_dir):
 
 
 def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
-    model = PPO.load(run_dir / "model.zip", device="cpu")
-    stats = VecNormalize.load(str(run_dir / "vecnormalize.pkl"),
-                              make_vec_env(small_config(run_dir), 4, 0))
+    model = weights.load_model(run_dir / "policy.pt")
+    stats = weights.load_stats(run_dir / "obs_stats.npz").vecnormalize(
+        make_vec_env(small_config(run_dir), 4, 0), training=False)
     obs = stats.venv.reset()
     expected, _ = model.predict(stats.normalize_obs(obs), deterministic=True)
-    # picks up vecnormalize.pkl beside the model; "mode" is SB3's own deterministic action
-    loaded = SB3Policy(run_dir / "model.zip", action="mode")
+    # picks up obs_stats.npz beside the model; "mode" is SB3's own deterministic action
+    loaded = SB3Policy(run_dir / "policy.pt", action="mode")
     actions, _ = loaded.predict(obs, deterministic=True)
     assert np.array_equal(actions, expected)
-    again, _ = SB3Policy(run_dir / "model.zip", action="mode").predict(obs)
+    again, _ = SB3Policy(run_dir / "policy.pt", action="mode").predict(obs)
     assert np.array_equal(again, actions)
 
 
 def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
     from agents.runs import expected_throttle
 
-    policy = SB3Policy(run_dir / "model.zip")
+    policy = SB3Policy(run_dir / "policy.pt")
     assert policy.action == "mean_throttle"
     model = policy.model
     obs = np.random.default_rng(2).uniform(-1, 1, (5, 7)).astype(np.float32)
@@ -80,10 +80,10 @@ def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
     np.testing.assert_allclose(single, expected[0], rtol=1e-6)
     assert (actions >= 0).all() and (actions <= 1).all()
     # It differs from clip(mu, 0, 1) exactly where the noise reaches across the clip bounds.
-    mode, _ = SB3Policy(run_dir / "model.zip", action="mode").predict(obs)
+    mode, _ = SB3Policy(run_dir / "policy.pt", action="mode").predict(obs)
     assert not np.array_equal(actions, np.clip(mode, 0, 1))
     with pytest.raises(ValueError, match="action must be one of"):
-        SB3Policy(run_dir / "model.zip", action="mean")
+        SB3Policy(run_dir / "policy.pt", action="mean")
 
 
 def test_resume_after_a_real_kill(tmp_path, capsys):
@@ -108,7 +108,7 @@ def test_resume_after_a_real_kill(tmp_path, capsys):
     assert proc.returncode == -signal.SIGKILL
     ckpt = latest_checkpoint(out / "checkpoints")
     assert ckpt is not None and ckpt["timesteps"] >= 1024
-    assert not (out / "model.zip").exists()  # the kill came before the end of training
+    assert not (out / "policy.pt").exists()  # the kill came before the end of training
     done = ckpt["timesteps"]
     # Resume with a new total; the saved config (hyperparameters, seed, scene) is reused.
     cfg = TrainConfig(out=str(out), timesteps=done + 2048)
@@ -120,8 +120,9 @@ def test_resume_after_a_real_kill(tmp_path, capsys):
     assert summary["resumed_from"] == done and summary["wall_time_s"] > 0
     assert not list(out.rglob("*.tmp"))  # a temporary left by the kill is cleaned up
     assert summary["timesteps"] >= done + 2048
-    model = PPO.load(out / "model.zip", device="cpu")
-    assert model.n_steps == SMALL["n_steps"]  # hyperparameters came from config.json
+    policy = json.loads((out / "policy.json").read_text())
+    assert policy["num_timesteps"] == summary["timesteps"]
+    assert not list(out.rglob("*.pkl")) and not list(out.rglob("*.zip"))
 
 
 def test_evaluate_cli_writes_json_and_plot(tmp_path):
@@ -149,14 +150,14 @@ def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
                      "--no-report"]) == 0
     config = json.loads((out / "config.json").read_text())
     assert config["env_kwargs"] == {"action_mode": "torque"}
-    model = PPO.load(out / "model.zip", device="cpu")
+    model = weights.load_model(out / "policy.pt")
     assert model.action_space.shape == (3,)  # torque mode: one action per body axis
 
 
 def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
     from agents.train import PeriodicEval
 
-    model = PPO.load(run_dir / "model.zip", device="cpu")
+    model = weights.load_model(run_dir / "policy.pt")
     for env_kwargs, action in (({}, "mean_throttle"), ({"action_mode": "torque"}, "mode")):
         callback = PeriodicEval(None, run_dir / "unused.npz", 10, 1, 0,
                                 run_config={"scene": "cubesat-12u", "env_kwargs": env_kwargs})

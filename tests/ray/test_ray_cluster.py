@@ -5,6 +5,10 @@ dir; a small suite sweep runs through the command line from the head's namespace
 ``--address <head>:<port>``. Checked: trials ran on both nodes, every cell's result is complete
 at the driver, every Ray process started is stopped by pid, the namespaces are deleted.
 Needs root and iproute2; skips with the reason otherwise.
+
+Token authentication is on, as the README's cluster steps set it up: every node and the driver
+get ``RAY_AUTH_MODE=token`` and one token (``conftest.ray_env``), and a driver holding another
+token is refused, so the test would fail if the cluster ran without authentication.
 """
 
 from __future__ import annotations
@@ -66,6 +70,21 @@ def two_hosts():
     assert not any(ns in listed for ns in made), f"namespaces left: {listed}"
 
 
+def _refuses_another_token(address: str, env: dict, netns: str) -> None:
+    """A driver with a token other than the cluster's cannot join it."""
+    assert env["RAY_AUTH_MODE"] == "token" and env["RAY_AUTH_TOKEN"]
+    wrong = {**env, "RAY_AUTH_TOKEN": "0" * len(env["RAY_AUTH_TOKEN"])}
+    code = ("import ray, sys; ray.init(address=sys.argv[1], include_dashboard=False, "
+            "log_to_driver=False); print('joined', len(ray.nodes()))")
+    try:
+        r = subprocess.run(["ip", "netns", "exec", netns, sys.executable, "-c", code, address],
+                           env=wrong, capture_output=True, text=True, timeout=180)
+    except subprocess.TimeoutExpired:
+        return  # still retrying after 3 min: it never joined
+    assert "joined" not in r.stdout and r.returncode != 0, r.stdout[-2000:] + r.stderr[-2000:]
+    assert "auth" in (r.stdout + r.stderr).lower(), r.stderr[-2000:]
+
+
 def test_sweep_on_two_node_cluster(raytools, two_hosts, tmp_path):
     ns1, ns2 = two_hosts
     env = raytools.ray_env(loopback=False)  # a multi-node cluster, on the namespaces' addresses
@@ -78,6 +97,7 @@ def test_sweep_on_two_node_cluster(raytools, two_hosts, tmp_path):
         nodes.append(raytools.RayNode([f"--address={address}", f"--node-ip-address={WORKER_IP}",
                                        "--num-cpus=1"], env, netns=ns2))
         raytools.wait_for_nodes(address, 2, env, netns=ns1)
+        _refuses_another_token(address, env, ns1)
         out = tmp_path / "suite"
         cmd = ["ip", "netns", "exec", ns1, sys.executable, "-m", "agents.tune", "--ray",
                "--address", address, "--quick", "--timesteps", "2048", "--episodes", "4",

@@ -103,8 +103,12 @@ def test_rllib_resume_after_kill(raytools, tmp_path):
             pass
         first.wait(60)
     assert killed_at < 40960
+    # RLlib's checkpoints are pickles: a resume without the flag is refused, naming it
     r = subprocess.run([*cmd, "--resume"], env=env, capture_output=True, text=True,
                        timeout=600, cwd=raytools.REPO)
+    assert r.returncode != 0 and "--trust-pickle" in r.stderr, r.stderr[-3000:]
+    r = subprocess.run([*cmd, "--resume", "--trust-pickle"], env=env, capture_output=True,
+                       text=True, timeout=600, cwd=raytools.REPO)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert "resuming rllib ppo" in r.stdout
     summary = json.loads((out / "training.json").read_text())

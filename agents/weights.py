@@ -1,0 +1,320 @@
+"""Pickle-free files for trained models: weights as tensors, everything else as JSON or .npz.
+
+Loading a file never runs code from it. A model is written as
+
+* ``<name>.pt``: ``torch.save`` of a dict of tensors and plain containers only (the state
+  dicts SB3's ``get_parameters`` returns: the policy, which holds SAC's target networks, and
+  every optimizer, plus SAC's entropy coefficient), read back with
+  ``torch.load(weights_only=True)``, which refuses any other object;
+* ``<name>.json``: what rebuilds the policy around those weights: the algorithm, the policy
+  class name and keyword arguments, the observation and action spaces, and the training
+  counters (``num_timesteps``, gradient updates, episodes). A resume rebuilds the algorithm
+  with the run's hyperparameters (its ``config.json``) and restores every saved state.
+
+Observation-normalisation statistics (SB3's ``VecNormalize``) are an ``.npz`` of arrays read
+with ``allow_pickle=False``, and an off-policy replay buffer is an ``.npz`` of its arrays.
+
+What a resume restores from these files: the weights, the optimizers' state (Adam moments and
+step counts), SAC's entropy coefficient and its optimizer, the observation and return
+statistics, the replay buffer, ``num_timesteps``, the gradient-update and episode counters.
+What it does not restore (nor did SB3's ``.zip``): random-number-generator states, the
+episode-statistics buffer used for logging, and episodes in progress (the vector env starts
+new ones).
+
+This module imports torch and Stable-Baselines3 only when a function needs them.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from agents.runs import RunFolderError
+
+FORMAT = 1
+ALGOS = ("ppo", "sac")
+POLICY = "MlpPolicy"
+_STATS_FIELDS = ("obs_mean", "obs_var", "obs_count", "ret_mean", "ret_var", "ret_count",
+                 "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs", "norm_reward")
+_BUFFER_FIELDS = ("observations", "next_observations", "actions", "rewards", "dones",
+                  "timeouts")
+
+
+class ModelFileError(RunFolderError):
+    """A model, statistics or buffer file is missing, corrupt, or not in rbenv's format."""
+
+
+# --- spaces -----------------------------------------------------------------------------------
+
+def space_to_json(space) -> dict:
+    """A ``gymnasium.spaces.Box`` as JSON (the only space rbenv's policies see)."""
+    import gymnasium as gym
+
+    if not isinstance(space, gym.spaces.Box):
+        raise ModelFileError(f"only Box spaces can be saved, got {space!r}")
+    return {"type": "Box", "low": space.low.tolist(), "high": space.high.tolist(),
+            "shape": list(space.shape), "dtype": str(space.dtype)}
+
+
+def space_from_json(data, what: str):
+    import gymnasium as gym
+
+    try:
+        if data["type"] != "Box":
+            raise ValueError(f"type must be 'Box', got {data['type']!r}")
+        dtype = np.dtype(data["dtype"])
+        if dtype.kind != "f":
+            raise ValueError(f"dtype must be a float type, got {dtype}")
+        return gym.spaces.Box(np.asarray(data["low"], dtype), np.asarray(data["high"], dtype),
+                              tuple(int(s) for s in data["shape"]), dtype)
+    except (KeyError, TypeError, ValueError) as e:
+        raise ModelFileError(f"{what} is not a valid Box space: {e}") from None
+
+
+# --- models -----------------------------------------------------------------------------------
+
+def algo_name(model) -> str:
+    name = type(model).__name__.lower()
+    if name not in ALGOS:
+        raise ModelFileError(f"only {', '.join(a.upper() for a in ALGOS)} models can be saved, "
+                             f"got {type(model).__name__}")
+    return name
+
+
+def model_config(model) -> dict:
+    """The JSON that, with the weights, rebuilds ``model``'s policy (see the module doc)."""
+    config = {"format": FORMAT, "algo": algo_name(model), "policy": POLICY,
+              "policy_kwargs": dict(model.policy_kwargs or {}),
+              "observation_space": space_to_json(model.observation_space),
+              "action_space": space_to_json(model.action_space),
+              "num_timesteps": int(model.num_timesteps),
+              "n_updates": int(getattr(model, "_n_updates", 0)),
+              "episode_num": int(getattr(model, "_episode_num", 0))}
+    try:
+        json.dumps(config, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ModelFileError(f"the model's policy_kwargs are not plain JSON "
+                             f"({e}); only JSON-valued options can be saved without pickle"
+                             ) from None
+    return config
+
+
+def model_tensors(model) -> dict:
+    """The state dicts and torch variables of ``model``: tensors and plain containers only."""
+    from stable_baselines3.common.save_util import recursive_getattr
+
+    variables = {name: recursive_getattr(model, name).detach().cpu()
+                 for name in model._get_torch_save_params()[1]}
+    return {"format": FORMAT, "params": model.get_parameters(), "variables": variables}
+
+
+def save_tensors(tensors: dict, path: Path) -> None:
+    import torch
+
+    with open(path, "wb") as f:
+        torch.save(tensors, f)
+
+
+def read_config(path: Path) -> dict:
+    """A model's JSON configuration; :class:`ModelFileError` naming the file if unusable."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ModelFileError(f"model configuration {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise ModelFileError(f"model configuration {str(path)!r} is not valid JSON: {e}"
+                             ) from None
+    if not isinstance(data, dict) or data.get("algo") not in ALGOS \
+            or data.get("policy") != POLICY or data.get("format") != FORMAT:
+        raise ModelFileError(f"model configuration {str(path)!r} must be an object with format "
+                             f"{FORMAT}, algo one of {list(ALGOS)} and policy {POLICY!r}")
+    if not isinstance(data.get("policy_kwargs"), dict) \
+            or not isinstance(data.get("num_timesteps"), int):
+        raise ModelFileError(f"model configuration {str(path)!r}: 'policy_kwargs' must be an "
+                             "object and 'num_timesteps' an integer")
+    return data
+
+
+def read_tensors(path: Path) -> dict:
+    """The tensors of a ``.pt`` model file, loaded with ``weights_only=True`` (no code runs)."""
+    import torch
+
+    path = Path(path)
+    if not path.is_file():
+        raise ModelFileError(f"model weights {str(path)!r} do not exist")
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # a corrupt or hostile file: torch refuses it, naming the reason
+        raise ModelFileError(f"model weights {str(path)!r} are corrupt or hold objects other "
+                             f"than tensors (refused): {type(e).__name__}: {e}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT \
+            or not isinstance(data.get("params"), dict):
+        raise ModelFileError(f"model weights {str(path)!r} are not rbenv model weights "
+                             f"(format {FORMAT})")
+    return data
+
+
+def build_model(config: dict, env=None, hyperparams: dict | None = None,
+                seed: int | None = None, verbose: int = 0):
+    """A new SB3 model from ``config`` (:func:`model_config`): for training on ``env`` with
+    ``hyperparams``, or, with no env, for inference with the saved spaces."""
+    from stable_baselines3 import PPO, SAC
+
+    cls = {"ppo": PPO, "sac": SAC}[config["algo"]]
+    kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
+    kwargs["policy_kwargs"] = config["policy_kwargs"]
+    if env is not None:
+        return cls(POLICY, env, seed=seed, device="cpu", verbose=verbose, **kwargs)
+    # For inference the policy alone is built (as SB3's _setup_model builds it): no buffers.
+    model = cls(POLICY, None, device="cpu", _init_setup_model=False, **kwargs)
+    model.observation_space = space_from_json(config["observation_space"], "observation_space")
+    model.action_space = space_from_json(config["action_space"], "action_space")
+    model.n_envs = 1
+    model._setup_lr_schedule()
+    extra = {"use_sde": model.use_sde} if config["algo"] == "ppo" else {}
+    model.policy = model.policy_class(model.observation_space, model.action_space,
+                                      model.lr_schedule, **extra, **model.policy_kwargs)
+    model.policy.set_training_mode(False)
+    return model
+
+
+def restore(model, config: dict, tensors: dict, path: Path, *, full: bool = True) -> None:
+    """Load ``tensors`` (``full``: every state dict and variable; else the policy's alone, for
+    inference) and the counters of ``config`` into ``model``; errors name ``path``."""
+    from stable_baselines3.common.save_util import recursive_setattr
+
+    try:
+        if full:
+            model.set_parameters(tensors["params"], exact_match=True, device="cpu")
+            for name, value in (tensors.get("variables") or {}).items():
+                recursive_setattr(model, f"{name}.data", value.data)
+        else:
+            model.policy.load_state_dict(tensors["params"]["policy"])
+    except Exception as e:  # missing keys or shapes that do not fit the config
+        raise ModelFileError(f"model weights {str(path)!r} do not fit their configuration: "
+                             f"{type(e).__name__}: {e}") from None
+    model.num_timesteps = int(config["num_timesteps"])
+    model._n_updates = int(config.get("n_updates", 0))
+    model._episode_num = int(config.get("episode_num", 0))
+
+
+def config_path(weights: Path) -> Path:
+    """The JSON configuration beside ``<name>.pt``: ``<name>.json``."""
+    return Path(weights).with_suffix(".json")
+
+
+def load_model(path: Path, env=None, hyperparams: dict | None = None,
+               seed: int | None = None, verbose: int = 0):
+    """A model from ``<name>.pt`` and ``<name>.json``; with ``env``, ready to train on."""
+    config = read_config(config_path(path))
+    tensors = read_tensors(path)
+    try:
+        model = build_model(config, env, hyperparams, seed, verbose)
+    except ModelFileError:
+        raise
+    except Exception as e:  # hyperparameters SB3 refuses
+        raise ModelFileError(f"model configuration {str(config_path(path))!r} does not build "
+                             f"a model: {type(e).__name__}: {e}") from None
+    restore(model, config, tensors, path, full=env is not None)
+    return model
+
+
+# --- observation statistics -------------------------------------------------------------------
+
+def save_stats(vecnormalize, path: Path) -> None:
+    """VecNormalize's statistics and options as an ``.npz`` of arrays."""
+    v = vecnormalize
+    arrays = {"obs_mean": v.obs_rms.mean, "obs_var": v.obs_rms.var, "obs_count": v.obs_rms.count,
+              "ret_mean": v.ret_rms.mean, "ret_var": v.ret_rms.var, "ret_count": v.ret_rms.count,
+              "clip_obs": v.clip_obs, "clip_reward": v.clip_reward, "gamma": v.gamma,
+              "epsilon": v.epsilon, "norm_obs": v.norm_obs, "norm_reward": v.norm_reward}
+    with open(path, "wb") as f:
+        np.savez(f, **{k: np.asarray(a) for k, a in arrays.items()})
+
+
+class ObsStats:
+    """Saved observation statistics, normalising as ``VecNormalize.normalize_obs`` does."""
+
+    def __init__(self, fields: dict):
+        from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+        self.obs_rms = RunningMeanStd(shape=fields["obs_mean"].shape)
+        self.obs_rms.mean, self.obs_rms.var = fields["obs_mean"], fields["obs_var"]
+        self.obs_rms.count = float(fields["obs_count"])
+        self.ret_rms = RunningMeanStd(shape=())
+        self.ret_rms.mean, self.ret_rms.var = fields["ret_mean"], fields["ret_var"]
+        self.ret_rms.count = float(fields["ret_count"])
+        self.clip_obs, self.clip_reward = float(fields["clip_obs"]), float(fields["clip_reward"])
+        self.gamma, self.epsilon = float(fields["gamma"]), float(fields["epsilon"])
+        self.norm_obs, self.norm_reward = bool(fields["norm_obs"]), bool(fields["norm_reward"])
+
+    def normalize_obs(self, obs: np.ndarray) -> np.ndarray:
+        if not self.norm_obs:
+            return obs
+        scaled = (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon)
+        return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def vecnormalize(self, venv, training: bool = True):
+        """A ``VecNormalize`` over ``venv`` holding these statistics."""
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        v = VecNormalize(venv, training=training, norm_obs=self.norm_obs,
+                         norm_reward=self.norm_reward, clip_obs=self.clip_obs,
+                         clip_reward=self.clip_reward, gamma=self.gamma, epsilon=self.epsilon)
+        v.obs_rms, v.ret_rms = self.obs_rms, self.ret_rms
+        return v
+
+
+def load_stats(path: Path) -> ObsStats:
+    """Statistics from an ``.npz`` (``allow_pickle=False``); errors name the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ModelFileError(f"normalisation statistics {str(path)!r} do not exist")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            fields = {k: data[k] for k in _STATS_FIELDS}
+        return ObsStats(fields)
+    except Exception as e:  # torn, foreign or incomplete file
+        raise ModelFileError(f"normalisation statistics {str(path)!r} are corrupt or "
+                             f"incomplete: {type(e).__name__}: {e}") from None
+
+
+# --- replay buffer ----------------------------------------------------------------------------
+
+def save_replay_buffer(model, path: Path) -> None:
+    buf = model.replay_buffer
+    arrays = {k: getattr(buf, k) for k in _BUFFER_FIELDS if getattr(buf, k, None) is not None}
+    with open(path, "wb") as f:
+        np.savez(f, pos=np.asarray(buf.pos), full=np.asarray(buf.full), **arrays)
+
+
+def load_replay_buffer(model, path: Path) -> int:
+    """Fill ``model.replay_buffer`` from ``path``; returns its size. Errors name the file."""
+    buf = model.replay_buffer
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            loaded = {k: data[k] for k in _BUFFER_FIELDS if getattr(buf, k, None) is not None}
+            pos, full = int(data["pos"]), bool(data["full"])
+        for key, value in loaded.items():
+            if value.shape != getattr(buf, key).shape:
+                raise ValueError(f"{key} has shape {value.shape}, the buffer "
+                                 f"{getattr(buf, key).shape}")
+    except Exception as e:  # torn, foreign, or a buffer of another size
+        raise ModelFileError(f"replay buffer {str(path)!r} is unusable: {type(e).__name__}: "
+                             f"{e}") from None
+    for key, value in loaded.items():  # all checked first: never a half-filled buffer
+        setattr(buf, key, value.astype(getattr(buf, key).dtype, copy=False))
+    buf.pos, buf.full = pos, full
+    return buf.size()
+
+
+def save_model(model, path: Path) -> None:
+    """Write ``<name>.pt`` and ``<name>.json`` for ``model``, each atomically (json last)."""
+    from agents.runs import atomic_write, write_json
+
+    config = model_config(model)
+    atomic_write(Path(path), lambda p: save_tensors(model_tensors(model), p))
+    write_json(config_path(path), config)

@@ -1,0 +1,358 @@
+"""Gymnasium's own generic env and vector-env tests, ported to every rbenv id and scene.
+
+Source: Farama-Foundation/Gymnasium at v1.4.0 (the version CI installs), files
+``tests/envs/test_envs.py``, ``tests/envs/test_action_dim_check.py``,
+``tests/vector/test_vector_env.py``, ``tests/vector/test_autoreset_mode.py``,
+``tests/vector/test_vector_env_info.py``, ``tests/vector/test_sync_vector_env.py`` and the
+checks of ``SyncVectorEnv.reset``/``step``. Each test names the test it ports. Where Gymnasium
+runs a test on CartPole or a ``GenericTestEnv``, it runs here on every id in
+``rbenv.ENV_IDS`` x every scene in ``rbenv.list_scenes()`` (x every autoreset mode for the
+vector tests); the reference is Gymnasium's ``SyncVectorEnv`` over the same single envs,
+compared with ``data_equivalence`` as Gymnasium compares ``AsyncVectorEnv`` with it.
+
+Scenes with per-step noise (sensor noise, disturbance noise, mid-episode faults) draw it for
+the whole batch from the vector env's own generator (documented in
+:class:`rbenv.vector_env.AttitudeVectorEnv`), so a native/sync comparison on them runs on the
+scene with those per-step draws set to zero; everything drawn per episode stays on.
+"""
+
+from __future__ import annotations
+
+import pickle
+import re
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env, data_equivalence
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+import rbenv
+
+IDS = sorted(rbenv.ENV_IDS)
+SCENES = rbenv.list_scenes()
+MODES = list(AutoresetMode)
+N = 3  # sub-envs
+EPISODE = 4  # steps per episode, so that a short rollout crosses autoresets
+STEPS = 10
+SEED = 5
+QUIET = """base = "{scene}"
+[disturbance]
+noise_sigma = 0.0
+[faults]
+p_step = 0.0
+[sensor_noise]
+attitude = 0.0
+rate = 0.0
+"""
+
+
+@pytest.fixture(scope="module")
+def quiet_scenes(tmp_path_factory) -> dict:
+    """Each shipped scene, or for a noisy one a variant with zero per-step noise."""
+    out = {}
+    for scene in SCENES:
+        plant = gym.make(rbenv.ENV_ID, scene=scene).unwrapped.plant
+        if plant.noisy:
+            path = tmp_path_factory.mktemp("scenes") / f"{scene}-quiet.toml"
+            text = QUIET.format(scene=scene)
+            if not plant.p_fault:
+                text = text.replace("[faults]\np_step = 0.0\n", "")
+            if not plant.dist_noise:
+                text = text.replace("[disturbance]\nnoise_sigma = 0.0\n", "")
+            path.write_text(text)
+            out[scene] = str(path)
+        else:
+            out[scene] = scene
+    return out
+
+
+def _native(env_id, scene, mode, **kwargs):
+    return gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point",
+                        autoreset_mode=mode, scene=scene, max_episode_steps=EPISODE, **kwargs)
+
+
+def _sync(env_id, scene, mode):
+    return SyncVectorEnv([lambda: gym.make(env_id, scene=scene, max_episode_steps=EPISODE,
+                                           disable_env_checker=True) for _ in range(N)],
+                         autoreset_mode=mode)
+
+
+def _split_floats(data, path=""):
+    """(structure, floats): ``data`` with each 1-d float array replaced by its dtype and
+    shape, and those arrays by path; so the structure compares exactly and the floats apart."""
+    if isinstance(data, dict | tuple | list):
+        items = data.items() if isinstance(data, dict) else enumerate(data)
+        pairs = {k: _split_floats(v, f"{path}.{k}") for k, v in items}
+        floats = {p: a for _, f in pairs.values() for p, a in f.items()}
+        if isinstance(data, dict):
+            return {k: s for k, (s, _) in pairs.items()}, floats
+        return type(data)(s for s, _ in pairs.values()), floats
+    if isinstance(data, np.ndarray) and data.dtype.kind == "f" and data.ndim == 1:
+        return (np.zeros(0, data.dtype), data.shape), {path: data}
+    return data, {}
+
+
+def _rollout(env, mode, actions):
+    """Every result of a seeded rollout: reset, steps, and (DISABLED) partial resets."""
+    out = [("reset", env.reset(seed=SEED))]
+    for t, a in enumerate(actions):
+        step = env.step(a)
+        out.append((f"step {t}", step))
+        done = step[2] | step[3]
+        if mode is AutoresetMode.DISABLED and done.any():
+            out.append((f"reset_mask after step {t}", env.reset(options={"reset_mask": done})))
+    return out
+
+
+def _actions(env, seed=0):
+    rng = np.random.default_rng(seed)
+    shape = (STEPS, *env.action_space.shape)
+    return rng.uniform(-1.0, 1.0, shape).astype(env.action_space.dtype)
+
+
+_pairs: dict = {}
+
+
+def _rollouts(env_id, scene, mode):
+    """(native, sync) rollouts of one case, cached: two tests read each."""
+    key = (env_id, scene, mode)
+    if key not in _pairs:
+        native, sync = _native(env_id, scene, mode), _sync(env_id, scene, mode)
+        acts = _actions(native)
+        _pairs[key] = (_rollout(native, mode, acts), _rollout(sync, mode, acts))
+        native.close()
+        sync.close()
+    return _pairs[key]
+
+
+# --- tests/vector/test_vector_env.py::test_vector_env_equal --------------------------------------
+# (Gymnasium: AsyncVectorEnv == SyncVectorEnv step by step; here the native vector env, with
+# tests/vector/test_autoreset_mode.py::test_autoreset_disabled's reset_mask=terminations loop)
+
+@pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_vector_env_equal(env_id, scene, mode, quiet_scenes):
+    """Observations, flags, info keys, masks, dtypes and masked-out zeros: exactly as Sync;
+    rewards and float info values to 1e-12 (bit for bit in the next test)."""
+    native, sync = _rollouts(env_id, quiet_scenes[scene], mode)
+    assert [name for name, _ in native] == [name for name, _ in sync]
+    ended = 0
+    for (name, got), (_, want) in zip(native, sync, strict=True):
+        got_s, got_f = _split_floats(got)
+        want_s, want_f = _split_floats(want)
+        assert data_equivalence(got_s, want_s, exact=True), f"{name}: {got} != {want}"
+        assert got_f.keys() == want_f.keys(), name
+        for path, value in got_f.items():
+            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-15,
+                                       err_msg=f"{name}: {path}")
+        if name.startswith("step"):
+            ended += int(np.sum(got[2] | got[3]))
+    assert ended >= N  # every sub-env crossed at least one episode end
+
+
+@pytest.mark.xfail(strict=False, reason=(
+    "rewards and float info values (reward_<term>, impulse_Ns, fuel_kg, rate_dps, "
+    "attitude_error_deg, rate_error_dps) differ from the single env's by up to ~1e-14: the "
+    "float and array paths of rbenv.transition/plant sum in different orders; the lead fixes "
+    "the order in rbenv/transition.py (issue 19 item 1)"))
+@pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_vector_env_equal_bit_for_bit(env_id, scene, mode, quiet_scenes):
+    native, sync = _rollouts(env_id, quiet_scenes[scene], mode)
+    for (name, got), (_, want) in zip(native, sync, strict=True):
+        assert data_equivalence(got, want, exact=True), f"{name}: {got} != {want}"
+
+
+# --- tests/vector/test_autoreset_mode.py::test_autoreset_metadata / test_make_vec_autoreset ----
+
+@pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])
+def test_autoreset_metadata(mode):
+    for given in (mode, mode.value):
+        envs = _native(rbenv.ENV_ID, SCENES[0], given)
+        assert envs.metadata["autoreset_mode"] == mode
+        assert envs.autoreset_mode == mode
+        envs.close()
+
+
+# --- SyncVectorEnv.reset's reset_mask checks (Gymnasium raises them; no test of its own) --------
+
+def _reset_mask_errors(env):
+    """The exception type each bad reset_mask raises from ``env``."""
+    bad = {"list": [True] * N, "ints": np.ones(N, int), "floats": np.ones(N),
+           "shape": np.ones(N + 1, bool), "all False": np.zeros(N, bool)}
+    env.reset(seed=0)
+    out = {}
+    for name, mask in bad.items():
+        with pytest.raises((TypeError, ValueError)) as err:
+            env.reset(options={"reset_mask": mask})
+        out[name] = err.type
+        if name != "list":
+            assert "reset_mask" in str(err.value), name
+    return out
+
+
+def test_reset_mask_errors_are_syncs():
+    mode = AutoresetMode.DISABLED
+    native = _native(rbenv.ENV_ID, SCENES[0], mode)
+    got = _reset_mask_errors(native)
+    want = _reset_mask_errors(_sync(rbenv.ENV_ID, SCENES[0], mode))
+    assert {k: issubclass(v, TypeError) for k, v in got.items()} == \
+        {k: issubclass(v, TypeError) for k, v in want.items()}
+    assert {k for k, v in got.items() if issubclass(v, TypeError)} == {"list", "ints", "floats"}
+
+
+def test_reset_mask_messages_name_the_option_and_rule():
+    native = _native(rbenv.ENV_ID, SCENES[0], AutoresetMode.DISABLED)
+    native.reset(seed=0)
+    with pytest.raises(TypeError, match=r"reset_mask.*NumPy bool array.*type list"):
+        native.reset(options={"reset_mask": [True] * N})
+    with pytest.raises(TypeError, match=r"reset_mask.*bool array.*dtype int64"):
+        native.reset(options={"reset_mask": np.ones(N, np.int64)})
+    with pytest.raises(ValueError, match=r"reset_mask.*at least one True.*\[False, False"):
+        native.reset(options={"reset_mask": np.zeros(N, bool)})
+
+
+# --- tests/vector/test_vector_env_info.py::test_vector_return_info (partial reset) -------------
+
+def test_partial_reset_info_is_zero_where_masked():
+    """Sub-envs not reset have ``_key`` False and a zero value, as Sync's ``_add_info``."""
+    native = _native(rbenv.ENV_ID, "cubesat-12u", AutoresetMode.DISABLED)
+    native.reset(seed=SEED)
+    for _ in range(2):
+        native.step(-np.ones(native.action_space.shape, np.float32))  # thrusters off
+    mask = np.array([False, True, False])
+    _, info = native.reset(options={"reset_mask": mask})
+    assert "time_s" in info  # nonzero in the sub-envs that were not reset
+    for key, value in info.items():
+        if not key.startswith("_"):
+            np.testing.assert_array_equal(info["_" + key], mask, err_msg=key)
+            assert not np.any(value[~mask]), key
+
+
+# --- vector step: named errors for wrong actions (issue 19 item 4) -------------------------------
+
+@pytest.mark.parametrize("action, error, pattern", [
+    (np.zeros((N - 1, 12)), ValueError, r"actions must have shape \(3, 12\).*shape \(2, 12\)"),
+    (np.zeros(12), ValueError, r"actions must have shape \(3, 12\).*shape \(12,\)"),
+    (None, TypeError, r"actions must be an array of shape \(3, 12\).*None"),
+    (np.zeros((N, 12), complex), TypeError, r"actions must be real numbers.*complex128"),
+    ([["0.5"] * 12] * N, TypeError, r"actions must be real numbers.*<U3"),
+    ([[0.0] * 12, [0.0] * 11, [0.0] * 12], ValueError, r"actions must be a rectangular"),
+], ids=["batch (2, 12)", "single (12,)", "None", "complex", "numeric strings", "ragged"])
+def test_vector_step_names_the_bad_action(action, error, pattern):
+    native = _native(rbenv.ENV_ID, SCENES[0], AutoresetMode.NEXT_STEP)
+    native.reset(seed=0)
+    with pytest.raises(error, match=pattern):
+        native.step(action)
+    native.step(np.zeros((N, 12)))  # still usable
+
+
+# --- tests/vector/test_sync_vector_env.py::test_sync_vector_env_seed ------------------------------
+
+def test_action_space_seeding_is_deterministic():
+    one, two = (_native(rbenv.ENV_ID, SCENES[0], AutoresetMode.NEXT_STEP) for _ in range(2))
+    one.action_space.seed(123)
+    two.action_space.seed(123)
+    for _ in range(5):
+        assert np.array_equal(one.action_space.sample(), two.action_space.sample())
+
+
+# --- tests/envs/test_envs.py::test_all_env_api (gymnasium.utils.env_checker.check_env) ---------
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_all_env_api(env_id, scene):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        env = gym.make(env_id, scene=scene).unwrapped
+        check_env(env, skip_render_check=True)
+        env.close()
+    assert [str(w.message) for w in caught] == []
+
+
+# --- tests/envs/test_envs.py::test_all_env_passive_env_checker ---------------------------------
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_all_env_passive_env_checker(env_id, scene):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        env = gym.make(env_id, scene=scene)
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+        env.close()
+    assert [str(w.message) for w in caught] == []
+
+
+# --- tests/envs/test_envs.py::test_env_determinism_rollout -------------------------------------
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_env_determinism_rollout(env_id, scene):
+    env_1 = gym.make(env_id, scene=scene, disable_env_checker=True)
+    env_2 = gym.make(env_id, scene=scene, disable_env_checker=True)
+    assert data_equivalence(env_1.reset(seed=SEED), env_2.reset(seed=SEED), exact=True)
+    env_1.action_space.seed(SEED)
+    for t in range(STEPS):
+        action = env_1.action_space.sample()
+        step_1, step_2 = env_1.step(action), env_2.step(action)
+        assert data_equivalence(step_1, step_2, exact=True), t
+        assert env_1.observation_space.contains(step_1[0])
+        if step_1[2] or step_1[3]:
+            env_1.reset(seed=SEED)
+            env_2.reset(seed=SEED)
+
+
+# --- tests/envs/test_envs.py::test_pickle_env ---------------------------------------------------
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("env_id", IDS)
+def test_pickle_env(env_id, scene):
+    env = gym.make(env_id, scene=scene)
+    action = env.action_space.sample()
+    env_reset, env_step = env.reset(seed=123), env.step(action)
+    pickled = pickle.loads(pickle.dumps(env))
+    assert data_equivalence(env_reset, pickled.reset(seed=123), exact=True)
+    assert data_equivalence(env_step, pickled.step(action), exact=True)
+
+
+# --- tests/envs/test_action_dim_check.py::test_box_actions_out_of_bound ------------------------
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_box_actions_out_of_bound(env_id):
+    """An out-of-bound action acts as the bound (rbenv clips actions to the action space)."""
+    env, oob_env = (gym.make(env_id, disable_env_checker=True) for _ in range(2))
+    env.reset(seed=42)
+    oob_env.reset(seed=42)
+    space = env.action_space
+    for i in range(space.shape[0]):
+        for bound, sign in ((space.high, 1.0), (space.low, -1.0)):
+            oob = bound.copy()
+            oob[i] += sign * np.asarray(1.0, dtype=space.dtype)  # OOB_VALUE = 100 there
+            obs = env.step(bound)[0]
+            assert np.array_equal(obs, oob_env.step(oob)[0]), (i, sign)
+
+
+# --- make(): an unknown keyword names the valid options (issue 19 item 4) -------------------------
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_make_with_an_unknown_option_lists_the_valid_ones(env_id):
+    with pytest.raises(TypeError, match=re.escape("'foo'") + r".*valid options are.*"
+                       r"action_mode.*scene"):
+        gym.make(env_id, foo=1)
+
+
+def test_returned_info_never_changes_afterwards():
+    """Info arrays are the caller's (SyncVectorEnv builds fresh ones): a later partial reset,
+    which rewrites the reset sub-envs' state in place, leaves them as returned."""
+    native = _native(rbenv.ENV_ID, "cubesat-12u", AutoresetMode.DISABLED)
+    native.reset(seed=SEED)
+    info = native.step(np.ones(native.action_space.shape, np.float32))[4]
+    kept = {k: v.copy() for k, v in info.items()}
+    native.reset(options={"reset_mask": np.array([True, False, True])})
+    assert kept["fuel_kg"].any()
+    assert data_equivalence(info, kept, exact=True)
