@@ -73,7 +73,7 @@ class SB3Policy(RunPolicy):
         files = runs.locate(model_path)
         algo = (files.config or {}).get("algo")
         stats = vecnormalize_path or files.stats
-        super().__init__(runs.load_model(files.model, algo if algo in ("ppo", "sac") else None),
+        super().__init__(runs.load_model(files.model, algo),
                          runs.load_stats(stats) if stats else None, files.config,
                          source=str(files.model), action=action)
 

@@ -354,11 +354,11 @@ def load_stats(path: Path, venv=None):
 
 
 def load_model(path: Path, algo: str | None = None, **kwargs):
-    """An SB3 model from ``path`` (PPO or SAC; ``algo`` if known); raises naming the file."""
-    from stable_baselines3 import PPO, SAC
-
+    """An SB3 model from ``path`` (any ``rbenv train --algo``; ``algo`` if known, else each is
+    tried); raises naming the file."""
     check_model_file(path)
-    classes = {"ppo": (PPO,), "sac": (SAC,)}.get(algo, (PPO, SAC))
+    known = _model_classes()
+    classes = (known[algo],) if algo in known else tuple(known.values())
     errors = []
     for cls in classes:
         try:
@@ -367,6 +367,18 @@ def load_model(path: Path, algo: str | None = None, **kwargs):
             errors.append(f"{cls.__name__}: {type(e).__name__}: {e}")
     raise RunFolderError(f"model file {str(path)!r} could not be loaded as "
                          f"{' or '.join(c.__name__ for c in classes)}: {'; '.join(errors)}")
+
+
+def _model_classes() -> dict:
+    """``rbenv train``'s algorithms by name (TQC and CrossQ only if sb3-contrib is installed)."""
+    from stable_baselines3 import PPO, SAC, TD3
+
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
+    try:
+        from sb3_contrib import TQC, CrossQ
+    except ImportError:
+        return classes
+    return {**classes, "tqc": TQC, "crossq": CrossQ}
 
 
 # --- loading a trained policy -----------------------------------------------------------------
@@ -547,7 +559,7 @@ def load_policy(path, action: str = "auto") -> RunPolicy:
     """
     files = locate(path)
     algo = (files.config or {}).get("algo")
-    model = load_model(files.model, algo if algo in ("ppo", "sac") else None)
+    model = load_model(files.model, algo)
     if files.stats is None:
         import warnings
 

@@ -1,4 +1,5 @@
-"""``rbenv train``: PPO or SAC on the native vector env, with checkpoints, resume and a report.
+"""``rbenv train``: PPO, SAC, TD3, TQC or CrossQ on the native vector env, with checkpoints,
+resume and a report. Settings come from ``rbenv/hyperparams/<algo>.py`` (RL Zoo's format).
 
 The run folder layout, its lock and the loader are in :mod:`agents.runs`. A run is safe to
 kill, corrupt and share:
@@ -18,6 +19,8 @@ is also the fastest for these small MLPs) and the CPU kind.
 
 from __future__ import annotations
 
+import copy
+import importlib
 import numbers
 import platform
 import time
@@ -38,16 +41,35 @@ from agents.runs import RunFolderError, atomic_write, write_json
 from agents.sb3 import SB3VecEnv
 from core.errors import InvalidParameterError
 
-DEFAULT_HYPERPARAMS = {
-    "ppo": {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
-            "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
-            "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}},
-    "sac": {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
-            "learning_starts": 5_000, "train_freq": 1, "gradient_steps": 1, "gamma": 0.99,
-            "tau": 0.01, "policy_kwargs": {"net_arch": [256, 256]}},
-}
-DEFAULT_N_ENVS = {"ppo": 64, "sac": 8}
-DEFAULT_TIMESTEPS = {"ppo": 2_000_000, "sac": 200_000}
+ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
+OFF_POLICY = ("sac", "td3", "tqc", "crossq")
+# Keys of a zoo settings dict that are not model keyword arguments: rbenv train reads them into
+# TrainConfig's own fields (rl_zoo3's ExpManager does the same).
+ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
+
+
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
+    """The settings ``rbenv/hyperparams/<algo>.py`` ships for ``env_id``, in RL Zoo's format.
+
+    This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
+    rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
+    """
+    if algo not in ALGOS:
+        raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
+    if env_id not in table:
+        raise InvalidParameterError(f"rbenv/hyperparams/{algo}.py has no settings for "
+                                    f"{env_id!r}")
+    return copy.deepcopy(table[env_id])
+
+
+def normalize_kwargs(setting) -> dict | None:
+    """VecNormalize keyword arguments from the zoo's ``normalize`` (bool or dict)."""
+    if setting is True:
+        return {"norm_obs": True, "norm_reward": True}
+    if not setting:
+        return None
+    return dict(setting)
 
 
 @dataclass
@@ -69,18 +91,21 @@ class TrainConfig:
     report_episodes: int = 500
     report_seed: int = 1_000_000
     threads: int = 1  # torch intra-op threads; part of what makes a run reproducible
+    # VecNormalize's keyword arguments (None: no normalisation); default: the shipped settings
+    normalize: dict | None = None
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
         if self.env_id not in rbenv.ENV_IDS:
             raise InvalidParameterError(f"env_id must be one of {sorted(rbenv.ENV_IDS)}, got "
                                         f"{self.env_id!r}")
-        if self.algo not in DEFAULT_HYPERPARAMS:
-            raise InvalidParameterError(f"algo must be 'ppo' or 'sac', got {self.algo!r}")
+        shipped = shipped_settings(self.algo, self.env_id)
         if self.timesteps is None:
-            self.timesteps = DEFAULT_TIMESTEPS[self.algo]
+            self.timesteps = shipped["n_timesteps"]
         if self.n_envs is None:
-            self.n_envs = DEFAULT_N_ENVS[self.algo]
+            self.n_envs = shipped["n_envs"]
+        if self.normalize is None:
+            self.normalize = normalize_kwargs(shipped.get("normalize", False))
         for name in ("timesteps", "n_envs", "threads", "checkpoint_every", "eval_every"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
@@ -90,13 +115,16 @@ class TrainConfig:
             if not isinstance(getattr(self, name), dict):
                 raise InvalidParameterError(f"{name} must be a dict (a JSON object), got "
                                             f"{getattr(self, name)!r}")
-        self.hyperparams = {**DEFAULT_HYPERPARAMS[self.algo], **self.hyperparams}
+        # Shipped settings first, then the caller's overrides (a resumed run's are complete).
+        self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
+                            **self.hyperparams}
+        self.env_kwargs = {**shipped.get("env_kwargs", {}), **self.env_kwargs}
         self.out = self.out or f"runs/{self.algo}-{self.scene}-seed{self.seed}"
         starts = self.hyperparams.get("learning_starts", 0)
-        if self.algo == "sac" and self.timesteps <= starts:
+        if self.algo in OFF_POLICY and self.timesteps <= starts:
             raise InvalidParameterError(
-                f"timesteps must exceed sac's learning_starts ({starts}) or no gradient step "
-                f"is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
+                f"timesteps must exceed {self.algo}'s learning_starts ({starts}) or no gradient "
+                f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
                 "--hyperparams '{\"learning_starts\": N}'")
         return self
 
@@ -331,9 +359,28 @@ def load_checkpoint(cfg: TrainConfig, directory: Path, base) -> tuple:
 
 
 def _algo_class(name: str):
-    from stable_baselines3 import PPO, SAC
+    from stable_baselines3 import PPO, SAC, TD3
 
-    return {"ppo": PPO, "sac": SAC}[name]
+    if name in ("tqc", "crossq"):
+        from sb3_contrib import TQC, CrossQ
+
+        return {"tqc": TQC, "crossq": CrossQ}[name]
+    return {"ppo": PPO, "sac": SAC, "td3": TD3}[name]
+
+
+def model_kwargs(cfg: TrainConfig, env) -> dict:
+    """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
+    ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
+    hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
+    if noise_type is not None:
+        from stable_baselines3.common.noise import NormalActionNoise
+
+        if noise_type != "normal":
+            raise InvalidParameterError(f"noise_type must be 'normal', got {noise_type!r}")
+        dim = env.action_space.shape[0]
+        hp["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
+    return hp
 
 
 def _versions() -> dict:
@@ -437,9 +484,10 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
         if resume:
             print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 "
                   "timesteps")
-        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99))
+        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99),
+                           **(cfg.normalize or {"norm_obs": False, "norm_reward": False}))
         model = _algo_class(cfg.algo)("MlpPolicy", env, seed=cfg.seed, device="cpu",
-                                      verbose=verbose, **cfg.hyperparams)
+                                      verbose=verbose, **model_kwargs(cfg, env))
         done, clock = 0, WallClock()
     if tensorboard:
         from stable_baselines3.common.logger import configure
