@@ -1,7 +1,7 @@
 """The ``rbenv`` command: train, evaluate and benchmark (also ``python -m agents.cli``).
 
-    rbenv train [--algo ppo|sac] [--timesteps N] [--n-envs K] [--seed S] [--scene NAME]
-                [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
+    rbenv train [--algo ppo|sac|td3|tqc|crossq] [--timesteps N] [--n-envs K] [--seed S]
+                [--scene NAME] [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
                 [--checkpoint-every N] [--eval-every N] [--hyperparams JSON]
                 [--env-kwargs JSON] [--no-report] [--no-progress] [--trust-pickle]
     rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|policy.pt --episodes N --seed S
@@ -84,11 +84,16 @@ def _positive(text: str) -> int:
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="rbenv", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
-    t = sub.add_parser("train", help="train PPO or SAC, then report against the baselines")
-    t.add_argument("--algo", choices=("ppo", "sac"), default="ppo")
+    t = sub.add_parser("train", help="train PPO, SAC, TD3, TQC or CrossQ, then report against "
+                                     "the baselines")
+    t.add_argument("--algo", choices=("ppo", "sac", "td3", "tqc", "crossq"), default="ppo",
+                   help="settings (hyperparameters, envs, budget, env options) come from "
+                        "rbenv/hyperparams/ALGO.py, the file rl_zoo3 reads")
     t.add_argument("--timesteps", type=_positive, default=None,
-                   help="default: ppo 2M, sac 200k; with --resume, a new total")
-    t.add_argument("--n-envs", type=_positive, default=None, help="default: ppo 64, sac 8")
+                   help="default: the shipped n_timesteps (ppo 2M, off-policy 300k); with "
+                        "--resume, a new total")
+    t.add_argument("--n-envs", type=_positive, default=None,
+                   help="default: the shipped n_envs (ppo 64, off-policy 32)")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--scene", default="cubesat-12u")
     t.add_argument("--env-id", default=None,

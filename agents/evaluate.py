@@ -75,7 +75,7 @@ class SB3Policy(RunPolicy):
         files = runs.locate(model_path)
         algo = (files.config or {}).get("algo")
         stats = vecnormalize_path or files.stats
-        model = runs.load_model(files.model, algo if algo in ("ppo", "sac") else None,
+        model = runs.load_model(files.model, algo,
                                 trust_pickle=trust_pickle)
         super().__init__(model, runs.load_stats(stats, trust_pickle=trust_pickle)
                          if stats else None, files.config, source=str(files.model),

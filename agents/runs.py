@@ -434,9 +434,8 @@ def load_model(path: Path, algo: str | None = None, *, env=None, hyperparams=Non
 
 
 def _load_zip(path: Path, algo: str | None, env):
-    from stable_baselines3 import PPO, SAC
-
-    classes = {"ppo": (PPO,), "sac": (SAC,)}.get(algo, (PPO, SAC))
+    known = _model_classes()
+    classes = (known[algo],) if algo in known else tuple(known.values())
     errors = []
     for cls in classes:
         try:
@@ -445,6 +444,18 @@ def _load_zip(path: Path, algo: str | None, env):
             errors.append(f"{cls.__name__}: {type(e).__name__}: {e}")
     raise RunFolderError(f"model file {str(path)!r} could not be loaded as "
                          f"{' or '.join(c.__name__ for c in classes)}: {'; '.join(errors)}")
+
+
+def _model_classes() -> dict:
+    """``rbenv train``'s algorithms by name (TQC and CrossQ only if sb3-contrib is installed)."""
+    from stable_baselines3 import PPO, SAC, TD3
+
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
+    try:
+        from sb3_contrib import TQC, CrossQ
+    except ImportError:
+        return classes
+    return {**classes, "tqc": TQC, "crossq": CrossQ}
 
 
 # --- loading a trained policy -----------------------------------------------------------------
@@ -634,7 +645,7 @@ def load_policy(path, action: str = "auto", *, trust_pickle: bool = False) -> Ru
     algo = (files.config or {}).get("algo")
     if files.stats is not None and files.stats.suffix == ".pkl":
         require_trust(files.stats, "a pickled VecNormalize", trust_pickle)
-    model = load_model(files.model, algo if algo in ("ppo", "sac") else None,
+    model = load_model(files.model, algo,
                        trust_pickle=trust_pickle)
     stats = load_stats(files.stats, trust_pickle=trust_pickle) if files.stats else None
     return RunPolicy(model, stats, files.config, source=str(files.model), action=action)

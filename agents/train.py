@@ -1,4 +1,5 @@
-"""``rbenv train``: PPO or SAC on the native vector env, with checkpoints, resume and a report.
+"""``rbenv train``: PPO, SAC, TD3, TQC or CrossQ on the native vector env, with checkpoints,
+resume and a report. Settings come from ``rbenv/hyperparams/<algo>.py`` (RL Zoo's format).
 
 The run folder layout, its lock and the loader are in :mod:`agents.runs`. A run is safe to
 kill, corrupt and share:
@@ -39,20 +40,36 @@ from agents.runs import RunFolderError, atomic_write, write_json
 from agents.sb3 import SB3VecEnv
 from core.errors import InvalidParameterError
 
-# Keys of the zoo's settings that are not the algorithm's constructor arguments.
-ZOO_ONLY = ("policy", "n_envs", "n_timesteps", "normalize", "monitor_kwargs")
+ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
+OFF_POLICY = ("sac", "td3", "tqc", "crossq")
+# Keys of a zoo settings dict that are not model keyword arguments: rbenv train reads them into
+# TrainConfig's own fields (rl_zoo3's ExpManager does the same).
+ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
 
 
-def tuned(env_id: str, algo: str) -> tuple[dict, int, int]:
-    """(constructor hyperparameters, n_envs, timesteps) of ``algo`` for ``env_id``: the
-    registry entry's settings (rbenv.hyperparams.tuned, the zoo's files read the same dict)."""
-    settings = rbenv.registry.get(env_id).hyperparams.get(algo)
-    if settings is None:
-        raise InvalidParameterError(
-            f"algo must be one of {sorted(rbenv.registry.get(env_id).hyperparams)} for "
-            f"{env_id!r} (its tuned settings), got {algo!r}")
-    params = {k: copy.deepcopy(v) for k, v in settings.items() if k not in ZOO_ONLY}
-    return params, settings["n_envs"], settings["n_timesteps"]
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
+    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its task registry
+    entry's (rbenv.registry; the dicts live in rbenv.hyperparams.tuned).
+
+    This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
+    rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
+    """
+    if algo not in ALGOS:
+        raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    table = rbenv.registry.get(env_id).hyperparams  # the task registry: one source
+    if algo not in table:
+        raise InvalidParameterError(f"the task entry of {env_id!r} has no {algo} settings; "
+                                    f"it has {sorted(table)}")
+    return copy.deepcopy(dict(table[algo]))
+
+
+def normalize_kwargs(setting) -> dict | None:
+    """VecNormalize keyword arguments from the zoo's ``normalize`` (bool or dict)."""
+    if setting is True:
+        return {"norm_obs": True, "norm_reward": True}
+    if not setting:
+        return None
+    return dict(setting)
 
 
 @dataclass
@@ -74,14 +91,18 @@ class TrainConfig:
     report_episodes: int = 500
     report_seed: int = 1_000_000
     threads: int = 1  # torch intra-op threads; part of what makes a run reproducible
+    # VecNormalize's keyword arguments (None: no normalisation); default: the shipped settings
+    normalize: dict | None = None
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
-        params, n_envs, timesteps = tuned(self.env_id, self.algo)
+        shipped = shipped_settings(self.algo, self.env_id)
         if self.timesteps is None:
-            self.timesteps = timesteps
+            self.timesteps = shipped["n_timesteps"]
         if self.n_envs is None:
-            self.n_envs = n_envs
+            self.n_envs = shipped["n_envs"]
+        if self.normalize is None:
+            self.normalize = normalize_kwargs(shipped.get("normalize", False))
         for name in ("timesteps", "n_envs", "threads", "checkpoint_every", "eval_every"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
@@ -91,13 +112,16 @@ class TrainConfig:
             if not isinstance(getattr(self, name), dict):
                 raise InvalidParameterError(f"{name} must be a dict (a JSON object), got "
                                             f"{getattr(self, name)!r}")
-        self.hyperparams = {**params, **self.hyperparams}
+        # Shipped settings first, then the caller's overrides (a resumed run's are complete).
+        self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
+                            **self.hyperparams}
+        self.env_kwargs = {**shipped.get("env_kwargs", {}), **self.env_kwargs}
         self.out = self.out or f"runs/{self.algo}-{self.scene}-seed{self.seed}"
         starts = self.hyperparams.get("learning_starts", 0)
-        if self.algo == "sac" and self.timesteps <= starts:
+        if self.algo in OFF_POLICY and self.timesteps <= starts:
             raise InvalidParameterError(
-                f"timesteps must exceed sac's learning_starts ({starts}) or no gradient step "
-                f"is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
+                f"timesteps must exceed {self.algo}'s learning_starts ({starts}) or no gradient "
+                f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
                 "--hyperparams '{\"learning_starts\": N}'")
         return self
 
@@ -367,9 +391,28 @@ def _load_pair(cfg: TrainConfig, ckpt: runs.Checkpoint, base, trust_pickle: bool
 
 
 def _algo_class(name: str):
-    from stable_baselines3 import PPO, SAC
+    from stable_baselines3 import PPO, SAC, TD3
 
-    return {"ppo": PPO, "sac": SAC}[name]
+    if name in ("tqc", "crossq"):
+        from sb3_contrib import TQC, CrossQ
+
+        return {"tqc": TQC, "crossq": CrossQ}[name]
+    return {"ppo": PPO, "sac": SAC, "td3": TD3}[name]
+
+
+def model_kwargs(cfg: TrainConfig, env) -> dict:
+    """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
+    ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
+    hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
+    if noise_type is not None:
+        from stable_baselines3.common.noise import NormalActionNoise
+
+        if noise_type != "normal":
+            raise InvalidParameterError(f"noise_type must be 'normal', got {noise_type!r}")
+        dim = env.action_space.shape[0]
+        hp["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
+    return hp
 
 
 def _versions() -> dict:
@@ -476,9 +519,10 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
         if resume:
             print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 "
                   "timesteps")
-        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99))
+        env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99),
+                           **(cfg.normalize or {"norm_obs": False, "norm_reward": False}))
         model = _algo_class(cfg.algo)("MlpPolicy", env, seed=cfg.seed, device="cpu",
-                                      verbose=verbose, **cfg.hyperparams)
+                                      verbose=verbose, **model_kwargs(cfg, env))
         done, clock = 0, WallClock()
     if tensorboard:
         from stable_baselines3.common.logger import configure

@@ -161,9 +161,9 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
                 seed: int | None = None, verbose: int = 0):
     """A new SB3 model from ``config`` (:func:`model_config`): for training on ``env`` with
     ``hyperparams``, or, with no env, for inference with the saved spaces."""
-    from stable_baselines3 import PPO, SAC
+    from agents.runs import _model_classes
 
-    cls = {"ppo": PPO, "sac": SAC}[config["algo"]]
+    cls = _model_classes()[config["algo"]]
     kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
     kwargs["policy_kwargs"] = config["policy_kwargs"]
     if env is not None:

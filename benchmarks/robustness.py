@@ -241,7 +241,7 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     with the best validation success (the latest among equals), as the suite selects.
     """
     from agents import runs
-    from agents.train import set_threads, train, tuned
+    from agents.train import set_threads, shipped_settings, train
 
     path = train_record(out, seed, timesteps)
     try:
@@ -255,8 +255,8 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     cell = suite.Cell("ppo", ENV_ID, SCENE, seed, timesteps)
     cfg = suite.train_config(cell, run, threads)
     # The suite's ten checkpoints per run, but never more often than once per rollout.
-    params, n_envs, _ = tuned(rbenv.ENV_ID, "ppo")
-    rollout = n_envs * params["n_steps"]
+    ppo = shipped_settings("ppo")
+    rollout = ppo["n_envs"] * ppo["n_steps"]
     cfg.eval_every = cfg.checkpoint_every = max(cfg.eval_every, rollout)
     randomize = randomize_at(TRAIN_SIZE)
     cfg.env_kwargs = {"randomize": randomize}

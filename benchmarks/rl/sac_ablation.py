@@ -35,6 +35,7 @@ from gymnasium.vector import AutoresetMode
 import rbenv
 from agents.runs import expected_throttle
 from agents.sb3 import SB3VecEnv
+from rbenv.hyperparams.ppo import hyperparams as _ppo_settings
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl"
 EVAL_SEED = 1_000_000
@@ -48,9 +49,9 @@ _SAC = {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
 _TD3 = {"learning_rate": 1e-3, "buffer_size": 300_000, "batch_size": 256,
         "learning_starts": 5_000, "train_freq": 1, "gradient_steps": 8, "gamma": 0.99,
         "tau": 0.01, "policy_kwargs": {"net_arch": [128, 128]}}
-_PPO = {"n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
-        "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
-        "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}}
+# PPO's shipped settings (rbenv/hyperparams/ppo.py, the one source; model arguments only).
+_PPO = {k: copy.deepcopy(v) for k, v in _ppo_settings["rbenv/SatelliteReorient-v0"].items()
+        if k not in ("policy", "n_envs", "n_timesteps", "normalize", "monitor_kwargs")}
 
 
 def _v(algo, steps, hp, n_envs=8, action_map="clip", curriculum=None, env_kwargs=None,

@@ -160,4 +160,4 @@ ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propel
 SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
                 baselines={"pd": "agents.controllers:RateDamping"},
                 budget={"ppo": 300_000, "sac": 100_000},
-                hyperparams={"ppo": tuned.PPO, "sac": tuned.SAC}, env_doc=ENV_DOC)
+                hyperparams=tuned.ALL, env_doc=ENV_DOC)

@@ -259,4 +259,4 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_re
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
-                hyperparams={"ppo": tuned.PPO, "sac": tuned.SAC}, env_doc=ENV_DOC)
+                hyperparams=tuned.ALL, env_doc=ENV_DOC)

@@ -252,4 +252,4 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
 SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
                 baselines={"pd": "agents.controllers:TrackingPD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
-                hyperparams={"ppo": tuned.PPO, "sac": tuned.SAC}, env_doc=ENV_DOC)
+                hyperparams=tuned.ALL, env_doc=ENV_DOC)

@@ -154,7 +154,7 @@ def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
           "--eval-every", "4096", "--hyperparams", '{"n_steps": 64, "batch_size": 256}'])
     report = (out / "report.md").read_text()
     assert "hold" in report  # the entry's baseline was evaluated beside the policy
-    assert (out / "model.zip").exists()
+    assert list(out.glob("policy*.pt")) and not list(out.glob("*.zip"))  # weights, no pickle
 
 
 @pytest.mark.parametrize(("change", "named"), [

@@ -1,4 +1,4 @@
-"""RL Baselines3 Zoo with the hyperparameters rbenv ships (``--conf-file rbenv.hyperparams.ppo``).
+"""RL Baselines3 Zoo with the hyperparameters rbenv ships (``--conf-file rbenv.hyperparams.X``).
 
 A tiny budget (one PPO rollout of 64 envs x 64 steps) through the zoo's real command line:
 ``rl_zoo3.train`` must pick up rbenv's settings, not its ``default:`` entry, and ``rl_zoo3.enjoy``
@@ -7,6 +7,7 @@ must load and run what it saved.
 
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import sys
@@ -18,6 +19,8 @@ import rbenv
 from rbenv.hyperparams import ppo
 
 ZOO_STEPS = 4096  # exactly one rollout of the shipped settings: 64 envs x n_steps 64
+ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
+OFF_POLICY_STEPS = 1024  # 32 vector steps of the shipped 32 envs
 
 
 def test_every_registered_id_has_zoo_settings():
@@ -27,22 +30,32 @@ def test_every_registered_id_has_zoo_settings():
     assert not missing, f"add {missing} to rbenv/hyperparams/ppo.py"
 
 
-def test_zoo_settings_are_rbenv_trains_ppo_defaults():
-    """One set of PPO settings: the zoo file and ``rbenv train`` both read the registry entry,
-    which points at rbenv.hyperparams.tuned.PPO."""
+@pytest.mark.parametrize("algo", ALGOS)
+def test_every_algorithm_ships_settings_for_every_id(algo):
+    table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
+    assert sorted(table) == sorted(rbenv.ENV_IDS)
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_zoo_settings_are_rbenv_trains_defaults(algo):
+    """One set of settings: the zoo file says what ``rbenv train --algo ALGO`` does."""
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")
-    from agents.train import ZOO_ONLY, TrainConfig
-    from rbenv.hyperparams import tuned
+    from agents.train import ZOO_KEYS, TrainConfig, normalize_kwargs
 
-    for env_id, settings in ppo.hyperparams.items():
-        assert rbenv.registry.get(env_id).hyperparams["ppo"] is tuned.PPO
-        assert settings == tuned.PPO, env_id
-        cfg = TrainConfig(env_id=env_id).resolve()
-        assert cfg.hyperparams == {k: v for k, v in settings.items() if k not in ZOO_ONLY}
+    table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
+    for env_id, settings in table.items():
+        cfg = TrainConfig(algo=algo, env_id=env_id).resolve()
+        assert cfg.hyperparams == {k: v for k, v in settings.items() if k not in ZOO_KEYS}
         assert cfg.n_envs == settings["n_envs"]
         assert cfg.timesteps == settings["n_timesteps"]
-        assert settings["normalize"] is True  # rbenv train wraps the env in VecNormalize
+        assert cfg.env_kwargs == settings.get("env_kwargs", {})
+        assert cfg.normalize == normalize_kwargs(settings["normalize"])
+    if algo == "ppo":  # rbenv train wraps the env in VecNormalize, rewards included
+        assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
+    else:  # off-policy: observations only (issue 22's recipe), torque actions
+        assert cfg.normalize == {"norm_obs": True, "norm_reward": False}
+        assert cfg.env_kwargs["action_mode"] == "torque"
 
 
 def _zoo(module: str, *args: str, cwd) -> subprocess.CompletedProcess:
@@ -75,3 +88,31 @@ def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
     enjoy = _zoo("rl_zoo3.enjoy", *common, "--exp-id", "1", "-n", "200", "--no-render",
                  cwd=tmp_path)
     assert enjoy.returncode == 0, enjoy.stderr[-3000:]
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3", "tqc", "crossq"])
+def test_zoo_trains_off_policy_with_the_shipped_file(tmp_path, algo):
+    """The zoo reads each off-policy module: its env options (torque actions), its n_envs and
+    its observation-only normalisation. ``learning_starts`` is lowered so a gradient step runs."""
+    pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (ecosystem extra)")
+    yaml = pytest.importorskip("yaml", reason="PyYAML comes with rl_zoo3")
+    train = _zoo("rl_zoo3.train", "--algo", algo, "--env", rbenv.ENV_ID, "--gym-packages",
+                 "rbenv", "--device", "cpu", "-f", str(tmp_path / "logs"), "--conf-file",
+                 f"rbenv.hyperparams.{algo}", "-n", str(OFF_POLICY_STEPS), "--num-threads",
+                 "1", "--seed", "0", "--eval-freq", "-1", "-params", "learning_starts:256",
+                 "gradient_steps:1", "batch_size:64", "buffer_size:4096", cwd=tmp_path)
+    assert train.returncode == 0, train.stderr[-3000:]
+    assert "Using 'default' hyperparameters" not in train.stdout
+    run = tmp_path / "logs" / algo / "rbenv-SatelliteReorient-v0_1"
+    assert (run / "rbenv-SatelliteReorient-v0.zip").exists()
+    with open(run / "rbenv-SatelliteReorient-v0" / "config.yml") as f:
+        saved = dict(yaml.load(f, Loader=yaml.UnsafeLoader))
+    assert dict(saved["env_kwargs"])["action_mode"] == "torque"
+    from rl_zoo3.utils import ALGOS as ZOO_ALGOS
+
+    model = ZOO_ALGOS[algo].load(run / "rbenv-SatelliteReorient-v0.zip", device="cpu")
+    assert model.action_space.shape == (3,)  # the zoo built the torque env, not 12 throttles
+    assert model.num_timesteps == OFF_POLICY_STEPS and model._n_updates > 0
+    assert saved["n_envs"] == 32
+    normalize = {k: v for k, v in dict(saved["normalize"]).items() if k != "gamma"}
+    assert normalize == {"norm_obs": True, "norm_reward": False}  # the zoo adds gamma

@@ -1,0 +1,14 @@
+"""CrossQ (sb3-contrib) settings, read by ``rbenv train --algo crossq`` and by RL Baselines3
+Zoo (``--algo crossq --conf-file rbenv.hyperparams.crossq``).
+
+SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) without ``tau``: CrossQ has no target
+network (it normalises the critic's batches instead). Its critics are [256, 256] like the
+actor, not sb3-contrib's default 1024 x 1024, which ran at 43 env-steps/s here (issue 22).
+The other ids get the same numbers, untuned.
+"""
+
+from __future__ import annotations
+
+from rbenv import registry
+
+hyperparams = registry.zoo_hyperparams("crossq")

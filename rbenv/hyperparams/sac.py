@@ -1,0 +1,16 @@
+"""SAC settings, read by ``rbenv train --algo sac`` and by RL Baselines3 Zoo::
+
+    python -m rl_zoo3.train --algo sac --env rbenv/SatelliteReorient-v0 --gym-packages rbenv \\
+        --conf-file rbenv.hyperparams.sac
+
+Issue 22's recipe (:mod:`rbenv.hyperparams._off_policy`): torque actions with ``pinv``
+allocation, 32 sub-envs, observation normalisation only, lr 1e-3, batch 512, 8 gradient steps
+per 32 env steps, tau 0.01, net [256, 256]. Measured on ``SatelliteReorient-v0``/cubesat-12u
+(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+"""
+
+from __future__ import annotations
+
+from rbenv import registry
+
+hyperparams = registry.zoo_hyperparams("sac")

@@ -1,0 +1,14 @@
+"""TD3 settings, read by ``rbenv train --algo td3`` and by RL Baselines3 Zoo
+(``--algo td3 --conf-file rbenv.hyperparams.td3``).
+
+SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with Gaussian exploration noise of standard
+deviation 0.1 (the zoo's ``noise_type``/``noise_std``; ``rbenv train`` builds the same
+``NormalActionNoise``). Measured on ``SatelliteReorient-v0``/cubesat-12u
+(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+"""
+
+from __future__ import annotations
+
+from rbenv import registry
+
+hyperparams = registry.zoo_hyperparams("td3")

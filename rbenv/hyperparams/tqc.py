@@ -1,0 +1,13 @@
+"""TQC (sb3-contrib) settings, read by ``rbenv train --algo tqc`` and by RL Baselines3 Zoo
+(``--algo tqc --conf-file rbenv.hyperparams.tqc``).
+
+SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with TQC's own defaults (25 quantiles per
+critic, 2 dropped per net). Measured on ``SatelliteReorient-v0``/cubesat-12u
+(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+"""
+
+from __future__ import annotations
+
+from rbenv import registry
+
+hyperparams = registry.zoo_hyperparams("tqc")
