@@ -11,8 +11,16 @@ same expression runs on either:
 * :data:`NUMPY`, built on NumPy, for arrays.
 
 Code that holds a namespace (the envs pass theirs down) uses it directly; a kernel that only
-receives components asks :func:`namespace` once. A torch or JAX backend is one more class here
-with the same names, and nothing else changes.
+receives components asks :func:`namespace` once, which dispatches on the component's type
+(:func:`register` adds an array type). The step of the envs (rbenv's transition, plant,
+actuators, tasks and the explicit integrators) makes every array call through these names, so
+another backend is one more class with the same names: the tests run the whole step under a
+strict NumPy namespace whose arrays refuse any direct ``np.`` call.
+
+Names beyond the element-wise functions, for the per-actuator rows ((N, n) arrays; a single
+satellite's rows are NumPy (n,) arrays, so :data:`FLOAT` has none of them): ``where``,
+``expand_dims``, ``sum``, ``einsum``, ``clamp`` / ``clamp_into`` (clip to bounds, the latter
+in place where the backend can), ``to_float`` (bool → 0.0/1.0) and ``isnan_any``.
 """
 
 from __future__ import annotations
@@ -116,11 +124,55 @@ class NumpyNamespace:
     def zeros(n):
         return np.zeros(n)
 
+    # Row operations (per-actuator rows: (N, n), or a single satellite's (n,)).
+    expand_dims = staticmethod(np.expand_dims)
+    einsum = staticmethod(np.einsum)
+
+    @staticmethod
+    def sum(x, axis=None):
+        return np.sum(x, axis=axis)
+
+    @staticmethod
+    def clamp(x, low, high):
+        """``min(max(x, low), high)`` element-wise (NaN stays NaN)."""
+        return np.minimum(np.maximum(x, low), high)
+
+    @staticmethod
+    def clamp_into(x, low, high):
+        """:meth:`clamp`, written into ``x`` (the caller owns it): no temporaries."""
+        np.maximum(x, low, out=x)
+        return np.minimum(x, high, out=x)
+
+    @staticmethod
+    def to_float(x):
+        """A bool array as 0.0 / 1.0 float64."""
+        return x.astype(float)
+
+    @staticmethod
+    def isnan_any(x) -> bool:
+        return bool(np.isnan(x).any())
+
 
 FLOAT = FloatNamespace()
 NUMPY = NumpyNamespace()
+# Component type → namespace, for :func:`namespace` (one dict lookup on the hot path).
+_BY_TYPE: dict = {float: FLOAT, int: FLOAT, np.ndarray: NUMPY}
+
+
+def register(array_type: type, ns) -> None:
+    """Make :func:`namespace` return ``ns`` for components of ``array_type`` (a backend)."""
+    _BY_TYPE[array_type] = ns
 
 
 def namespace(x):
-    """The namespace for a component: :data:`FLOAT` for a Python float or int, else NUMPY."""
+    """The namespace of a component: :data:`FLOAT` for a Python float or int, the registered
+    namespace of its array type, else :data:`NUMPY` (NumPy scalars and arrays)."""
+    ns = _BY_TYPE.get(type(x))
+    if ns is not None:
+        return ns
     return FLOAT if isinstance(x, (float, int)) else NUMPY
+
+
+def rows(xp):
+    """The namespace of the per-actuator rows for a state in ``xp`` (FLOAT's rows are NumPy)."""
+    return NUMPY if xp is FLOAT else xp

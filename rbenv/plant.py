@@ -26,6 +26,7 @@ import numpy as np
 
 from core import INTEGRATORS, validation
 from core import kernels as k
+from core.backend import rows
 from core.dynamics import check_finite_state, translate
 from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
@@ -175,11 +176,11 @@ class Plant:
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
         """The actuators' summed contribution under ``action`` (each takes its slice); they
         set their own fields on ``st``. ``in_place``: the caller owns ``action``."""
-        acts = self.actuators
+        acts, rx = self.actuators, rows(xp)
         if len(acts) == 1:
             act = acts[0]
-            return act.actuate(st, act.command(action, in_place), noise, xp)
-        parts = [a.actuate(st, a.command(action[..., s]), noise, xp)
+            return act.actuate(st, act.command(action, in_place, rx), noise, xp)
+        parts = [a.actuate(st, a.command(action[..., s], False, rx), noise, xp)
                  for a, s in zip(acts, self.action_slices, strict=True)]
         return sum_contributions(parts)
 

@@ -68,8 +68,9 @@ class Actuator(Protocol):
     info_keys: tuple
     start_slots: int
 
-    def command(self, action, in_place: bool = False):
-        """The physical command from its (clipped) action slice; NaN raises a named error."""
+    def command(self, action, in_place: bool = False, rx=None):
+        """The physical command from its (clipped) action slice; NaN raises a named error.
+        rx: the namespace of the action's array (:func:`core.backend.rows`)."""
 
     def actuate(self, st, command, noise, xp) -> Contribution:
         """Its contribution under ``command`` from state ``st``; sets its own fields on ``st``

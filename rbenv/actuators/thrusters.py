@@ -21,7 +21,7 @@ from typing import ClassVar
 import numpy as np
 
 from core import validation
-from core.backend import FLOAT
+from core.backend import FLOAT, NUMPY, rows
 from core.errors import InvalidParameterError
 from rbenv.actuators.base import Contribution
 from rbenv.scene import G0
@@ -104,7 +104,7 @@ class Thrusters:
 
     # ------------------------------------------------------------------- command
 
-    def command(self, a: np.ndarray, in_place: bool = False) -> np.ndarray:
+    def command(self, a: np.ndarray, in_place: bool = False, rx=NUMPY) -> np.ndarray:
         """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
 
         throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
@@ -112,27 +112,27 @@ class Thrusters:
         rejected; in throttle mode by the adapters from the propagated NaN thrust, which the
         state's finiteness flag catches (no extra check on the hot path). ``in_place``: the
         caller owns ``a`` and lets throttle mode clip it in place (the vector env's batch).
+        rx: the namespace of the action's array (:func:`core.backend.rows`). The allocators of
+        torque mode are NumPy (SciPy for nnls and lp).
         """
         mode = self.action_mode
         low, high = self.action_bounds
         if mode == "throttle":
-            if in_place:
-                np.maximum(a, low, out=a)
-                return np.minimum(a, high, out=a)
-            return np.minimum(np.maximum(a, low), high)
-        if np.isnan(a).any():
+            return rx.clamp_into(a, low, high) if in_place else rx.clamp(a, low, high)
+        if rx.isnan_any(a):
             raise nan_action_error(a)
         if mode == "on_off":
-            return (a > 0.0).astype(float)
-        return self.allocator(np.minimum(np.maximum(a, low), high) * self.torque_authority)
+            return rx.to_float(a > 0.0)
+        return self.allocator(rx.clamp(a, low, high) * self.torque_authority)
 
     # ------------------------------------------------------------------- per step
 
     def actuate(self, st, u: np.ndarray, noise, xp) -> Contribution:
         """The wrench of throttles ``u`` after faults and delay; sets health, pending,
         throttle, impulse_Ns and fuel_kg on ``st`` (the new state)."""
+        rx = rows(xp)
         if st.health is not None or st.pending is not None:
-            u = self._faults_and_delay(st, u, noise.faults)
+            u = self._faults_and_delay(st, u, noise.faults, rx)
         st.throttle = u
         matrix = self.action_matrix if st.model is None else st.model.action_matrix
         if xp is FLOAT:
@@ -140,7 +140,7 @@ class Thrusters:
         elif matrix.ndim == 2:
             parts = tuple(matrix.T @ u.T)
         else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
-            parts = tuple(np.einsum("ni,nik->kn", u, matrix))
+            parts = tuple(rx.einsum("ni,nik->kn", u, matrix))
         thrust = parts[3]
         impulse = thrust * self.control_dt
         st.impulse_Ns = st.impulse_Ns + impulse
@@ -149,14 +149,14 @@ class Thrusters:
         return _new(Contribution, ((parts[0], parts[1], parts[2]), force, None, None,
                                    thrust * self.inv_total_thrust))
 
-    def _faults_and_delay(self, st, u: np.ndarray, fault_draw) -> np.ndarray:
+    def _faults_and_delay(self, st, u: np.ndarray, fault_draw, rx) -> np.ndarray:
         """Throttles that actually fire: mid-episode faults, failed thrusters, control delay."""
         if st.health is not None:
             if fault_draw is not None:
                 st.health = st.health * (fault_draw >= self.p_fault)
             u = u * st.health
         if st.pending is not None:
-            fired = np.where(np.expand_dims(st.model.delayed, -1), st.pending, u)
+            fired = rx.where(rx.expand_dims(st.model.delayed, -1), st.pending, u)
             st.pending = u
             u = fired
         return u
@@ -187,7 +187,7 @@ class Thrusters:
         """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""
         out = {"fuel_kg": st.fuel_kg, "impulse_Ns": st.impulse_Ns}
         if st.health is not None:
-            out["failed_thrusters"] = self.n - st.health.sum(axis=-1)
+            out["failed_thrusters"] = self.n - rows(xp).sum(st.health, axis=-1)
         return out
 
 
