@@ -53,8 +53,10 @@ class _TorqueController:
 
     def __post_init__(self):
         object.__setattr__(self, "inertia", self.plant.scene.body.inertia)
-        B = self.plant.scene.thrusters.torque_matrix_B
-        object.__setattr__(self, "allocate", make_allocator(self.allocator_name, B))
+        thrusters = self.plant.scene.thrusters
+        allocate = None if thrusters is None else make_allocator(self.allocator_name,
+                                                                  thrusters.torque_matrix_B)
+        object.__setattr__(self, "allocate", allocate)
 
     @property
     def config(self) -> Plant:
@@ -81,7 +83,17 @@ class _TorqueController:
         return np.where(flip[:, None], -q_err, q_err)
 
     def _act(self, torque_B: np.ndarray) -> np.ndarray:
-        """Action for the env's action mode from a torque demand (N, 3) in N·m."""
+        """Action for the env's action mode from a torque demand (N, 3) in N·m: the slice of
+        the actuator that takes body torques (wheels, else thrusters); others get zero."""
+        plant = self.plant
+        if len(plant.actuators) == 1:
+            return self._act_one(torque_B)
+        driver = plant.wheels or plant.thrusters
+        out = np.zeros((len(torque_B), plant.action_shape[0]), np.float32)
+        out[:, plant.action_slices[plant.actuators.index(driver)]] = self._act_one(torque_B)
+        return out
+
+    def _act_one(self, torque_B: np.ndarray) -> np.ndarray:
         plant = self.plant
         if plant.action_mode == "torque":
             return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
@@ -90,6 +102,11 @@ class _TorqueController:
                 f"scripted controllers drive action_mode 'throttle' or 'torque', got "
                 f"{plant.action_mode!r}"
             )
+        if self.allocate is None:  # reaction wheels: per-wheel motor torques, −G u = τ
+            wheels = plant.wheels
+            u = -(torque_B @ wheels.pinv.T) / wheels.wheels.max_torque
+            scale = np.maximum(np.abs(u).max(axis=-1, keepdims=True), 1.0)
+            return (u / scale).astype(np.float32)
         return self.allocate(torque_B).astype(np.float32)  # throttle = action on [0, 1]
 
     def control(self, obs: dict, state, episode_start):
@@ -264,6 +281,92 @@ class RandomPolicy:
         obs = np.asarray(observation)
         shape = (self.action_size,) if obs.ndim == 1 else (obs.shape[0], self.action_size)
         return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32), state
+
+
+class NotApplicable(ValueError):
+    """A scripted baseline that the scene's actuators cannot run (B-dot without rods, ...)."""
+
+
+def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:
+    """The names of ``env_id``'s registered baselines that run on ``scene``."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, scene=scene, **(env_kwargs or {}))
+    try:
+        names = []
+        for name, cls in BASELINES[env.unwrapped.task.name].items():
+            try:
+                cls.from_env(env)
+            except NotApplicable:
+                continue
+            names.append(name)
+        return names
+    finally:
+        env.close()
+
+
+@dataclass(frozen=True, eq=False)
+class BDot:
+    """B-dot detumbling with magnetorquers: ``m = (k/|B|²) ω × B``, saturated per rod.
+
+    The normalised-field law of Avanzini & Giulietti (JGCD 35(4), 2012): with ``ω × B`` for
+    −Ḃ_B (the field's own turn along the orbit is slow next to a tumble), the torque
+    ``m × B = −(k/|B|²)|B|² ω⊥`` only ever removes kinetic energy. Their quasi-minimum-time
+    gain is ``k = 2n(1 + sin ξ_m) J_min`` (N·m·s; n the mean motion, ξ_m the orbit's
+    inclination to the geomagnetic equator, J_min the smallest principal inertia). Reads ω and
+    the magnetometer from the observation; drives the ``[magnetorquers]`` slice of the action
+    and leaves every other actuator at zero.
+    """
+
+    plant: Plant
+    task: Task
+    gain: float = field(init=False)  # N·m·s
+    rods: object = field(init=False, repr=False)
+    slices: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        from rbenv.actuators import Magnetorquers
+
+        rods = next((a for a in self.plant.actuators if isinstance(a, Magnetorquers)), None)
+        if rods is None:
+            raise NotApplicable(f"bdot needs magnetorquers; scene {self.plant.scene.name!r} "
+                                "has none")
+        orbit = self.plant.scene.orbit
+        tilt = math.degrees(math.acos(29350.0 / 29733.0))  # IGRF-14 2025.0 dipole tilt, 9.2°
+        xi = math.radians(abs(orbit.inclination_deg - tilt))
+        j_min = float(np.linalg.eigvalsh(self.plant.body.inertia).min())
+        object.__setattr__(self, "gain", 2.0 * orbit.mean_motion * (1.0 + math.sin(xi)) * j_min)
+        object.__setattr__(self, "rods", rods)
+        task_size = self.task.observation_size()
+        start = task_size
+        where = {}
+        for act in self.plant.actuators:
+            for name, width in act.observation_structure.items():
+                where[name] = slice(start, start + width)
+                start += width
+        object.__setattr__(self, "slices", (self.task.observation_slices()["omega_B"],
+                                            where["field_B"]))
+
+    @classmethod
+    def from_env(cls, env):
+        plant, task = env_parts(env)
+        return cls(plant, task)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3-style ``(actions, state)`` for observations (size,) or (N, size)."""
+        from rbenv.actuators.magnetorquers import FIELD_SCALE_T
+
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        w = obs[:, self.slices[0]] * self.task.rate_limit
+        b = obs[:, self.slices[1]] * FIELD_SCALE_T
+        m = self.gain * cross(w, b) / np.maximum(np.sum(b * b, axis=1, keepdims=True), 1e-18)
+        mu = m @ np.linalg.pinv(self.rods.dipole_matrix)  # rod fractions, (N, n)
+        mu = mu / np.maximum(np.abs(mu).max(axis=1, keepdims=True), 1.0)
+        out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)
+        out[:, self.plant.action_slices[self.plant.actuators.index(self.rods)]] = mu
+        return (out[0], state) if single else (out, state)
 
 
 def resolve_baseline(ref):

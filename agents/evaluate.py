@@ -171,13 +171,15 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
                 tr["time_s"].append(float(info["time_s"][i]))
                 tr["attitude_error_deg"].append(float(info.get(error_key, nan)[i]))
                 tr["rate_dps"].append(float(info.get("rate_dps", nan)[i]))
-                tr["throttle"].append(plant.throttle(np.asarray(action[i], float)).tolist())
+                a_i = np.asarray(action[i], float)
+                tr["throttle"].append((a_i if plant.thrusters is None or len(plant.actuators) > 1
+                                       else plant.throttle(a_i)).tolist())
         done = (term | trunc) & alive
         if done.any():
             idx = np.flatnonzero(done)
             success[idx] = np.asarray(info["is_success"])[idx]
             out["episode_time_s"][idx] = np.asarray(info["time_s"])[idx]
-            out["fuel_kg"][idx] = np.asarray(info["fuel_kg"])[idx]
+            out["fuel_kg"][idx] = np.asarray(info.get("fuel_kg", nan))[idx]
             out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 import rbenv
-from agents.controllers import BASELINES
+from agents.controllers import applicable_baselines
 from agents.evaluate import SB3Policy, evaluate, format_table, plot_episodes
 from agents.runs import atomic_write, write_json
 
@@ -66,7 +66,8 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
               "env_kwargs": cfg.env_kwargs, "env_id": env_id}
     label = "trained" if summary.get("trained", True) else "UNTRAINED: no gradient step"
     results = [evaluate(trained, name=f"{cfg.algo} ({label})", **kwargs),
-               *(evaluate(name, **kwargs) for name in BASELINES[task_name(env_id)])]
+               *(evaluate(name, **kwargs) for name in applicable_baselines(
+                   env_id, cfg.scene, cfg.env_kwargs))]
     table = format_table(results)
     plot_episodes(results, run_dir / "episode.png")
     curve = plot_training_curve(run_dir, run_dir / "training_curve.png")

@@ -459,17 +459,18 @@ class _LivePolicy(RLlibPolicy):
 
 def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
     """The trained policy and the task's scripted baselines on the same seeded episodes."""
-    from agents.controllers import BASELINES
+    from agents.controllers import applicable_baselines
     from agents.evaluate import evaluate, format_table, plot_episodes
     from agents.evaluate import write_json as write_results
-    from agents.report import finish_report, plot_training_curve, task_name
+    from agents.report import finish_report, plot_training_curve
 
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs, "env_id": cfg.env_id}
     # The run this process just wrote: its pickles are our own.
     results = [evaluate(RLlibPolicy(out, trust_pickle=True), name="ppo (RLlib, trained)",
                         **kwargs),
-               *(evaluate(name, **kwargs) for name in BASELINES[task_name(cfg.env_id)])]
+               *(evaluate(name, **kwargs) for name in applicable_baselines(
+                   cfg.env_id, cfg.scene, cfg.env_kwargs))]
     table = format_table(results)
     plot_episodes(results, out / "episode.png")
     curve = plot_training_curve(out, out / "training_curve.png")

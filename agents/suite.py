@@ -194,7 +194,7 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     """On the same held-out episodes: the checkpoint selected on validation episodes and the
     final model (both with the mean-throttle action), the final model with SB3's deterministic
     action clip(μ, 0, 1), and every scripted baseline of the task."""
-    from agents.controllers import BASELINES
+    from agents.controllers import applicable_baselines
     from agents.evaluate import SB3Policy, evaluate
 
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
@@ -207,7 +207,8 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
                      **common).summary()
     clip_mean = evaluate(SB3Policy(run, action="mode"), name=f"{cell.algo} (final, clip(mean))",
                          **common).summary()
-    baselines = {name: evaluate(name, **common).summary() for name in BASELINES[cell.task]}
+    baselines = {name: evaluate(name, **common).summary()
+                 for name in applicable_baselines(cell.env_id, cell.scene)}
     return {"policy": {**policy, "timesteps": steps}, "final": final,
             "final_clip_mean": clip_mean, "baselines": baselines, "learning_curve": curve}
 

@@ -17,19 +17,18 @@ import time
 from pathlib import Path
 
 import rbenv
-from agents.controllers import BASELINES
+from agents.controllers import applicable_baselines
 from agents.evaluate import evaluate
 from benchmarks import common
-
-TASK_OF = {rbenv.ENV_ID: "reorient", rbenv.DETUMBLE_ID: "detumble", rbenv.TRACK_ID: "track"}
 
 
 def run(episodes: int, seed: int) -> list[dict]:
     """One summary row per (task, scene, policy)."""
     rows = []
-    for env_id, task in TASK_OF.items():
+    for spec in rbenv.registry.specs():
+        env_id, task = spec.env_id, spec.name
         for scene in rbenv.list_scenes():
-            for policy in (*BASELINES[task], "zero"):
+            for policy in (*applicable_baselines(env_id, scene), "zero"):
                 start = time.perf_counter()
                 s = evaluate(policy, episodes=episodes, seed=seed, scene=scene, env_id=env_id,
                              record=0).summary()

@@ -19,8 +19,9 @@ strict NumPy namespace whose arrays refuse any direct ``np.`` call.
 
 Names beyond the element-wise functions, for the per-actuator rows ((N, n) arrays; a single
 satellite's rows are NumPy (n,) arrays, so :data:`FLOAT` has none of them): ``where``,
-``expand_dims``, ``sum``, ``einsum``, ``clamp`` / ``clamp_into`` (clip to bounds, the latter
-in place where the backend can), ``to_float`` (bool → 0.0/1.0) and ``isnan_any``.
+``expand_dims``, ``sum``, ``max``, ``abs``, ``sign``, ``einsum``, ``clamp`` / ``clamp_into``
+(clip to bounds, the latter in place where the backend can), ``to_float`` (bool → 0.0/1.0)
+and ``isnan_any``.
 """
 
 from __future__ import annotations
@@ -127,10 +128,16 @@ class NumpyNamespace:
     # Row operations (per-actuator rows: (N, n), or a single satellite's (n,)).
     expand_dims = staticmethod(np.expand_dims)
     einsum = staticmethod(np.einsum)
+    abs = staticmethod(np.abs)
+    sign = staticmethod(np.sign)
 
     @staticmethod
     def sum(x, axis=None):
         return np.sum(x, axis=axis)
+
+    @staticmethod
+    def max(x, axis=None):
+        return np.max(x, axis=axis)
 
     @staticmethod
     def clamp(x, low, high):

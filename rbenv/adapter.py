@@ -67,10 +67,11 @@ class TaskAdapter:
             raise InvalidParameterError(
                 f"render_mode must be None or one of {list(render_modes)}, got {render_mode!r}")
         self.render_mode = render_mode
-        self.observation_structure = dict(self.task.observation_structure)
+        self.observation_structure = {**self.task.observation_structure,
+                                      **self.plant.observation_structure}
         self._layout = transition.layout(self.plant, self.task)
         self._block_slots = {"task": self.task.start_slots, **self.plant.block_slots}
-        size = self.task.observation_size()
+        size = sum(self.observation_structure.values())
         return (gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32),
                 gym.spaces.Box(-1.0, 1.0, (size,), np.float32))
 

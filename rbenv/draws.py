@@ -24,6 +24,7 @@ uniforms take its top 53 bits, normals come from the Box–Muller transform of t
 from __future__ import annotations
 
 import functools
+import hashlib
 
 import numpy as np
 
@@ -42,11 +43,24 @@ _BLOCK = 32  # slots hashed at once per stream for a small batch (covers every t
 _BLOCK_ELEMENTS = 1 << 20  # a batch whose block would exceed this hashes per request
 _NORMAL_CHUNK = 4  # normals per hashing pass for a batch that hashes per request
 
-# One stream per consumer of episode-start randomness.
+# One stream per consumer of episode-start randomness. These three have fixed numbers; any
+# other name (an actuator's scene table, say) gets a key from a hash of the name, so a new
+# consumer needs no entry here and shifts no other stream's numbers.
 STREAMS = {"task": 1, "plant": 2, "randomization": 3}
 # Each stream's key offset, computed once with Python ints (NumPy scalars warn on wrapping).
 _STREAM_INTS = {name: (i * 0xABC98388FB8FAC03) % 2**64 for name, i in STREAMS.items()}
-_STREAM_KEYS = {name: np.uint64(key) for name, key in _STREAM_INTS.items()}
+
+
+class _StreamKeys(dict):
+    """Stream name → uint64 key; names beyond :data:`STREAMS` are hashed (BLAKE2b, 8 bytes)."""
+
+    def __missing__(self, name: str) -> np.uint64:
+        digest = hashlib.blake2b(f"rbenv-stream:{name}".encode(), digest_size=8).digest()
+        key = self[name] = np.uint64(int.from_bytes(digest, "little"))
+        return key
+
+
+_STREAM_KEYS = _StreamKeys({name: np.uint64(key) for name, key in _STREAM_INTS.items()})
 
 
 def _mix(z: np.ndarray) -> np.ndarray:

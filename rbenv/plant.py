@@ -53,7 +53,7 @@ class StepNoise(NamedTuple):
 # steps taken. model: the episode's randomized physics (rbenv.randomization.EpisodeModel) or
 # None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
-                "model": "obj"}
+                "model": "obj", "field_B_T": "c3"}  # field_B_T: Earth's field now, T (orbit)
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
@@ -70,6 +70,10 @@ class Plant:
     allocator_name: str = "pinv"
     compiled: bool = False  # step with core.compiled (numba) instead of NumPy
     actuators: tuple = field(init=False)
+    accounting: tuple = field(init=False, repr=False)  # actuators with work after the physics
+    observed: bool = field(init=False)  # some actuator adds to the observation
+    body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
+    orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
     action_shape: tuple = field(init=False)
     action_slices: tuple = field(init=False, repr=False)  # each actuator's slice of the action
     advance_kernel: object = field(init=False, repr=False)
@@ -98,6 +102,14 @@ class Plant:
         values.update(actuators=acts, action_shape=(edges[-1],) if len(acts) > 1
                       else acts[0].action_shape,
                       action_slices=tuple(slice(a, b) for a, b in itertools.pairwise(edges)))
+        values["accounting"] = tuple(a for a in acts if a.needs_account)
+        values["observed"] = any(a.observation_structure for a in acts)
+        values["body"] = _integrated_body(self.scene, acts)
+        values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
+        if values["randomization"] is not None and values["body"] is not self.scene.body:
+            raise InvalidParameterError(
+                "domain randomization of the inertia does not know the wheels' rotors yet; "
+                "turn randomization off for a scene with [wheels]")
         thr = next((a for a in acts if isinstance(a, Thrusters)), None)
         values["noisy"] = bool((thr is not None and thr.p_fault) or values["dist_noise"]
                                or values["sensor_noise"] is not None)
@@ -131,10 +143,18 @@ class Plant:
         return 0 if thr is None else thr.n
 
     @property
+    def wheels(self):
+        """The reaction-wheel actuator (the scene's ``[wheels]``), or None."""
+        from rbenv.actuators import Wheels
+
+        return next((a for a in self.actuators if isinstance(a, Wheels)), None)
+
+    @property
     def torque_authority(self):
-        """(3,) N·m per unit torque action of the thrusters (torque mode), else None."""
-        thr = self.thrusters
-        return None if thr is None else thr.torque_authority
+        """(3,) N·m per unit torque action (torque mode) of the first actuator that takes a
+        body torque (wheels or thrusters), else None."""
+        return next((a.torque_authority for a in self.actuators
+                     if getattr(a, "torque_authority", None) is not None), None)
 
     @property
     def action_bounds(self) -> tuple:
@@ -202,14 +222,19 @@ class Plant:
                 tau = k.add(tau, dist_noise, self.dist_noise)
         elif self.disturbance_torque is not None:
             tau = k.add(tau, self.disturbance_torque)
-        body = self.scene.body if st.model is None else st.model.body
+        body = self.body if st.model is None else st.model.body
         h, advance = self.h, self.advance_kernel
         q, w = st.q, st.omega_B
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
+        gg = self.orbit is not None and self.orbit.gravity_gradient
+        tau_c = tau
         try:
-            for _ in range(self.substeps):
+            for j in range(self.substeps):
                 if st.x is not None:
                     self._translate(st, body, k.rotate(q, c.force_B))
+                if gg:  # held over the substep, from its start
+                    t = (st.steps + j / self.substeps) * self.control_dt
+                    tau = k.add(tau_c, self.orbit.gravity_gradient_B(self.scene.body, q, t, xp))
                 if h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
                 else:  # internal momentum (wheels), moving linearly over the step
@@ -229,6 +254,10 @@ class Plant:
                                                                    + v[2] * v[2])
         st.q, st.omega_B = q, w
         st.steps = st.steps + 1
+        for act in self.accounting:
+            act.account(st, c, self.control_dt, xp)
+        if st.field_B_T is not None:
+            st.field_B_T = self.orbit.field_B(q, st.steps * self.control_dt, xp)
         return xp.not_finite((*q, sq))
 
     def _translate(self, st, body, force_W: tuple) -> None:
@@ -300,10 +329,33 @@ class Plant:
             model = draw_episode_model(self, draws)
         zero = draws.xp.zeros(draws.n)
         out = {"bias": bias, "model": model, "steps": zero}
+        if self.orbit is not None and self.orbit.magnetic_field:
+            out["field_B_T"] = (zero, zero, zero)  # set from the attitude by complete_start
         if self.translation:
             out["x"] = out["v"] = (zero, zero, zero)
         for act in self.actuators:
             out.update(act.sample_start(draws))
+        return out
+
+    def complete_start(self, start: dict, xp) -> None:
+        """Derived start values that need the task's attitude: the field in body axes."""
+        if "field_B_T" in start:
+            start["field_B_T"] = self.orbit.field_B(start["q"], 0.0, xp)
+
+    @property
+    def observation_structure(self) -> dict:
+        """The actuators' observation parts (name → width), in action order."""
+        out = {}
+        for act in self.actuators:
+            out.update(act.observation_structure)
+        return out
+
+    def observe(self, st, xp) -> tuple:
+        """The actuators' observation components."""
+        out = ()
+        for act in self.actuators:
+            if act.observation_structure:
+                out = out + act.observe(st, xp)
         return out
 
     def info(self, st, xp) -> dict:
@@ -334,6 +386,17 @@ def sum_contributions(parts) -> Contribution:
                              _add(total.momentum_rate_B, c.momentum_rate_B),
                              total.effort + c.effort)
     return total
+
+
+def _integrated_body(scene: Scene, actuators: tuple):
+    """The scene's body, or with wheels its inertia less the rotors' spin inertia (the
+    wheels' spin momentum is the integrators' internal momentum)."""
+    spin = [a.spin_inertia_B for a in actuators if getattr(a, "spin_inertia_B", None) is not None]
+    if not spin:
+        return scene.body
+    from core import RigidBody
+
+    return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
 
 
 def _scene_scalars(sc: Scene) -> dict:

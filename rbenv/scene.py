@@ -103,6 +103,7 @@ from core import validation as check
 from core.errors import InvalidParameterError, RbenvValueError, describe
 from core.forces import MAX_THRUSTERS
 from rbenv.allocation import validate_torque_matrix
+from rbenv.orbit import Orbit
 from rbenv.randomization import Randomization
 
 __all__ = [
@@ -307,7 +308,7 @@ class Scene:
 
     name: str
     body: RigidBody
-    thrusters: ThrusterLayout
+    thrusters: ThrusterLayout | None = None
     isp: float = 65.0
     physics: Physics = field(default_factory=Physics)
     disturbance: Disturbance = field(default_factory=Disturbance)
@@ -318,6 +319,10 @@ class Scene:
     sources: tuple = ()
     randomization: Randomization = field(default_factory=Randomization)
     tasks: dict = field(default_factory=dict)  # task name -> its option table (the task checks)
+    # Actuator tables other than [thrusters], parsed by their modules (rbenv.actuators):
+    # table name -> parameters.
+    actuators: dict = field(default_factory=dict)
+    orbit: Orbit = field(default_factory=Orbit)
 
     def __post_init__(self):
         object.__setattr__(self, "randomization",
@@ -325,9 +330,17 @@ class Scene:
         object.__setattr__(self, "tasks", _task_tables(self.tasks))
         if not isinstance(self.name, str) or not self.name:
             raise InvalidParameterError(f"name must be a non-empty string, got {self.name!r}")
-        for attr, cls in (("body", RigidBody), ("thrusters", ThrusterLayout),
-                          ("physics", Physics), ("disturbance", Disturbance), ("faults", Faults),
-                          ("sensor_noise", SensorNoise), ("episode", Episode)):
+        if self.thrusters is not None and not isinstance(self.thrusters, ThrusterLayout):
+            raise InvalidParameterError(
+                f"thrusters must be a ThrusterLayout or None, got {type(self.thrusters).__name__}")
+        if self.thrusters is None and not self.actuators:
+            raise InvalidParameterError(
+                "a scene needs at least one actuator table: [thrusters] or one of "
+                f"{sorted(_actuator_tables())}")
+        for attr, cls in (("body", RigidBody), ("physics", Physics),
+                          ("disturbance", Disturbance), ("faults", Faults),
+                          ("sensor_noise", SensorNoise), ("episode", Episode),
+                          ("orbit", Orbit)):
             if not isinstance(getattr(self, attr), cls):
                 raise InvalidParameterError(
                     f"{attr} must be a {cls.__name__}, got {type(getattr(self, attr)).__name__}"
@@ -338,7 +351,8 @@ class Scene:
             raise InvalidParameterError(
                 f"description must be a string, got {describe(self.description)}"
             )
-        validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
+        if self.thrusters is not None:
+            validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
         steps = self.episode.duration / self.physics.control_dt
         if not steps <= MAX_EPISODE_STEPS or round(steps) < 1:
             raise InvalidParameterError(
@@ -359,8 +373,8 @@ class Scene:
 
     @property
     def n_thrusters(self) -> int:
-        """Number of thrusters."""
-        return self.thrusters.n
+        """Number of thrusters (0 without a [thrusters] table)."""
+        return 0 if self.thrusters is None else self.thrusters.n
 
     def with_randomization(self, randomize) -> Scene:
         """A copy with domain randomization replaced: a dict of sizes (overriding the scene's
@@ -371,6 +385,23 @@ class Scene:
             merged = {**dataclasses.asdict(self.randomization), **randomize}
             return dataclasses.replace(self, randomization=Randomization.from_mapping(merged))
         return dataclasses.replace(self, randomization=Randomization.from_mapping(randomize))
+
+    def for_task(self, task_name: str) -> Scene:
+        """The scene as ``task_name`` runs it: its ``[tasks.<name>.physics]`` and
+        ``[tasks.<name>.episode]`` tables override the scene's (a magnetic detumble needs a
+        longer step and episode than a wheel slew on the same satellite)."""
+        table = self.tasks.get(task_name) or {}
+        over = {key: table[key] for key in ("physics", "episode") if key in table}
+        if not over:
+            return self
+        try:
+            groups = {key: dataclasses.replace(getattr(self, key), **_checked(
+                f"tasks.{task_name}.{key}", value, getattr(self, key)))
+                for key, value in over.items()}
+        except TypeError as exc:
+            raise InvalidParameterError(f"tasks.{task_name}: {exc}") from None
+        rest = {k: v for k, v in table.items() if k not in over}
+        return dataclasses.replace(self, tasks={**self.tasks, task_name: rest}, **groups)
 
     def with_physics(self, integrator=None, control_dt=None, substeps=None) -> Scene:
         """A copy with some physics fields replaced (``None`` keeps the scene's value)."""
@@ -388,9 +419,10 @@ class Scene:
         if not isinstance(data, dict):
             raise InvalidParameterError(f"a scene must be a table (dict), got {describe(data)}")
         data = dict(data)
+        tables = _actuator_tables()
         _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
                                     "physics", "disturbance", "faults", "sensor_noise",
-                                    "episode", "randomization", "tasks"})
+                                    "episode", "randomization", "tasks", "orbit", *tables})
         scene_name = data.get("name", name)
         if "name" in data and (not isinstance(scene_name, str) or not scene_name):
             raise InvalidParameterError(
@@ -399,15 +431,20 @@ class Scene:
         try:
             mass, com_B, inertia = mass_properties(_table(data, "body", required=True))
             body = RigidBody(mass=mass, inertia=inertia)
-            thrusters, isp = _thrusters(_table(data, "thrusters", required=True), com_B)
+            thrusters, isp = None, 65.0
+            if "thrusters" in data:
+                thrusters, isp = _thrusters(_table(data, "thrusters", required=True), com_B)
+            actuators = {name: parse(_table(data, name), com_B)
+                         for name, parse in tables.items() if name in data}
             groups = {}
             for key, group in (("physics", Physics), ("disturbance", Disturbance),
                                ("faults", Faults), ("sensor_noise", SensorNoise),
-                               ("episode", Episode)):
+                               ("episode", Episode), ("orbit", Orbit)):
                 table = _table(data, key)
-                _check_keys(key, table, {f.name for f in dataclasses.fields(group)})
+                _check_keys(key, table, {f.name for f in dataclasses.fields(group) if f.init})
                 groups[key] = group(**table)
             return cls(name=scene_name or "unnamed", body=body, thrusters=thrusters, isp=isp,
+                       actuators=actuators,
                        description=data.get("description", ""),
                        sources=data.get("sources", ()),
                        randomization=_table(data, "randomization"),
@@ -491,6 +528,22 @@ def _tomllib():
                 "on Python 3.10 run `pip install tomli`"
             ) from None
     return tomllib
+
+
+def _checked(path: str, table, group) -> dict:
+    """A per-task override table of a parameter group: a dict of its field names."""
+    if not isinstance(table, dict):
+        raise InvalidParameterError(f"{path} must be a table, got {describe(table)}")
+    _check_keys(path, table, {f.name for f in dataclasses.fields(group) if f.init})
+    return table
+
+
+def _actuator_tables() -> dict:
+    """Scene table name → parser of every registered actuator but the thrusters (whose table
+    this module parses itself)."""
+    from rbenv.actuators import ACTUATORS
+
+    return {name: entry.parse for name, entry in ACTUATORS.items() if entry.parse is not None}
 
 
 def _table(data: dict, key: str, required: bool = False) -> dict:

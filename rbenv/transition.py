@@ -70,8 +70,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     if task.moving_target:
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
-    obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None else \
-        observe(plant, task, new, noise.sensor, xp)
+    obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
+        not plant.observed else observe(plant, task, new, noise.sensor, xp)
     return new, tuple.__new__(Outcome, (obs, reward_sum(terms), terms, success, failure,
                                         info(plant, task, new, terms, success, xp), diverged))
 
@@ -87,9 +87,11 @@ def raise_diverged(plant: Plant, st, action) -> None:
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     """Observation components; with sensor noise, from the noisy measurement."""
     if sensor_noise is None:
-        return task.observe(st, st.q, st.omega_B, xp)
-    q, w = plant.measure(st, sensor_noise)
-    return task.observe(st, q, w, xp)
+        obs = task.observe(st, st.q, st.omega_B, xp)
+    else:
+        q, w = plant.measure(st, sensor_noise)
+        obs = task.observe(st, q, w, xp)
+    return obs + plant.observe(st, xp) if plant.observed else obs
 
 
 def info(plant: Plant, task, st, terms, success, xp) -> dict:
@@ -144,6 +146,7 @@ def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
     _override(task, s, options, rows, draws)
     s.update(plant.sample_start(draws))
     task.complete_start(s, draws.xp)
+    plant.complete_start(s, draws.xp)
     return s
 
 

@@ -22,7 +22,10 @@ def build(task_name: str, scene=None, *, integrator=None, control_dt=None, subst
           max_initial_angle_deg=None, max_initial_rate=None, task_options=None,
           compiled=False) -> tuple[Plant, Task]:
     """The plant and the task named ``task_name`` for these env options (validated)."""
+    from rbenv.scene import DEFAULT_SCENE, load_scene
+
     spec = registry.by_name(task_name)
+    scene = load_scene(DEFAULT_SCENE if scene is None else scene).for_task(task_name)
     plant = make_plant(scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
                        action_mode=action_mode, allocator=allocator, randomize=randomize,
                        compiled=compiled)

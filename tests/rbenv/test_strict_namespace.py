@@ -153,7 +153,8 @@ IMPLICIT = ("midpoint", "splitting")
 CASES = [(env_id, scene, mode, integ)
          for env_id in rbenv.ENV_IDS for scene in rbenv.list_scenes()
          for mode, integ in (("throttle", None), ("on_off", None), ("throttle", "euler"),
-                             ("throttle", "semi_implicit"), ("throttle", "euler_seed"))]
+                             ("throttle", "semi_implicit"), ("throttle", "euler_seed"))
+         if mode != "on_off" or rbenv.load_scene(scene).thrusters is not None]
 
 
 @pytest.mark.parametrize(("env_id", "scene", "mode", "integrator"), CASES)
@@ -177,7 +178,9 @@ def test_the_step_runs_under_a_strict_namespace_bit_for_bit(env_id, scene, mode,
         new_s, out_s = transition.step(plant, task, st_s, _to_strict(action),
                                        _noise(plant, noise_rng, 6, _to_strict), STRICT,
                                        own_action=True)
-        assert not np.any(out_n.diverged)
+        np.testing.assert_array_equal(_plain(out_s.diverged), out_n.diverged)
+        if np.any(out_n.diverged):  # an explicit integrator blew up: both backends flag it
+            break
         plain = [name for name, v in vars(new_s).items()
                  if name != "model" and any(type(x) is np.ndarray for x in _leaves(v))]
         assert not plain, f"fields made by a direct NumPy call: {plain}"

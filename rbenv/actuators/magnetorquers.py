@@ -1,0 +1,167 @@
+"""Magnetorquers: coils whose dipole m turns the satellite against Earth's field, τ = m × B.
+
+An actuator of the plant (:mod:`rbenv.actuators.base`), configured by the scene table
+``[magnetorquers]``: rod axes (body frame) and the largest dipole of each rod (A·m²). The action
+(every mode) is one entry per rod, the dipole as a fraction of its maximum in [-1, 1]; the body
+dipole is ``m_B = G_t μ`` and the torque ``m_B × B_B`` with the field of the scene's orbit
+(:mod:`rbenv.orbit`) in body axes at the start of the control step (held over it, as the
+envs hold every command). Only the part of a torque perpendicular to B can be made.
+
+Effort: electrical power ``Σ |μ_i|/μ_max,i · P_max,i`` over its maximum (``power_W`` per rod at
+full dipole); ``mtq_energy_J`` accounts it. Observation part: the magnetometer, ``B_B`` over
+``field_scale_T`` (50 µT), clipped to [-1, 1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from core import kernels as k
+from core import validation
+from core.backend import FLOAT, NUMPY, rows
+from core.errors import InvalidParameterError
+from rbenv.actuators.base import Contribution
+
+__all__ = ["Magnetorquers", "make_magnetorquers", "parse_magnetorquers"]
+
+FIELD_SCALE_T = 5e-5  # T: one observation unit of the magnetometer
+_new = tuple.__new__
+
+
+@dataclass(frozen=True, eq=False)
+class RodSet:
+    """The scene's ``[magnetorquers]`` table, validated."""
+
+    axes_B: np.ndarray  # (n, 3) unit rod axes, body frame
+    max_dipole: np.ndarray  # (n,) A·m²
+    power: np.ndarray  # (n,) W at full dipole
+
+    @property
+    def n(self) -> int:
+        return len(self.max_dipole)
+
+
+def parse_magnetorquers(table: dict, com_B=None) -> RodSet:
+    """``axes`` (list of [x, y, z]), ``max_dipole`` (A·m², one or per rod), ``power_W``."""
+    allowed = {"axes", "max_dipole", "power_W"}
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise InvalidParameterError(f"magnetorquers has unknown key(s) {unknown}; allowed: "
+                                    f"{sorted(allowed)}")
+    for key in ("axes", "max_dipole"):
+        if key not in table:
+            raise InvalidParameterError(f"magnetorquers.{key} is required")
+    axes = validation.finite_array("magnetorquers.axes", table["axes"])
+    if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 16:
+        raise InvalidParameterError(
+            f"magnetorquers.axes must be a list of 1 to 16 [x, y, z] axes, got shape "
+            f"{axes.shape}")
+    norms = np.linalg.norm(axes, axis=1)
+    if np.any(norms < 1e-9):
+        raise InvalidParameterError(f"magnetorquers.axes must be non-zero, got {axes.tolist()}")
+    n = len(axes)
+
+    def per_rod(key, default, low, high):
+        arr = validation.finite_array(f"magnetorquers.{key}", table.get(key, default))
+        arr = np.broadcast_to(arr, (n,)) if arr.ndim == 0 else arr
+        if arr.shape != (n,):
+            raise InvalidParameterError(f"magnetorquers.{key} must be a number or {n} numbers, "
+                                        f"got shape {arr.shape}")
+        for i, v in enumerate(arr):
+            validation.number(f"magnetorquers.{key}[{i}]", float(v), low=low, high=high)
+        return np.array(arr, dtype=float)
+
+    return RodSet(axes_B=axes / norms[:, None], max_dipole=per_rod("max_dipole", 0.0, 1e-9, 1e4),
+                  power=per_rod("power_W", 0.0, 0.0, 1e4))
+
+
+@dataclass(frozen=True, eq=False)
+class Magnetorquers:
+    """The scene's magnetorquers, precomputed for the per-step path."""
+
+    scene_table: ClassVar[str] = "magnetorquers"
+    info_keys: ClassVar[tuple] = ("mtq_energy_J",)
+    needs_account: ClassVar[bool] = False
+    stores_momentum: ClassVar[bool] = False
+    start_stream: ClassVar[str] = "magnetorquers"
+    start_slots: ClassVar[int] = 0
+    observation_structure: ClassVar[dict] = {"field_B": 3}
+
+    rods: RodSet
+    control_dt: float  # s
+    n: int = field(init=False)
+    action_shape: tuple = field(init=False)
+    action_bounds: tuple = field(init=False, repr=False)
+    dipole_matrix: np.ndarray = field(init=False, repr=False)  # (n, 3): fraction → m_B
+    max_power: float = field(init=False)
+    state_fields: dict = field(init=False, repr=False)
+
+    def __post_init__(self):
+        rods = self.rods
+        low, high = -np.ones(rods.n), np.ones(rods.n)
+        for arr in (low, high):
+            arr.setflags(write=False)
+        matrix = rods.axes_B * rods.max_dipole[:, None]
+        matrix.setflags(write=False)
+        total = float(rods.power.sum())
+        values = {"n": rods.n, "action_shape": (rods.n,), "action_bounds": (low, high),
+                  "dipole_matrix": matrix, "max_power": total,
+                  # mtq_dipole_B: the body dipole of the last step, A·m² (rows of 3).
+                  # mtq_energy_J: cumulative. (The field is the plant's field_B_T.)
+                  "state_fields": {"mtq_dipole_B": "row", "mtq_energy_J": "f"}}
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    def command(self, a, in_place: bool = False, rx=NUMPY):
+        """Dipole fractions per rod, clipped to [-1, 1]; NaN raises a named error."""
+        if rx.isnan_any(a):
+            from rbenv.actuators.thrusters import nan_action_error
+
+            raise nan_action_error(a)
+        return rx.clamp(a, self.action_bounds[0], self.action_bounds[1])
+
+    def actuate(self, st, fraction, noise, xp) -> Contribution:
+        """``m_B × B_B`` with the field at the start of the step (the plant's ``field_B_T``);
+        sets the mtq_* fields."""
+        rx = rows(xp)
+        m = fraction @ self.dipole_matrix  # (…, 3) A·m²
+        m_B = tuple(m.tolist()) if xp is FLOAT else (m[:, 0], m[:, 1], m[:, 2])
+        field_B = st.field_B_T
+        power = rx.sum(rx.abs(fraction) * self.rods.power, axis=-1)
+        if xp is FLOAT:
+            power = float(power)
+        st.mtq_dipole_B = m
+        st.mtq_energy_J = st.mtq_energy_J + power * self.control_dt
+        effort = power * (1.0 / self.max_power) if self.max_power else 0.0 * power
+        return _new(Contribution, (k.cross(m_B, field_B), None, None, None, effort))
+
+    def account(self, st, contribution, dt, xp) -> None:
+        """Nothing after the physics."""
+
+    def sample_start(self, draws) -> dict:
+        m = draws.n
+        zero = draws.xp.zeros(m)
+        return {"mtq_dipole_B": np.zeros((m, 3)), "mtq_energy_J": zero}
+
+    def observe(self, st, xp) -> tuple:
+        """The magnetometer: B_B / 50 µT, clipped to [-1, 1] (the field now)."""
+        s, clip = 1.0 / FIELD_SCALE_T, xp.clip
+        b = st.field_B_T
+        return (clip(b[0] * s, -1.0, 1.0), clip(b[1] * s, -1.0, 1.0), clip(b[2] * s, -1.0, 1.0))
+
+    def info(self, st, xp) -> dict:
+        return {"mtq_energy_J": st.mtq_energy_J}
+
+
+def make_magnetorquers(scene, action_mode: str = "throttle",
+                       allocator: str = "pinv") -> Magnetorquers:
+    """The scene's magnetorquers (its ``[magnetorquers]`` table); they need a field."""
+    if not scene.orbit.magnetic_field:
+        raise InvalidParameterError(
+            "magnetorquers need Earth's field: set orbit.model = 'circular' and "
+            "orbit.magnetic_field = true in the scene")
+    return Magnetorquers(rods=scene.actuators["magnetorquers"],
+                         control_dt=scene.physics.control_dt)

@@ -1,0 +1,268 @@
+"""Reaction wheels: rotors spun by motors about body-fixed axes, storing angular momentum.
+
+An actuator of the plant (:mod:`rbenv.actuators.base`), configured by the scene table
+``[wheels]``. Wheel i has a spin axis ĝ_i (body frame), a spin-axis inertia J_i, a motor torque
+limit u_max and a speed limit Ω_max; Ω_i is its speed relative to the body. With
+``G = [ĝ_1 … ĝ_n]`` and the absolute spin momenta ``h_i = J_i (Ω_i + ĝ_iᵀω)`` the bus obeys
+(balanced wheels; Schaub's form, Basilisk's reactionWheelStateEffector)::
+
+    I_RW ω̇ = −ω × (I_RW ω + G h) − G u + τ_ext,     ḣ_i = u_i,
+
+where ``I_RW = I_sc − Σ J_i ĝ_i ĝ_iᵀ`` is the scene's whole-spacecraft inertia without the
+rotors' spin inertia (the plant integrates with it) and ``u`` the net motor torque on the
+wheels. The motor torque is internal: it moves momentum between bus and wheels, and the total
+``I_RW ω + G h`` (in the world frame) changes only under external torque.
+
+Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; at the speed limit
+(|Ω| ≥ Ω_max with Ω·u ≥ 0) the motor cannot accelerate the wheel further (u = 0); optional
+viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
+(default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]) and
+``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
+pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max).
+
+Effort: electrical power ``Σ|u_i Ω_i| + n·P_standby`` over its maximum; ``energy_J`` accounts
+it. Observation part: ``wheel_speed`` Ω/Ω_max per wheel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from core import validation
+from core.backend import FLOAT, NUMPY, rows
+from core.errors import InvalidParameterError
+from rbenv.actuators.base import Contribution
+
+__all__ = ["Wheels", "make_wheels", "parse_wheels"]
+
+MODES = ("throttle", "torque")
+_RPM = 2.0 * math.pi / 60.0
+_new = tuple.__new__
+_ZERO = (0.0, 0.0, 0.0)  # the motor torque is internal: no external torque on the body
+
+
+@dataclass(frozen=True, eq=False)
+class WheelSet:
+    """The scene's ``[wheels]`` table, validated (SI units; speeds in rad/s)."""
+
+    axes_B: np.ndarray  # (n, 3) unit spin axes, body frame
+    inertia: np.ndarray  # (n,) kg·m², spin-axis inertia J_s
+    max_torque: np.ndarray  # (n,) N·m
+    max_speed: np.ndarray  # (n,) rad/s
+    viscous: float = 0.0  # N·m·s/rad
+    coulomb: float = 0.0  # N·m
+    standby_power: float = 0.0  # W per wheel
+    initial_speed: np.ndarray = None  # (n,) rad/s at the episode start
+    random_speed: float = 0.0  # rad/s: ± uniform spread added per episode
+
+    @property
+    def n(self) -> int:
+        return len(self.inertia)
+
+    @property
+    def spin_inertia_B(self) -> np.ndarray:
+        """(3, 3) ``Σ J_i ĝ_i ĝ_iᵀ``, kg·m²: the rotors' share of the scene's inertia."""
+        g = self.axes_B
+        return (g.T * self.inertia) @ g
+
+
+def parse_wheels(table: dict, com_B=None) -> WheelSet:
+    """The ``[wheels]`` table: axes (list of [x, y, z]), inertia (kg·m²), max_torque (N·m),
+    max_speed_rpm, and optional viscous (N·m·s/rad), coulomb (N·m), standby_power (W),
+    initial_speed_rpm and random_speed_rpm (± uniform spread per episode)."""
+    allowed = {"axes", "inertia", "max_torque", "max_speed_rpm", "viscous", "coulomb",
+               "standby_power", "initial_speed_rpm", "random_speed_rpm"}
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise InvalidParameterError(f"wheels has unknown key(s) {unknown}; allowed: "
+                                    f"{sorted(allowed)}")
+    for key in ("axes", "inertia", "max_torque", "max_speed_rpm"):
+        if key not in table:
+            raise InvalidParameterError(f"wheels.{key} is required")
+    axes = validation.finite_array("wheels.axes", table["axes"])
+    if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 16:
+        raise InvalidParameterError(
+            f"wheels.axes must be a list of 1 to 16 [x, y, z] spin axes, got shape {axes.shape}")
+    norms = np.linalg.norm(axes, axis=1)
+    if np.any(norms < 1e-9):
+        raise InvalidParameterError(f"wheels.axes must be non-zero, got {axes.tolist()}")
+    n = len(axes)
+
+    def per_wheel(key, low, high, scale=1.0):
+        arr = validation.finite_array(f"wheels.{key}", table.get(key, 0.0))
+        arr = np.broadcast_to(arr, (n,)) if arr.ndim == 0 else arr
+        if arr.shape != (n,):
+            raise InvalidParameterError(f"wheels.{key} must be a number or {n} numbers, got "
+                                        f"shape {arr.shape}")
+        for i, v in enumerate(arr):
+            validation.number(f"wheels.{key}[{i}]", float(v), low=low, high=high)
+        return np.array(arr, dtype=float) * scale
+
+    def scalar(key, high):
+        return validation.number(f"wheels.{key}", table.get(key, 0.0), low=0.0, high=high)
+
+    speed = per_wheel("max_speed_rpm", 1.0, 1e5, _RPM)
+    start = per_wheel("initial_speed_rpm", -1e5, 1e5, _RPM)
+    if np.any(np.abs(start) > speed):
+        raise InvalidParameterError(
+            "wheels.initial_speed_rpm must be within ±max_speed_rpm, got "
+            f"{table['initial_speed_rpm']}")
+    return WheelSet(axes_B=axes / norms[:, None], inertia=per_wheel("inertia", 1e-9, 1e3),
+                    max_torque=per_wheel("max_torque", 1e-9, 1e3), max_speed=speed,
+                    viscous=scalar("viscous", 1e3), coulomb=scalar("coulomb", 1e3),
+                    standby_power=scalar("standby_power", 1e4), initial_speed=start,
+                    random_speed=scalar("random_speed_rpm", 1e5) * _RPM)
+
+
+@dataclass(frozen=True, eq=False)
+class Wheels:
+    """The scene's reaction wheels in an action mode, precomputed for the per-step path."""
+
+    scene_table: ClassVar[str] = "wheels"
+    info_keys: ClassVar[tuple] = ("wheel_energy_J", "wheel_momentum_Nms")
+    needs_account: ClassVar[bool] = True
+    stores_momentum: ClassVar[bool] = True
+    start_stream: ClassVar[str] = "wheels"
+
+    wheels: WheelSet
+    control_dt: float  # s
+    action_mode: str = "throttle"
+    n: int = field(init=False)
+    action_shape: tuple = field(init=False)
+    action_bounds: tuple = field(init=False, repr=False)
+    torque_authority: np.ndarray = field(init=False, repr=False)  # (3,) N·m per unit action
+    pinv: np.ndarray = field(init=False, repr=False)  # (3, n): motor torques of a body torque
+    max_power: float = field(init=False)  # W
+    state_fields: dict = field(init=False, repr=False)
+    observation_structure: dict = field(init=False, repr=False)
+    start_slots: int = field(init=False)
+
+    def __post_init__(self):
+        validation.choice("action_mode (wheels)", self.action_mode, MODES)
+        ws = self.wheels
+        g = ws.axes_B  # (n, 3)
+        if np.linalg.matrix_rank(g) < 3 and self.action_mode == "torque":
+            raise InvalidParameterError(
+                "action_mode 'torque' needs wheel axes that span 3 dimensions; got rank "
+                f"{np.linalg.matrix_rank(g)}")
+        shape = (3,) if self.action_mode == "torque" else (ws.n,)
+        low, high = -np.ones(shape), np.ones(shape)
+        for arr in (low, high):
+            arr.setflags(write=False)
+        pinv = np.linalg.pinv(g.T)  # (n, 3): u = −pinv τ gives the body torque τ (−G u = τ)
+        # Authority per axis: the largest body torque along it with every |u_i| <= u_max.
+        col = np.abs(pinv)
+        authority = np.array([np.min(ws.max_torque[col[:, a] > 0] / col[col[:, a] > 0, a])
+                              for a in range(3)]) if self.action_mode == "torque" else None
+        values = {"n": ws.n, "action_shape": shape, "action_bounds": (low, high),
+                  "torque_authority": authority, "pinv": pinv,
+                  "max_power": float(np.sum(ws.max_torque * ws.max_speed)
+                                     + ws.n * ws.standby_power),
+                  # wheel_speed: Ω relative to the body, rad/s. wheel_torque: the net motor
+                  # torque of the last step, N·m. wheel_momentum: absolute spin momenta
+                  # J (Ω + ĝᵀω) at the start of the last step, N·m·s. wheel_energy_J: cumulative.
+                  "state_fields": {"wheel_speed": "row", "wheel_torque": "row",
+                                   "wheel_momentum": "row", "wheel_energy_J": "f"},
+                  "observation_structure": {"wheel_speed": ws.n},
+                  "start_slots": ws.n if ws.random_speed else 0}
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def spin_inertia_B(self) -> np.ndarray:
+        return self.wheels.spin_inertia_B
+
+    # ------------------------------------------------------------------- command
+
+    def command(self, a, in_place: bool = False, rx=NUMPY):
+        """Motor torques (N·m), (n,) or (N, n), from the action (clipped to [-1, 1])."""
+        if rx.isnan_any(a):
+            from rbenv.actuators.thrusters import nan_action_error
+
+            raise nan_action_error(a)
+        low, high = self.action_bounds
+        a = rx.clamp(a, low, high)
+        if self.action_mode == "throttle":
+            return a * self.wheels.max_torque
+        u = -((a * self.torque_authority) @ self.pinv.T)  # (…, n): −G u is the body torque
+        # Scale the whole vector down where a wheel would exceed its limit (keeps the axis).
+        ratio = rx.max(rx.abs(u) / self.wheels.max_torque, axis=-1)
+        return u / rx.expand_dims(rx.maximum(ratio, 1.0), -1)
+
+    # ------------------------------------------------------------------- per step
+
+    def actuate(self, st, u, noise, xp) -> Contribution:
+        """Saturation and friction on the motor torques ``u``; the wheels' momentum and its
+        rate for the integrator; electrical power."""
+        rx, ws = rows(xp), self.wheels
+        speed = st.wheel_speed
+        u = rx.where((rx.abs(speed) >= ws.max_speed) & (speed * u >= 0.0), 0.0, u)
+        power = rx.sum(rx.abs(u * speed), axis=-1) + ws.n * ws.standby_power
+        if xp is FLOAT:
+            power = float(power)
+        if ws.viscous or ws.coulomb:
+            u = u - ws.viscous * speed - ws.coulomb * rx.sign(speed)
+        g_omega = _project(st.omega_B, ws.axes_B, xp)  # ĝ_iᵀω, (…, n)
+        h = ws.inertia * (speed + g_omega)
+        st.wheel_momentum, st.wheel_torque = h, u
+        st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
+        return _new(Contribution, (_ZERO, None, _body(h, ws.axes_B, xp),
+                                   _body(u, ws.axes_B, xp), power * (1.0 / self.max_power)))
+
+    def account(self, st, contribution: Contribution, dt: float, xp) -> None:
+        """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
+        ws = self.wheels
+        h = st.wheel_momentum + st.wheel_torque * dt
+        st.wheel_momentum = h
+        st.wheel_speed = h / ws.inertia - _project(st.omega_B, ws.axes_B, xp)
+
+    # ------------------------------------------------------------------- start, sensing
+
+    def sample_start(self, draws) -> dict:
+        """Initial speeds (the scene's, plus a uniform ± random_speed spread from stream
+        "wheels"), zero torque and energy."""
+        m, ws = draws.n, self.wheels
+        speed = np.broadcast_to(ws.initial_speed, (m, ws.n)).copy()
+        if ws.random_speed:
+            u = draws.uniform_array("wheels", ws.n)
+            speed = speed + ws.random_speed * (2.0 * u.T - 1.0)
+            speed = np.clip(speed, -ws.max_speed, ws.max_speed)
+        zero = np.zeros((m, ws.n))
+        return {"wheel_speed": speed, "wheel_torque": zero, "wheel_momentum": zero,
+                "wheel_energy_J": draws.xp.zeros(m)}
+
+    def observe(self, st, xp) -> tuple:
+        """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel."""
+        s = rows(xp).clamp(st.wheel_speed / self.wheels.max_speed, -1.0, 1.0)
+        return tuple(s.tolist()) if xp is FLOAT else tuple(s.T)
+
+    def info(self, st, xp) -> dict:
+        """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G h|, the stored momentum)."""
+        h = _body(st.wheel_speed * self.wheels.inertia, self.wheels.axes_B, xp)
+        return {"wheel_energy_J": st.wheel_energy_J,
+                "wheel_momentum_Nms": xp.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])}
+
+
+def _project(omega_B: tuple, axes_B: np.ndarray, xp):
+    """ĝ_iᵀω per wheel: (n,) for one satellite (ω floats), (N, n) for N."""
+    if xp is FLOAT:
+        return axes_B @ np.array(omega_B)
+    return (omega_B[0][:, None] * axes_B[:, 0] + omega_B[1][:, None] * axes_B[:, 1]
+            + omega_B[2][:, None] * axes_B[:, 2])
+
+
+def _body(x, axes_B: np.ndarray, xp) -> tuple:
+    """``G x``: per-wheel values (…, n) along their axes, summed, as 3 body components."""
+    v = x @ axes_B
+    return tuple(v.tolist()) if xp is FLOAT else (v[:, 0], v[:, 1], v[:, 2])
+
+
+def make_wheels(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Wheels:
+    """The scene's wheels (its ``[wheels]`` table) in an action mode (``allocator`` is the
+    thrusters' option: wheels always use the pseudo-inverse)."""
+    return Wheels(wheels=scene.actuators["wheels"], control_dt=scene.physics.control_dt,
+                  action_mode=action_mode)

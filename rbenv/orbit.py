@@ -1,0 +1,129 @@
+"""The orbit and what it does to the attitude: a circular orbit, gravity gradient, Earth's field.
+
+A scene opts in with an ``[orbit]`` table (``model = "circular"``); each effect is its own
+switch, so a scene models only what it needs. Everything is closed form and evaluated on
+components (floats for one satellite, (N,) arrays for N; ``xp`` the namespace):
+
+* **Circular orbit** of radius ``r = R_eq + altitude``, inclination i, RAAN Ω and argument of
+  latitude u₀ at the episode start; u(t) = u₀ + n t with the mean motion n = √(μ/r³).
+  In ECI: ``r_N = r (cos u P̂ + sin u Q̂)`` with ``P̂ = [cos Ω, sin Ω, 0]`` and
+  ``Q̂ = [−cos i sin Ω, cos i cos Ω, sin i]``.
+* **Gravity gradient** ``τ_B = 3n² r̂_B × (I r̂_B)`` (r̂_B the unit position in body axes;
+  Basilisk's GravityGradientEffector truth, Schaub & Junkins ch. 4).
+* **Magnetic field**: a centred tilted dipole with IGRF-14's 2025.0 coefficients,
+  ``B(r) = (R_ref/|r|)³ [3 (m·r̂) r̂ − m]``, ``m_E = [g₁¹, h₁¹, g₁⁰]``, in the Earth-fixed frame,
+  which turns at ω_E about ECI z from the angle ``earth_rotation_deg`` at the episode start.
+  About 23.7 µT at the equator and 47 µT at the poles at 500 km.
+
+The world frame W of the envs is this ECI frame N. Sources: the actuators-and-orbit reference
+note (§3, §5, §6): IGRF-14 (Alken et al. 2021 / Zenodo 14012303), μ and ω_E as Basilisk's
+astroConstants.h.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from core import kernels as k
+from core import validation
+from core.errors import InvalidParameterError
+
+__all__ = ["IGRF14_2025_NT", "MU_EARTH", "OMEGA_EARTH", "R_EQ", "R_REF", "Orbit"]
+
+MU_EARTH = 3.986004418e14  # m³/s², Earth's gravitational parameter
+R_EQ = 6378.137e3  # m, equatorial radius (altitude reference)
+R_REF = 6371.2e3  # m, IGRF reference radius
+OMEGA_EARTH = 2.0 * math.pi / (23.9345 * 3600.0)  # rad/s, sidereal rotation (7.2921e-5)
+IGRF14_2025_NT = (-29350.0, -1410.3, 4545.5)  # g₁⁰, g₁¹, h₁¹ (nT), IGRF-14, epoch 2025.0
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """The scene's ``[orbit]`` table (angles in degrees, altitude in km).
+
+    model: "none" or "circular". gravity_gradient, magnetic_field: each effect on or off.
+    """
+
+    model: str = "none"
+    altitude_km: float = 500.0
+    inclination_deg: float = 97.4
+    raan_deg: float = 0.0
+    arg_latitude_deg: float = 0.0
+    earth_rotation_deg: float = 0.0
+    gravity_gradient: bool = False
+    magnetic_field: bool = False
+    radius: float = field(init=False)  # m
+    mean_motion: float = field(init=False)  # rad/s
+    p_hat: tuple = field(init=False, repr=False)  # ECI unit vector to the ascending node
+    q_hat: tuple = field(init=False, repr=False)  # ECI unit vector 90° ahead in the plane
+
+    def __post_init__(self):
+        validation.choice("orbit.model", self.model, ("none", "circular"))
+        for name, low, high in (("altitude_km", 100.0, 1e5), ("inclination_deg", 0.0, 180.0),
+                                ("raan_deg", -360.0, 360.0),
+                                ("arg_latitude_deg", -360.0, 360.0),
+                                ("earth_rotation_deg", -360.0, 360.0)):
+            object.__setattr__(self, name, validation.number(f"orbit.{name}",
+                                                             getattr(self, name), low=low,
+                                                             high=high))
+        for name in ("gravity_gradient", "magnetic_field"):
+            flag = validation.flag(f"orbit.{name}", getattr(self, name))
+            if flag and self.model == "none":
+                raise InvalidParameterError(
+                    f"orbit.{name} is true but orbit.model is 'none'; set model = 'circular'")
+        r = R_EQ + 1e3 * self.altitude_km
+        inc, raan = math.radians(self.inclination_deg), math.radians(self.raan_deg)
+        object.__setattr__(self, "radius", r)
+        object.__setattr__(self, "mean_motion", math.sqrt(MU_EARTH / r**3))
+        object.__setattr__(self, "p_hat", (math.cos(raan), math.sin(raan), 0.0))
+        object.__setattr__(self, "q_hat", (-math.cos(inc) * math.sin(raan),
+                                           math.cos(inc) * math.cos(raan), math.sin(inc)))
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the scene models an orbit at all."""
+        return self.model != "none"
+
+    @property
+    def torques(self) -> bool:
+        """Whether the orbit applies a torque of its own (gravity gradient)."""
+        return self.gravity_gradient
+
+    @property
+    def period(self) -> float:
+        """Orbital period, s."""
+        return 2.0 * math.pi / self.mean_motion
+
+    # ------------------------------------------------------------------- kinematics
+
+    def direction_N(self, t, xp) -> tuple:
+        """Unit position vector r̂_N (3 components) at time t (s, float or (N,) array)."""
+        u = math.radians(self.arg_latitude_deg) + self.mean_motion * t
+        c, s = xp.cos(u), xp.sin(u)
+        p, q = self.p_hat, self.q_hat
+        return (c * p[0] + s * q[0], c * p[1] + s * q[1], c * p[2] + s * q[2])
+
+    # ------------------------------------------------------------------- torques, field
+
+    def gravity_gradient_B(self, body, q_BN, t, xp) -> tuple:
+        """``3n² r̂_B × (I r̂_B)``, N·m, body axes; ``body`` a RigidBody (or BatchBody)."""
+        r_B = k.rotate_inverse(q_BN, self.direction_N(t, xp))
+        return k.scale(k.cross(r_B, body.inertia_times(r_B)), 3.0 * self.mean_motion ** 2)
+
+    def field_N(self, t, xp) -> tuple:
+        """Earth's field at the satellite, T, ECI axes (tilted dipole, IGRF-14 2025.0)."""
+        r_hat = self.direction_N(t, xp)
+        theta = math.radians(self.earth_rotation_deg) + OMEGA_EARTH * t
+        c, s = xp.cos(theta), xp.sin(theta)
+        g10, g11, h11 = (1e-9 * v for v in IGRF14_2025_NT)
+        # The Earth-fixed dipole m_E = (g11, h11, g10), turned into ECI by θ about z.
+        m = (c * g11 - s * h11, s * g11 + c * h11, g10 + 0.0 * c)
+        scale = (R_REF / self.radius) ** 3
+        d = 3.0 * k.dot(m, r_hat)
+        return (scale * (d * r_hat[0] - m[0]), scale * (d * r_hat[1] - m[1]),
+                scale * (d * r_hat[2] - m[2]))
+
+    def field_B(self, q_BN, t, xp) -> tuple:
+        """Earth's field in body axes, T."""
+        return k.rotate_inverse(q_BN, self.field_N(t, xp))

@@ -1,0 +1,234 @@
+"""Reaction wheels, magnetorquers and the orbit's torques against independent references:
+conservation of total angular momentum, the wheel spin-up closed form (Basilisk's BOE test),
+gravity-gradient libration frequencies and equilibria, and B-dot's monotone energy."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import rbenv
+from core import kernels as k
+from core.errors import InvalidParameterError
+from rbenv.orbit import Orbit
+from rbenv.scene import Scene
+
+DETUMBLE = rbenv.DETUMBLE_ID
+
+
+def _scene(**tables) -> Scene:
+    data = {"name": "test", "body": {"mass": 12.0, "inertia": [[0.185, 0.0, 0.0],
+                                                              [0.0, 0.144, 0.0],
+                                                              [0.0, 0.0, 0.061]]},
+            "episode": {"duration": 2000.0, "rate_limit": 5.0, "max_initial_rate": 1.0,
+                        "success_rate": 1e-9}}
+    data.update(tables)
+    return Scene.from_dict(data)
+
+
+def _env(scene, env_id=DETUMBLE, **kwargs):
+    return gym.make(env_id, scene=scene, **kwargs).unwrapped  # no TimeLimit: long runs
+
+
+def _total_momentum_W(env) -> np.ndarray:
+    """R(q) (I_RW ω + G h): the bus plus the wheels' absolute spin momentum, world frame."""
+    st, plant = env._st, env.plant
+    wheels = plant.actuators[0].wheels
+    h = wheels.inertia * (st.wheel_speed + wheels.axes_B @ np.array(st.omega_B))
+    m_B = plant.body.inertia @ np.array(st.omega_B) + h @ wheels.axes_B
+    return np.array(k.rotate(st.q, tuple(m_B)))
+
+
+PYRAMID = [[math.cos(b) * math.cos(a), math.cos(b) * math.sin(a), math.sin(b)]
+           for b in [math.asin(1 / math.sqrt(3))] for a in np.radians([45, 135, 225, 315])]
+
+
+def _momentum_drift(integrator, substeps=1):
+    scene = _scene(wheels={"axes": PYRAMID, "inertia": 2.94e-5, "max_torque": 0.0032,
+                           "max_speed_rpm": 6500, "initial_speed_rpm": [1000, -500, 300, 0]},
+                   physics={"integrator": integrator, "control_dt": 0.5, "substeps": substeps})
+    env = _env(scene)
+    env.reset(seed=1, options={"omega_B": [0.05, -0.1, 0.08]})
+    L0 = _total_momentum_W(env)
+    rng = np.random.default_rng(0)
+    for _ in range(400):  # 200 s of random motor torques (internal: L_W must not move)
+        env.step(rng.uniform(-1, 1, 4).astype(np.float32))
+    assert np.abs(np.array(env._st.wheel_speed)).max() > 10.0  # the wheels really moved
+    return np.abs(_total_momentum_W(env) - L0).max() / np.linalg.norm(L0)
+
+
+def test_total_angular_momentum_is_conserved_under_any_motor_torque():
+    """midpoint keeps L_W to round-off whatever the (internal) motor torques; RK4 drifts at
+    its order: half the step, about 1/16 of the drift."""
+    assert _momentum_drift("midpoint") <= 1e-13
+    coarse, fine = _momentum_drift("rk4"), _momentum_drift("rk4", substeps=2)
+    assert coarse < 1e-4 and coarse / fine > 10.0
+
+
+def test_wheel_spin_up_matches_the_closed_form():
+    """Basilisk's BOE case: hub I1 = 2 kg·m² without the wheel, J_s = 0.15915 kg·m² on z,
+    u = 0.2 N·m: ω_z = ω_z0 − (u/I1) t and Ω = u (I1 + J_s)/(I1 J_s) t."""
+    I1, J, u, w0 = 2.0, 100.0 / (6000 * 2 * math.pi / 60), 0.2, 0.35
+    scene = _scene(body={"mass": 10.0, "inertia": [[I1, 0, 0], [0, I1, 0], [0, 0, I1 + J]]},
+                   wheels={"axes": [[0, 0, 1]], "inertia": J, "max_torque": u,
+                           "max_speed_rpm": 1e5},
+                   physics={"integrator": "rk4", "control_dt": 0.5})
+    env = _env(scene)
+    env.reset(seed=0, options={"omega_B": [0.0, 0.0, w0]})
+    for _ in range(10):
+        env.step(np.ones(1, np.float32))
+    t = 5.0
+    assert env._st.omega_B[2] == pytest.approx(w0 - u / I1 * t, abs=1e-12)  # −0.15 rad/s
+    assert env._st.wheel_speed[0] == pytest.approx(u * (I1 + J) / (I1 * J) * t, rel=1e-12)
+    assert env._st.wheel_speed[0] == pytest.approx(6.7832, abs=1e-4)  # Basilisk's figure
+
+
+def test_a_wheel_at_its_speed_limit_cannot_be_accelerated_further():
+    scene = _scene(wheels={"axes": [[0, 0, 1]], "inertia": 1e-3, "max_torque": 0.01,
+                           "max_speed_rpm": 60.0, "initial_speed_rpm": 60.0},
+                   physics={"integrator": "rk4", "control_dt": 0.5})
+    env = _env(scene)
+    env.reset(seed=0, options={"omega_B": [0.0, 0.0, 0.0]})
+    env.step(np.ones(1, np.float32))  # pushes further: refused
+    assert env._st.wheel_torque[0] == 0.0
+    assert env._st.wheel_speed[0] == pytest.approx(2 * math.pi, rel=1e-12)
+    env.step(-np.ones(1, np.float32))  # slowing down is allowed
+    assert env._st.wheel_torque[0] == pytest.approx(-0.01)
+
+
+def _lvlh_quaternion(orbit: Orbit, t: float, pitch: float) -> tuple:
+    r_hat = np.array(orbit.direction_N(t, np))
+    h_hat = np.cross(orbit.p_hat, orbit.q_hat)
+    z, y = -r_hat, -h_hat
+    x = np.cross(y, z)
+    c, s = math.cos(pitch), math.sin(pitch)
+    R = np.column_stack([x, y, z]) @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    from scipy.spatial.transform import Rotation
+
+    return tuple(Rotation.from_matrix(R).as_quat(scalar_first=True))
+
+
+def _pitch_history(inertia, pitch0, orbits=3.0, dt=10.0):
+    scene = _scene(body={"mass": 10.0, "inertia": np.diag(inertia).tolist()},
+                   wheels={"axes": [[1, 0, 0]], "inertia": 1e-9, "max_torque": 1e-6,
+                           "max_speed_rpm": 1.0},  # a dormant actuator: the scene needs one
+                   orbit={"model": "circular", "altitude_km": 500.0, "inclination_deg": 45.0,
+                          "gravity_gradient": True},
+                   physics={"integrator": "rk4", "control_dt": dt},
+                   episode={"duration": 1e6, "rate_limit": 5.0, "max_initial_rate": 1.0,
+                            "success_rate": 1e-9})
+    env = _env(scene)
+    orbit = scene.orbit
+    n = orbit.mean_motion
+    env.reset(seed=0, options={"q": _lvlh_quaternion(orbit, 0.0, pitch0),
+                               "omega_B": [0.0, -n * math.cos(0), 0.0]})
+    steps = int(orbits * orbit.period / dt)
+    pitch = np.empty(steps)
+    for i in range(steps):
+        env.step(np.zeros(1, np.float32))
+        q_L = _lvlh_quaternion(orbit, (i + 1) * dt, 0.0)
+        rel = k.qmul((q_L[0], -q_L[1], -q_L[2], -q_L[3]), env._st.q)  # body in LVLH axes
+        sign = -1.0 if rel[0] < 0.0 else 1.0  # q and −q are one attitude
+        pitch[i] = 2.0 * math.atan2(sign * rel[2], sign * rel[0])
+    return pitch, n, dt
+
+
+def test_gravity_gradient_pitch_libration_has_its_closed_form_frequency():
+    """Lagrange region I_y > I_x > I_z: pitch ω_p = n √(3 (I_x − I_z)/I_y) = 0.9258 n."""
+    Ix, Iy, Iz = 0.30, 0.35, 0.20
+    pitch, n, dt = _pitch_history((Ix, Iy, Iz), math.radians(1.0), orbits=6.0)
+    # The period from the upward zero crossings (linear interpolation between samples).
+    i = np.flatnonzero((pitch[:-1] < 0.0) & (pitch[1:] >= 0.0))
+    crossings = (i + 1 + pitch[i] / (pitch[i] - pitch[i + 1])) * dt
+    measured = 2.0 * math.pi / np.mean(np.diff(crossings))
+    expected = n * math.sqrt(3 * (Ix - Iz) / Iy)
+    assert expected / n == pytest.approx(0.9258, abs=1e-4)
+    assert len(crossings) >= 4
+    assert measured == pytest.approx(expected, rel=2e-3)
+    assert np.abs(pitch).max() < math.radians(1.2)  # stable: it librates, it does not leave
+
+
+def test_gravity_gradient_pitch_equilibrium_is_unstable_outside_the_lagrange_region():
+    """I_x < I_z: pitch has no restoring torque and a 1° offset grows past 20°."""
+    pitch, _, _ = _pitch_history((0.20, 0.35, 0.30), math.radians(1.0), orbits=2.0)
+    assert np.abs(pitch).max() > math.radians(20.0)
+
+
+def test_the_dipole_field_has_its_textbook_size_at_500_km():
+    orbit = Orbit(model="circular", altitude_km=500.0, inclination_deg=90.0,
+                  magnetic_field=True)
+    # The field along a polar orbit: 2·B0 (R/r)³ near the dipole's axis, B0 (R/r)³ at its
+    # equator (the dipole is tilted 9.2°, so the extremes are within a few percent).
+    t = np.linspace(0.0, orbit.period, 2000)
+    b = np.linalg.norm(np.array(orbit.field_N(t, np)), axis=0)
+    b0 = math.sqrt(sum(c * c for c in (-29350.0, -1410.3, 4545.5))) * 1e-9
+    eq = b0 * (6371.2e3 / orbit.radius) ** 3
+    assert eq == pytest.approx(23.7e-6, rel=0.01)
+    assert b.max() == pytest.approx(2 * eq, rel=0.03)
+    assert b.min() == pytest.approx(eq, rel=0.05)
+
+
+def test_b_dot_lowers_the_kinetic_energy_at_every_step():
+    scene = _scene(magnetorquers={"axes": [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+                                  "max_dipole": 0.2, "power_W": 0.2},
+                   orbit={"model": "circular", "altitude_km": 500.0, "inclination_deg": 97.4,
+                          "magnetic_field": True},
+                   physics={"integrator": "rk4", "control_dt": 1.0})
+    env = _env(scene)
+    env.reset(seed=3, options={"omega_B": [0.08, -0.06, 0.1]})
+    inertia = env.plant.body.inertia
+    gain = 2e4  # A·m²/(T·rad/s): saturates at these rates, as bang-bang B-dot does
+
+    def energy():
+        w = np.array(env._st.omega_B)
+        return 0.5 * w @ inertia @ w
+
+    e = [energy()]
+    for _ in range(3000):
+        w, b = np.array(env._st.omega_B), np.array(env._st.field_B_T)
+        m = np.clip(gain * np.cross(w, b), -0.2, 0.2)  # m = k ω × B: τ = −k|B|² ω⊥
+        env.step((m / 0.2).astype(np.float32))
+        e.append(energy())
+    e = np.array(e)
+    assert np.all(np.diff(e) <= 1e-15 * e[0])
+    assert e[-1] < 0.5 * e[0]  # and it really detumbles
+
+
+def test_scene_errors_name_the_field():
+    with pytest.raises(InvalidParameterError, match=r"wheels\.max_torque"):
+        _scene(wheels={"axes": [[0, 0, 1]], "inertia": 1e-3, "max_torque": -1.0,
+                       "max_speed_rpm": 100.0})
+    with pytest.raises(InvalidParameterError, match=r"magnetorquers need Earth's field"):
+        _env(_scene(magnetorquers={"axes": [[0, 0, 1]], "max_dipole": 0.2}))
+    with pytest.raises(InvalidParameterError, match=r"orbit\.gravity_gradient"):
+        Orbit(gravity_gradient=True)
+    with pytest.raises(InvalidParameterError, match="at least one actuator"):
+        Scene.from_dict({"name": "bare", "body": {"mass": 1.0, "inertia": np.eye(3).tolist()}})
+
+
+@pytest.mark.parametrize("mode", ["throttle", "torque"])
+@pytest.mark.parametrize("env_id", list(rbenv.ENV_IDS))
+def test_both_checkers_pass_on_the_wheel_scene_for_every_task(env_id, mode):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker",
+                              reason="stable-baselines3 is not installed (train extra)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode).unwrapped,
+                  skip_render_check=True)
+        sb3.check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode).unwrapped)
+
+
+def test_wheel_scene_observes_wheel_speeds_and_the_magnetometer():
+    env = gym.make(rbenv.ENV_ID, scene="cubesat-6u-rw").unwrapped
+    assert list(env.observation_structure) == ["q_err", "omega_B", "wheel_speed", "field_B"]
+    obs, _ = env.reset(seed=0)
+    b = obs[10:13] * 5e-5  # T
+    assert 20e-6 < np.linalg.norm(b) < 50e-6  # LEO field strength, in body axes
+    np.testing.assert_allclose(b, np.array(env._st.field_B_T), rtol=1e-6)
