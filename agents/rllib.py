@@ -43,6 +43,8 @@ from core.errors import InvalidParameterError
 ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every Ray process
 POLICY_DIR = "policy"
 MODULE_PATH = Path("learner_group") / "learner" / "rl_module" / "default_policy"
+RLLIB_HINT = ("Every RLlib run folder holds RLlib's pickles: pass the flag for runs you or your "
+              "own cluster wrote")
 # RLlib PPO settings matched to `rbenv train`'s SB3 PPO: 4096 steps per update in minibatches
 # of 1024, 5 epochs, the same learning rate, discount, clipping and gradient-norm limit; the
 # value loss unclipped.
@@ -181,7 +183,7 @@ class RLlibPolicy:
     def __init__(self, path, *, trust_pickle: bool = False):
         self.source = module_dir(Path(path))
         runs.require_trust(self.source, "an RLlib checkpoint (RLlib pickles its modules)",
-                           trust_pickle)
+                           trust_pickle, RLLIB_HINT)
         import torch
         from ray.rllib.core.rl_module.rl_module import RLModule
 
@@ -333,7 +335,8 @@ def train(cfg: RLlibConfig, *, resume: bool = False, force: bool = False,
     """
     if resume and not trust_pickle:
         runs.require_trust(Path(cfg.out) / runs.CHECKPOINTS,
-                           "an RLlib run's checkpoint folder (RLlib pickles its state)", False)
+                           "an RLlib run's checkpoint folder (RLlib pickles its state)", False,
+                           RLLIB_HINT)
     require_ray("--engine rllib")
     cfg = resumed_config(Path(cfg.out), cfg.timesteps) if resume else cfg.resolve()
     out = Path(cfg.out)

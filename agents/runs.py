@@ -80,14 +80,16 @@ class UntrustedPickleError(RunFolderError):
     """A pickle-based file (an SB3 ``.zip``, a ``.pkl``) was to be loaded without trust."""
 
 
-def require_trust(path: Path, what: str, trust_pickle: bool) -> None:
+SB3_HINT = ("Run folders written by this rbenv hold no pickle (policy.pt, policy.json, "
+            "obs_stats.npz); retrain, or load an old folder once with the flag")
+
+
+def require_trust(path: Path, what: str, trust_pickle: bool, hint: str = SB3_HINT) -> None:
     """Refuse the pickle-based file ``path`` unless ``trust_pickle``, naming the flag."""
     if not trust_pickle:
         raise UntrustedPickleError(
             f"{str(path)!r} is {what}, a pickle-based file: loading it runs any code its author "
-            f"put in it. Pass {TRUST_FLAG} only for a file from a source you trust. Run "
-            "folders written by this rbenv hold no pickle (policy.pt, policy.json, "
-            "obs_stats.npz); retrain, or load an old folder once with the flag")
+            f"put in it. Pass {TRUST_FLAG} only for a file from a source you trust. {hint}")
 
 
 def stats_name(model: Path) -> Path:

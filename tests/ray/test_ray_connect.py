@@ -60,10 +60,15 @@ def test_rllib_on_single_node_cluster_via_address(raytools, tmp_path):
         assert json.loads((out / "config.json").read_text())["engine"] == "rllib"
         assert "ppo (RLlib, trained)" in (out / "report.md").read_text()
         assert (out / "checkpoints" / "latest.json").is_file()
-        # rbenv evaluate takes the RLlib run folder like an SB3 one (its task and options).
-        r = subprocess.run([sys.executable, "-m", "rbenv", "evaluate", "--policy", str(out),
-                            "--episodes", "8", "--seed", "1000000"], env=env,
-                           capture_output=True, text=True, timeout=300, cwd=raytools.REPO)
+        # rbenv evaluate takes the RLlib run folder like an SB3 one (its task and options);
+        # RLlib's checkpoints are pickles, so only with --trust-pickle.
+        evaluate = [sys.executable, "-m", "rbenv", "evaluate", "--policy", str(out),
+                    "--episodes", "8", "--seed", "1000000"]
+        r = subprocess.run(evaluate, env=env, capture_output=True, text=True, timeout=300,
+                           cwd=raytools.REPO)
+        assert r.returncode == 2 and "--trust-pickle" in r.stderr, r.stderr[-2000:]
+        r = subprocess.run([*evaluate, "--trust-pickle"], env=env, capture_output=True,
+                           text=True, timeout=300, cwd=raytools.REPO)
         assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
         assert "| 8 |" in r.stdout
     finally:

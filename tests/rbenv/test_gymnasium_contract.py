@@ -73,9 +73,18 @@ def _native(env_id, scene, mode, **kwargs):
                         autoreset_mode=mode, scene=scene, max_episode_steps=EPISODE, **kwargs)
 
 
+def _time_limit():
+    """Gymnasium's own TimeLimit. Importing rl_zoo3 (the ecosystem tests do) replaces
+    ``gymnasium.wrappers.TimeLimit`` process-wide with a subclass that reports an episode that
+    ends and times out at once as not truncated; the reference must be Gymnasium's."""
+    return next(c for c in gym.wrappers.TimeLimit.__mro__
+                if c.__module__.startswith("gymnasium.") and c.__name__ == "TimeLimit")
+
+
 def _sync(env_id, scene, mode):
-    return SyncVectorEnv([lambda: gym.make(env_id, scene=scene, max_episode_steps=EPISODE,
-                                           disable_env_checker=True) for _ in range(N)],
+    limit = _time_limit()
+    return SyncVectorEnv([lambda: limit(gym.make(env_id, scene=scene, disable_env_checker=True)
+                                        .unwrapped, EPISODE) for _ in range(N)],
                          autoreset_mode=mode)
 
 
