@@ -34,7 +34,7 @@ import numpy as np
 from agents.runs import RunFolderError
 
 FORMAT = 1
-ALGOS = ("ppo", "sac")
+ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")  # every rbenv train --algo (agents.train.ALGOS)
 POLICY = "MlpPolicy"
 _STATS_FIELDS = ("obs_mean", "obs_var", "obs_count", "ret_mean", "ret_var", "ret_count",
                  "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs", "norm_reward")

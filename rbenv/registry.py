@@ -30,7 +30,7 @@ import gymnasium as gym
 
 from core.errors import InvalidParameterError
 
-__all__ = ["TaskSpec", "by_name", "get", "register", "specs", "zoo_hyperparams"]
+__all__ = ["TaskSpec", "by_name", "get", "register", "specs", "unregister", "zoo_hyperparams"]
 
 _ID = re.compile(r"^[A-Za-z0-9_.-]+/[A-Za-z0-9_.]+-v\d+$")
 _REF = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
@@ -149,13 +149,19 @@ def register(spec: TaskSpec) -> TaskSpec:
     return spec
 
 
+def unregister(env_id: str) -> None:
+    """Remove an entry and its Gymnasium id (a test's task, say); unknown ids are ignored."""
+    if _SPECS.pop(env_id, None) is not None and env_id in gym.registry:
+        del gym.registry[env_id]
+
+
 def get(env_id: str) -> TaskSpec:
     """The entry of a registered id; the error lists the registered ids."""
     try:
         return _SPECS[env_id]
     except (KeyError, TypeError):
         raise InvalidParameterError(
-            f"env id must be one of the registered rbenv tasks {sorted(_SPECS)}, got "
+            f"env_id must be one of the registered rbenv tasks {sorted(_SPECS)}, got "
             f"{env_id!r}") from None
 
 

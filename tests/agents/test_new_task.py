@@ -114,7 +114,14 @@ SPEC = registry.TaskSpec(env_id=SUN_ID, task=PointSun, make=make_point_sun,
                          baselines={"hold": SunHold}, budget={"ppo": 4096},
                          hyperparams={"ppo": tuned.PPO},
                          env_doc="Point body +x at the Sun (a test task).")
-registry.register(SPEC)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _registered():
+    """The one registry entry; removed afterwards, so no other test meets this task."""
+    registry.register(SPEC)
+    yield
+    registry.unregister(SUN_ID)
 
 
 # --------------------------------------------------------------------------- the tests

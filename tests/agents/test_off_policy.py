@@ -34,7 +34,7 @@ def test_short_run_uses_the_shipped_settings_and_reports(tmp_path, algo):
                       checkpoint_every=1024, eval_every=1024, eval_episodes=4,
                       report_episodes=4)
     train(cfg, progress_bar=False, report=True)
-    for name in ("config.json", "model.zip", "vecnormalize.pkl", "training.json", "report.md",
+    for name in ("config.json", "policy.pt", "obs_stats.npz", "training.json", "report.md",
                  "evaluation.json", "eval/evaluations.npz"):
         assert (out / name).exists(), name
     config = json.loads((out / "config.json").read_text())
@@ -54,9 +54,11 @@ def test_short_run_uses_the_shipped_settings_and_reports(tmp_path, algo):
     policy = load_policy(out)
     assert type(policy.model).__name__.lower() == algo
     assert policy.model.action_space.shape == (3,)  # torque actions, from the shipped env_kwargs
-    if algo == "td3":  # the zoo's noise_type/noise_std became the same NormalActionNoise
-        noise = policy.model.action_noise  # SB3 vectorises it over the sub-envs
-        assert np.allclose(getattr(noise, "base_noise", noise)._sigma, settings["noise_std"])
+    if algo == "td3":  # the zoo's noise_type/noise_std become the same NormalActionNoise
+        from agents.train import model_kwargs
+
+        noise = model_kwargs(TrainConfig(algo="td3").resolve(), policy.model)["action_noise"]
+        assert np.allclose(noise._sigma, settings["noise_std"])
 
 
 def test_cli_algo_choice_reads_the_shipped_module(tmp_path):

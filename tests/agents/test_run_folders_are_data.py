@@ -103,7 +103,7 @@ def test_weights_round_trip_restores_every_state_a_resume_needs(algo, ppo_run, s
     cfg = runs.read_config(out)
     ckpt = out / "checkpoints" / "policy_256.pt"
     env = runs.load_stats(out / "checkpoints" / "obs_stats_256.npz",
-                          make_vec_env(tiny(out, algo=algo), 4, 0))
+                          make_vec_env(tiny(out, algo=algo, env_kwargs=cfg["env_kwargs"]), 4, 0))
     model = runs.load_model(ckpt, env=env, hyperparams=cfg["hyperparams"], seed=0)
     saved = weights.read_tensors(ckpt)
     assert model.num_timesteps == 256

@@ -22,7 +22,7 @@ def test_grid_is_seed_major_with_stable_names():
     assert [c.seed for c in cells] == [0] * 4 + [1] * 4
     assert cells[0].name == "ppo-reorient-cubesat-12u-seed0"
     assert cells[1].name == "ppo-reorient-boom-sat-seed0"
-    assert cells[2].timesteps == suite.BUDGETS["ppo"]["detumble"]
+    assert cells[2].timesteps == rbenv.registry.get(rbenv.DETUMBLE_ID).timesteps("ppo")
     assert len({c.name for c in cells}) == len(cells)
     assert Cell("ppo", rbenv.TRACK_ID, "boom-sat", 2, 5).name == "ppo-track-boom-sat-seed2"
 
@@ -33,7 +33,7 @@ def test_train_config_refuses_an_unknown_env_id():
 
 
 def _fake_result(algo, task, scene, seed, success, fuel_kg=0.001):
-    cell = Cell(algo, suite.TASKS[task], scene, seed, 1000)
+    cell = Cell(algo, suite.tasks()[task], scene, seed, 1000)
     summary = {"success_rate": success, "fuel": {"mean": fuel_kg, "unit": "kg"},
                "settle_time_s": {"median": 10.0, "p90": 12.0}, "seed": 7, "episodes": 4}
     return {"version": suite.RESULT_VERSION, "complete": True, "cell": cell.__dict__,

@@ -33,7 +33,7 @@ def test_every_registered_id_has_zoo_settings():
 @pytest.mark.parametrize("algo", ALGOS)
 def test_every_algorithm_ships_settings_for_every_id(algo):
     table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
-    assert sorted(table) == sorted(rbenv.ENV_IDS)
+    assert set(rbenv.ENV_IDS) <= set(table)  # every shipped id (a test may register more)
 
 
 @pytest.mark.parametrize("algo", ALGOS)
