@@ -79,12 +79,11 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         plant = self.plant
-        try:
+        if type(action) is np.ndarray and action.dtype.kind in "fiu" \
+                and action.shape == plant.action_shape:
             a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            a = None
-        if a is None or a.shape != plant.action_shape:
-            action_array(action, plant.action_shape)  # raises the named error
+        else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
+            a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
         st, out = transition.step(plant, self.task, st, a, noise, FLOAT)
         if out.diverged:

@@ -20,6 +20,7 @@ from core.errors import InvalidParameterError
 from rbenv import transition
 from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
 from rbenv.draws import EpisodeDraws
+from rbenv.env import unknown_options
 from rbenv.state import State, assign, from_start
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
@@ -70,7 +71,12 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False):
+                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False,
+                 **unknown):
+        if unknown:
+            unknown_options(type(self).__name__, unknown,
+                            (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
+                             "render_mode"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
