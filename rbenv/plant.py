@@ -26,11 +26,11 @@ import numpy as np
 
 from core import INTEGRATORS, validation
 from core import kernels as k
-from core.backend import rows
 from core.dynamics import check_finite_state, translate
 from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
 from rbenv.actuators.thrusters import ACTION_MODES, ALLOCATORS, action_matrix, nan_action_error
+from rbenv.orbit import OrbitTable
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import Scene
 
@@ -74,6 +74,7 @@ class Plant:
     observed: bool = field(init=False)  # some actuator adds to the observation
     body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
     orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
+    orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
     action_shape: tuple = field(init=False)
     action_slices: tuple = field(init=False, repr=False)  # each actuator's slice of the action
     advance_kernel: object = field(init=False, repr=False)
@@ -106,6 +107,9 @@ class Plant:
         values["observed"] = any(a.observation_structure for a in acts)
         values["body"] = _integrated_body(self.scene, acts)
         values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
+        values["orbit_table"] = None if values["orbit"] is None else OrbitTable(
+            values["orbit"], self.scene.physics.h, self.scene.episode_steps
+            * self.scene.physics.substeps)
         if values["randomization"] is not None and values["body"] is not self.scene.body:
             raise InvalidParameterError(
                 "domain randomization of the inertia does not know the wheels' rotors yet; "
@@ -196,11 +200,11 @@ class Plant:
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
         """The actuators' summed contribution under ``action`` (each takes its slice); they
         set their own fields on ``st``. ``in_place``: the caller owns ``action``."""
-        acts, rx = self.actuators, rows(xp)
+        acts = self.actuators
         if len(acts) == 1:
             act = acts[0]
-            return act.actuate(st, act.command(action, in_place, rx), noise, xp)
-        parts = [a.actuate(st, a.command(action[..., s], False, rx), noise, xp)
+            return act.actuate(st, act.command(action, in_place, xp), noise, xp)
+        parts = [a.actuate(st, a.command(action[..., s], False, xp), noise, xp)
                  for a, s in zip(acts, self.action_slices, strict=True)]
         return sum_contributions(parts)
 
@@ -226,15 +230,16 @@ class Plant:
         h, advance = self.h, self.advance_kernel
         q, w = st.q, st.omega_B
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
-        gg = self.orbit is not None and self.orbit.gravity_gradient
+        table = self.orbit_table
+        gg = table is not None and table.gravity_gradient
         tau_c = tau
         try:
             for j in range(self.substeps):
                 if st.x is not None:
                     self._translate(st, body, k.rotate(q, c.force_B))
                 if gg:  # held over the substep, from its start
-                    t = (st.steps + j / self.substeps) * self.control_dt
-                    tau = k.add(tau_c, self.orbit.gravity_gradient_B(self.scene.body, q, t, xp))
+                    tau = k.add(tau_c, table.gravity_gradient_B(
+                        self.scene.body, q, st.steps * self.substeps + j, xp))
                 if h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
                 else:  # internal momentum (wheels), moving linearly over the step
@@ -257,7 +262,7 @@ class Plant:
         for act in self.accounting:
             act.account(st, c, self.control_dt, xp)
         if st.field_B_T is not None:
-            st.field_B_T = self.orbit.field_B(q, st.steps * self.control_dt, xp)
+            st.field_B_T = table.field_B(q, st.steps * self.substeps, xp)
         return xp.not_finite((*q, sq))
 
     def _translate(self, st, body, force_W: tuple) -> None:
@@ -340,7 +345,7 @@ class Plant:
     def complete_start(self, start: dict, xp) -> None:
         """Derived start values that need the task's attitude: the field in body axes."""
         if "field_B_T" in start:
-            start["field_B_T"] = self.orbit.field_B(start["q"], 0.0, xp)
+            start["field_B_T"] = self.orbit_table.field_B(start["q"], 0, xp)
 
     @property
     def observation_structure(self) -> dict:

@@ -104,7 +104,7 @@ class Thrusters:
 
     # ------------------------------------------------------------------- command
 
-    def command(self, a: np.ndarray, in_place: bool = False, rx=NUMPY) -> np.ndarray:
+    def command(self, a: np.ndarray, in_place: bool = False, xp=NUMPY) -> np.ndarray:
         """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
 
         throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
@@ -112,9 +112,10 @@ class Thrusters:
         rejected; in throttle mode by the adapters from the propagated NaN thrust, which the
         state's finiteness flag catches (no extra check on the hot path). ``in_place``: the
         caller owns ``a`` and lets throttle mode clip it in place (the vector env's batch).
-        rx: the namespace of the action's array (:func:`core.backend.rows`). The allocators of
-        torque mode are NumPy (SciPy for nnls and lp).
+        xp: the state's namespace (the action's rows are :func:`core.backend.rows` of it). The
+        allocators of torque mode are NumPy (SciPy for nnls and lp).
         """
+        rx = rows(xp)
         mode = self.action_mode
         low, high = self.action_bounds
         if mode == "throttle":
