@@ -401,7 +401,12 @@ def _integrated_body(scene: Scene, actuators: tuple):
         return scene.body
     from core import RigidBody
 
-    return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
+    try:
+        return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
+    except RbenvValueError as exc:
+        raise InvalidParameterError(
+            f"wheels.inertia: the scene's inertia less the rotors' spin inertia Σ J ĝĝᵀ must "
+            f"still be a rigid body's (the bus carries the rotors), but {exc}") from None
 
 
 def _scene_scalars(sc: Scene) -> dict:

@@ -13,9 +13,11 @@ rotors' spin inertia (the plant integrates with it) and ``u`` the net motor torq
 wheels. The motor torque is internal: it moves momentum between bus and wheels, and the total
 ``I_RW ω + G h`` (in the world frame) changes only under external torque.
 
-Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; at the speed limit
-(|Ω| ≥ Ω_max with Ω·u ≥ 0) the motor cannot accelerate the wheel further (u = 0); optional
-viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
+Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; a torque that
+speeds the wheel up is limited to ``(Ω_max − |Ω|) J/dt``, what brings it to the speed limit at
+the end of the control step, so at the limit the motor cannot accelerate it further (u = 0,
+Basilisk's rule, which checks only at the step's start and so overshoots by up to u·dt/J);
+optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
 (default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]) and
 ``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
 pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max).
@@ -131,6 +133,7 @@ class Wheels:
 
     wheels: WheelSet
     control_dt: float  # s
+    bus_inertia: np.ndarray  # (3, 3) kg·m², the whole spacecraft's (rotors included)
     action_mode: str = "throttle"
     n: int = field(init=False)
     action_shape: tuple = field(init=False)
@@ -144,6 +147,7 @@ class Wheels:
     inv_max_speed: tuple = field(init=False, repr=False)  # n floats, s/rad
     max_speed: tuple = field(init=False, repr=False)  # n floats, rad/s
     max_torque: tuple = field(init=False, repr=False)  # n floats, N·m
+    headroom: tuple = field(init=False, repr=False)  # n floats J/dt, N·m per rad/s of room
     inv_max_torque: tuple = field(init=False, repr=False)  # n floats, 1/(N·m)
     pinv_rows: tuple = field(init=False, repr=False)  # n rows of G⁺ (3-tuples)
     authority: tuple | None = field(init=False, repr=False)  # torque_authority as floats
@@ -165,6 +169,7 @@ class Wheels:
         for arr in (low, high):
             arr.setflags(write=False)
         pinv = np.linalg.pinv(g.T)  # (n, 3): u = −pinv τ gives the body torque τ (−G u = τ)
+        inv_bus = np.linalg.inv(self.bus_inertia - ws.spin_inertia_B)  # I_RW⁻¹
         # Authority per axis: the largest body torque along it with every |u_i| <= u_max.
         col = np.abs(pinv)
         authority = np.array([np.min(ws.max_torque[col[:, a] > 0] / col[col[:, a] > 0, a])
@@ -185,6 +190,10 @@ class Wheels:
                   "inv_max_speed": tuple(1.0 / float(v) for v in ws.max_speed),
                   "max_speed": tuple(float(v) for v in ws.max_speed),
                   "max_torque": tuple(float(v) for v in ws.max_torque),
+                  # J_eff/dt: a wheel's relative speed moves by u·dt (1/J + ĝᵀ I_RW⁻¹ ĝ), the
+                  # bus turning the other way; J_eff = 1/(1/J + ĝᵀ I_RW⁻¹ ĝ).
+                  "headroom": tuple(float(1.0 / (1.0 / j + g_i @ inv_bus @ g_i)) / self.control_dt
+                                    for j, g_i in zip(ws.inertia, g, strict=True)),
                   "inv_max_torque": tuple(1.0 / float(v) for v in ws.max_torque),
                   "pinv_rows": tuple(tuple(float(c) for c in row) for row in pinv),
                   "authority": None if authority is None else tuple(authority.tolist()),
@@ -225,9 +234,13 @@ class Wheels:
         momentum and its rate for the integrator; electrical power."""
         ws = self.wheels
         speed, w = st.wheel_speed, st.omega_B
-        where, limit = xp.where, self.max_speed
-        u = tuple(where((abs(s) >= limit[i]) & (s * c >= 0.0), 0.0, c)
-                  for i, (s, c) in enumerate(zip(speed, u, strict=True)))
+        # A torque that speeds the wheel up is limited to what reaches Ω_max at the end of
+        # the step (zero at the limit: Basilisk's rule, without its one-step overshoot).
+        room = self.headroom
+        u = tuple(xp.where(s * c >= 0.0, xp.clip(c, -head, head), c)
+                  for s, c, head in ((s, c, xp.maximum((self.max_speed[i] - abs(s)) * room[i],
+                                                       0.0))
+                                     for i, (s, c) in enumerate(zip(speed, u, strict=True))))
         power = self.standby
         for s, c in zip(speed, u, strict=True):
             power = power + abs(c * s)
@@ -303,4 +316,4 @@ def make_wheels(scene, action_mode: str = "throttle", allocator: str = "pinv") -
     """The scene's wheels (its ``[wheels]`` table) in an action mode (``allocator`` is the
     thrusters' option: wheels always use the pseudo-inverse)."""
     return Wheels(wheels=scene.actuators["wheels"], control_dt=scene.physics.control_dt,
-                  action_mode=action_mode)
+                  bus_inertia=scene.body.inertia, action_mode=action_mode)
