@@ -54,6 +54,7 @@ class StepNoise(NamedTuple):
 # None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
                 "model": "obj", "field_B_T": "c3"}  # field_B_T: Earth's field now, T (orbit)
+_ZERO = (0.0, 0.0, 0.0)
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
@@ -235,8 +236,9 @@ class Plant:
         tau_c = tau
         try:
             for j in range(self.substeps):
-                if st.x is not None:
-                    self._translate(st, body, k.rotate(q, c.force_B))
+                if st.x is not None:  # actuators without a force (wheels, rods) push nothing
+                    self._translate(st, body, k.rotate(q, _ZERO if c.force_B is None
+                                                       else c.force_B))
                 if gg:  # held over the substep, from its start
                     tau = k.add(tau_c, table.gravity_gradient_B(
                         self.scene.body, q, st.steps * self.substeps + j, xp))
