@@ -72,6 +72,7 @@ class Plant:
     compiled: bool = False  # step with core.compiled (numba) instead of NumPy
     actuators: tuple = field(init=False)
     accounting: tuple = field(init=False, repr=False)  # actuators with work after the physics
+    sole_actuator: object = field(init=False, repr=False)  # the only actuator, or None
     observed: bool = field(init=False)  # some actuator adds to the observation
     body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
     orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
@@ -105,6 +106,7 @@ class Plant:
                       else acts[0].action_shape,
                       action_slices=tuple(slice(a, b) for a, b in itertools.pairwise(edges)))
         values["accounting"] = tuple(a for a in acts if a.needs_account)
+        values["sole_actuator"] = acts[0] if len(acts) == 1 else None
         values["observed"] = any(a.observation_structure for a in acts)
         values["body"] = _integrated_body(self.scene, acts)
         values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
@@ -201,10 +203,10 @@ class Plant:
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
         """The actuators' summed contribution under ``action`` (each takes its slice); they
         set their own fields on ``st``. ``in_place``: the caller owns ``action``."""
-        acts = self.actuators
-        if len(acts) == 1:
-            act = acts[0]
+        act = self.sole_actuator
+        if act is not None:
             return act.actuate(st, act.command(action, in_place, xp), noise, xp)
+        acts = self.actuators
         parts = [a.actuate(st, a.command(action[..., s], False, xp), noise, xp)
                  for a, s in zip(acts, self.action_slices, strict=True)]
         return sum_contributions(parts)
@@ -261,10 +263,11 @@ class Plant:
                                                                    + v[2] * v[2])
         st.q, st.omega_B = q, w
         st.steps = st.steps + 1
+        if table is not None:  # the actuators' bookkeeping and the field come with the orbit
+            if st.field_B_T is not None:
+                st.field_B_T = table.field_B(q, st.steps * self.substeps, xp)
         for act in self.accounting:
             act.account(st, c, self.control_dt, xp)
-        if st.field_B_T is not None:
-            st.field_B_T = table.field_B(q, st.steps * self.substeps, xp)
         return xp.not_finite((*q, sq))
 
     def _translate(self, st, body, force_W: tuple) -> None:
@@ -365,12 +368,14 @@ class Plant:
                 out = out + act.observe(st, xp)
         return out
 
-    def info(self, st, xp) -> dict:
-        """The actuators' info values."""
-        out = {}
+    def info(self, st, xp, out: dict) -> None:
+        """Add the actuators' info values to ``out``."""
+        act = self.sole_actuator
+        if act is not None:
+            out.update(act.info(st, xp))
+            return
         for act in self.actuators:
             out.update(act.info(st, xp))
-        return out
 
 
 NO_NOISE = StepNoise(None, None, None)

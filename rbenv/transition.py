@@ -98,7 +98,7 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     """The info dict: the task's values, the actuators' bookkeeping, the time, success and the
     reward terms (and the speed with translation)."""
     out = task.info(st, xp)
-    out.update(plant.info(st, xp))
+    plant.info(st, xp, out)
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)

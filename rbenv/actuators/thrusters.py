@@ -131,9 +131,8 @@ class Thrusters:
     def actuate(self, st, u: np.ndarray, noise, xp) -> Contribution:
         """The wrench of throttles ``u`` after faults and delay; sets health, pending,
         throttle, impulse_Ns and fuel_kg on ``st`` (the new state)."""
-        rx = rows(xp)
         if st.health is not None or st.pending is not None:
-            u = self._faults_and_delay(st, u, noise.faults, rx)
+            u = self._faults_and_delay(st, u, noise.faults, rows(xp))
         st.throttle = u
         matrix = self.action_matrix if st.model is None else st.model.action_matrix
         if xp is FLOAT:
@@ -141,7 +140,7 @@ class Thrusters:
         elif matrix.ndim == 2:
             parts = tuple(matrix.T @ u.T)
         else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
-            parts = tuple(rx.einsum("ni,nik->kn", u, matrix))
+            parts = tuple(rows(xp).einsum("ni,nik->kn", u, matrix))
         thrust = parts[3]
         impulse = thrust * self.control_dt
         st.impulse_Ns = st.impulse_Ns + impulse
