@@ -372,10 +372,10 @@ class Plant:
         """Add the actuators' info values to ``out``."""
         act = self.sole_actuator
         if act is not None:
-            out.update(act.info(st, xp))
+            act.info(st, xp, out)
             return
         for act in self.actuators:
-            out.update(act.info(st, xp))
+            act.info(st, xp, out)
 
 
 NO_NOISE = StepNoise(None, None, None)

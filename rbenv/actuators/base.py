@@ -85,5 +85,5 @@ class Actuator(Protocol):
     def observe(self, st, xp) -> tuple:
         """Its observation components (empty when ``observation_structure`` is {})."""
 
-    def info(self, st, xp) -> dict:
-        """Its info values (units in the key names)."""
+    def info(self, st, xp, out: dict) -> None:
+        """Write its info values into ``out`` (units in the key names)."""

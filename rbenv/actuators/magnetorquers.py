@@ -156,8 +156,9 @@ class Magnetorquers:
         b = st.field_B_T
         return (clip(b[0] * s, -1.0, 1.0), clip(b[1] * s, -1.0, 1.0), clip(b[2] * s, -1.0, 1.0))
 
-    def info(self, st, xp) -> dict:
-        return {"mtq_energy_J": st.mtq_energy_J}
+    def info(self, st, xp, out: dict) -> None:
+        """mtq_energy_J (cumulative)."""
+        out["mtq_energy_J"] = st.mtq_energy_J
 
 
 def make_magnetorquers(scene, action_mode: str = "throttle",

@@ -183,12 +183,12 @@ class Thrusters:
         """No observation of its own."""
         return ()
 
-    def info(self, st, xp) -> dict:
+    def info(self, st, xp, out: dict) -> None:
         """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""
-        out = {"fuel_kg": st.fuel_kg, "impulse_Ns": st.impulse_Ns}
+        out["fuel_kg"] = st.fuel_kg
+        out["impulse_Ns"] = st.impulse_Ns
         if st.health is not None:
             out["failed_thrusters"] = self.n - rows(xp).sum(st.health, axis=-1)
-        return out
 
 
 def make_thrusters(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Thrusters:

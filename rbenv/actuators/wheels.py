@@ -291,12 +291,12 @@ class Wheels:
         clip, inv = xp.clip, self.inv_max_speed
         return tuple(clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed))
 
-    def info(self, st, xp) -> dict:
+    def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
         relative to the bus)."""
         h = self._body(tuple(self.inertia[i] * s for i, s in enumerate(st.wheel_speed)))
-        return {"wheel_energy_J": st.wheel_energy_J,
-                "wheel_momentum_Nms": xp.sqrt(k.dot(h, h))}
+        out["wheel_energy_J"] = st.wheel_energy_J
+        out["wheel_momentum_Nms"] = xp.sqrt(k.dot(h, h))
 
 
 def _action_components(a, xp) -> tuple:
