@@ -21,11 +21,11 @@ from importlib.metadata import PackageNotFoundError, version
 from rbenv import registry
 from rbenv.randomization import Randomization
 from rbenv.scene import Scene, list_scenes, load_scene
-from rbenv.tasks import detumble, reorient, track
+from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
 # The shipped tasks: one registry entry each (rbenv.registry). A new task adds its line here.
-for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC):
+for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC):
     registry.register(_spec)
 
 from rbenv.env import (  # noqa: E402 (made by the registrations above)
