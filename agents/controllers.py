@@ -102,7 +102,7 @@ class _TorqueController:
                 f"scripted controllers drive action_mode 'throttle' or 'torque', got "
                 f"{plant.action_mode!r}"
             )
-        if self.allocate is None:  # reaction wheels: per-wheel motor torques, −G u = τ
+        if plant.wheels is not None:  # reaction wheels (they drive, thrusters or not): −G u = τ
             wheels = plant.wheels
             u = -(torque_B @ wheels.pinv.T) / wheels.wheels.max_torque
             scale = np.maximum(np.abs(u).max(axis=-1, keepdims=True), 1.0)
