@@ -291,6 +291,8 @@ def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:
     """The names of ``env_id``'s registered baselines that run on ``scene``."""
     import gymnasium as gym
 
+    if scene is not None and not registry.get(env_id).runs_on(scene):
+        return []  # the task itself cannot run there (desaturation without wheels)
     env = gym.make(env_id, scene=scene, **(env_kwargs or {}))
     try:
         names = []
