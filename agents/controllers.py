@@ -180,6 +180,9 @@ class EigenaxisBangBang(_TorqueController):
 
     def __post_init__(self):
         super().__post_init__()
+        if self.plant.scene.thrusters is None:
+            raise NotApplicable(f"bangbang plans with the thrusters' authority; scene "
+                                f"{self.plant.scene.name!r} has none")
         authority = axis_authority(self.plant.scene.thrusters.torque_matrix_B)
         I_axes = np.diag(self.inertia)
         object.__setattr__(self, "alpha", self.margin * float(np.min(authority / I_axes)))

@@ -31,9 +31,10 @@ class EvalResult:
     seed: int
     success: np.ndarray
     settle_time_s: np.ndarray  # time the success hold began; NaN when not successful
-    fuel_kg: np.ndarray
+    fuel_kg: np.ndarray  # NaN without thrusters
     final_error_deg: np.ndarray
     episode_time_s: np.ndarray
+    energy_J: np.ndarray = None  # electrical energy of wheels and rods; NaN without them
     traces: list[dict] = field(default_factory=list)
 
     @property
@@ -53,6 +54,8 @@ class EvalResult:
             "success_rate": float(np.mean(self.success)),
             "settle_time_s": {"median": q(50), "p90": q(90)},
             "fuel": {"mean": float(np.mean(self.fuel_kg)), "unit": "kg"},
+            "energy": {"mean": None if self.energy_J is None else float(np.mean(self.energy_J)),
+                       "unit": "J"},
             "final_error_deg": {"median": float(np.median(self.final_error_deg))},
         }
 
@@ -156,7 +159,7 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
     obs, _ = envs.reset(seed=seed)
     alive = np.ones(n, bool)
     out = {k: np.full(n, np.nan) for k in ("settle_time_s", "fuel_kg", "final_error_deg",
-                                           "episode_time_s")}
+                                           "episode_time_s", "energy_J")}
     success = np.zeros(n, bool)
     traces = [{"time_s": [], "attitude_error_deg": [], "rate_dps": [], "throttle": []}
               for _ in range(record)]
@@ -180,6 +183,9 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
             success[idx] = np.asarray(info["is_success"])[idx]
             out["episode_time_s"][idx] = np.asarray(info["time_s"])[idx]
             out["fuel_kg"][idx] = np.asarray(info.get("fuel_kg", nan))[idx]
+            energy = [np.asarray(v)[idx] for key, v in info.items() if key.endswith("_energy_J")]
+            if energy:
+                out["energy_J"][idx] = sum(energy[1:], energy[0])
             out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt
@@ -190,17 +196,19 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
 
 def format_table(results: list[EvalResult]) -> str:
     """A Markdown table of the summaries."""
+    summaries = [r.summary() for r in results]
+    fuel = any(np.isfinite(s["fuel"]["mean"]) for s in summaries)  # thrusters: propellant
     lines = ["| policy | episodes | success rate | settle time median (s) | settle time p90 (s) "
-             "| fuel mean (g) | final error median (deg) |",
+             f"| {'fuel mean (g)' if fuel else 'energy mean (J)'} | final error median (deg) |",
              "|---|---|---|---|---|---|---|"]
-    for r in results:
-        s = r.summary()
+    for s in summaries:
         def fmt(x, spec=".1f"):
             return "—" if x is None else format(x, spec)
+        effort = 1000 * s["fuel"]["mean"] if fuel else s["energy"]["mean"]
         lines.append(
             f"| {s['policy']} | {s['episodes']} | {100 * s['success_rate']:.1f}% "
             f"| {fmt(s['settle_time_s']['median'])} | {fmt(s['settle_time_s']['p90'])} "
-            f"| {1000 * s['fuel']['mean']:.2f} | {s['final_error_deg']['median']:.3g} |")
+            f"| {fmt(effort, '.2f')} | {s['final_error_deg']['median']:.3g} |")
     return "\n".join(lines)
 
 

@@ -555,7 +555,8 @@ class RunPolicy:
         validation.choice("action", action, POLICY_ACTIONS)
         gaussian = _is_unsquashed_gaussian(self.model)
         if action == "auto":
-            throttle = self.env_kwargs.get("action_mode", "throttle") == "throttle"
+            throttle = self.env_kwargs.get("action_mode", "throttle") == "throttle" \
+                and _thrusters_only(self.config)
             return "mean_throttle" if gaussian and throttle else "mode"
         if action == "mean_throttle" and not gaussian:
             raise InvalidParameterError(
@@ -631,6 +632,21 @@ def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
     lo, hi = -mean / std, (1.0 - mean) / std
     return (mean * (norm.cdf(hi) - norm.cdf(lo)) + std * (norm.pdf(lo) - norm.pdf(hi))
             + norm.sf(hi))
+
+
+def _thrusters_only(config) -> bool:
+    """Whether the run's scene actuates with thrusters alone (then a throttle action is a
+    duty cycle in [0, 1]; a wheel's or a rod's action spans [-1, 1])."""
+    import rbenv
+
+    scene = (config or {}).get("scene")
+    if scene is None:
+        return True
+    try:
+        sc = rbenv.load_scene(scene)
+    except ValueError:  # a scene file that is gone: keep the thruster default
+        return True
+    return sc.thrusters is not None and not sc.actuators
 
 
 def load_policy(path, action: str = "auto", *, trust_pickle: bool = False) -> RunPolicy:

@@ -2,7 +2,8 @@
 
 Every probe is one call with one bad, extreme or unusual input. It is classified as:
 
-* ``clear error``: a ``core.errors.RbenvValueError`` whose message names the field;
+* ``clear error``: a ``core.errors.RbenvValueError`` (or, for a wrong type, a ``TypeError``)
+  whose message names the field;
 * ``unclear error``: any other exception (``TypeError``, ``OverflowError``, ``LinAlgError``,
   ``RecursionError``, a numpy broadcasting message, or a named error that omits the field);
 * ``silently accepted``: an input the documentation forbids came back without an error;
@@ -108,8 +109,10 @@ def run_probe(fn, expect: str, fields: tuple, timeout: float) -> tuple[str, str]
         signal.setitimer(signal.ITIMER_REAL, 0)
         text = str(exc)
         detail = f"{type(exc).__name__}: {text[:160]}"
-        named = isinstance(exc, RbenvValueError) and any(f.lower() in text.lower()
-                                                         for f in fields)
+        # A TypeError for a wrong type is clear too when it names the field (Gymnasium's
+        # convention, kept by rbenv's actions and reset masks).
+        named = isinstance(exc, (RbenvValueError, TypeError)) and any(
+            f.lower() in text.lower() for f in fields)
         if expect == VALID:
             return "valid refused", detail
         return ("clear error" if named else "unclear error"), detail
@@ -579,8 +582,7 @@ def toml_probes(n: int, seed: int, tmp: Path, names: list[str]):
 
         def fn(p=path):
             scene = rbenv.load_scene(p)
-            return _episode(scene=scene, steps=5,
-                            action=np.ones(scene.n_thrusters, np.float32))
+            return _episode(scene=scene, steps=5, action=FULL)  # any actuator set
 
         probes.append(("mutated scene TOML", label, fields, label, expect, fn))
     return probes

@@ -158,6 +158,108 @@ def summary(step_rows) -> list[dict]:
     return out
 
 
+# --------------------------------------------------------------------------- wheels, rods
+
+def _wheel_scene(inertia_B, wheel_J, speed_rpm, start_rpm, integrator, dt, rods=False):
+    from rbenv.scene import Scene
+
+    data = {"name": "stability-wheels", "body": {"mass": 12.0, "inertia": inertia_B},
+            "wheels": {"axes": np.eye(3).tolist(), "inertia": wheel_J, "max_torque": 0.01,
+                       "max_speed_rpm": speed_rpm, "initial_speed_rpm": start_rpm},
+            "physics": {"integrator": integrator, "control_dt": dt},
+            "episode": {"duration": 4e5, "rate_limit": 50.0, "max_initial_rate": 40.0,
+                        "success_rate": 1e-9}}
+    if rods:
+        data["magnetorquers"] = {"axes": np.eye(3).tolist(), "max_dipole": 0.2}
+        data["orbit"] = {"model": "circular", "altitude_km": 500.0, "inclination_deg": 97.4,
+                         "magnetic_field": True}
+    return Scene.from_dict(data)
+
+
+def _momentum_W(env) -> np.ndarray:
+    from core import kernels
+
+    st, plant = env._st, env.plant
+    ws = plant.wheels.wheels
+    w = np.array(st.omega_B, dtype=float)
+    h = ws.inertia * (np.array(st.wheel_speed) + ws.axes_B @ w)
+    return np.array(kernels.rotate(st.q, tuple(plant.body.inertia @ w + h @ ws.axes_B)))
+
+
+def _drive(env, steps, action, omega0):
+    import gymnasium as gym  # noqa: F401 (the env is made by the caller)
+
+    env.reset(seed=0, options={"omega_B": omega0})
+    L0 = _momentum_W(env)
+    try:
+        for _ in range(steps):
+            env.step(action)
+    except ValueError as exc:  # NonFiniteError and the named errors are ValueErrors
+        return {"outcome": f"error: {type(exc).__name__}", "detail": str(exc)[:120]}
+    st = env._st
+    finite = bool(np.isfinite([*st.q, *st.omega_B, *st.wheel_speed]).all())
+    return {"outcome": "finite" if finite else "NON-FINITE",
+            "L_W_drift": float(np.abs(_momentum_W(env) - L0).max() / np.linalg.norm(L0)),
+            "max_wheel_rpm": float(np.abs(st.wheel_speed).max() * 60 / (2 * np.pi))}
+
+
+def wheels_at_the_extremes() -> list[dict]:
+    """Wheels at their speed limit, rotor inertia near the bus's, fast tumbles under B-dot."""
+    import gymnasium as gym
+
+    import rbenv
+
+    rows = []
+    bus = np.diag([0.185, 0.144, 0.061]).tolist()
+    for integrator in ("midpoint", "rk4"):
+        env = gym.make(rbenv.DETUMBLE_ID, scene=_wheel_scene(
+            bus, 3e-5, 6500, 6500, integrator, 0.5)).unwrapped
+        row = _drive(env, 2000, np.ones(3, np.float32), [0.05, -0.05, 0.1])
+        rows.append({"case": "wheels at 6500 rpm, pushed on", "integrator": integrator, **row})
+        for frac in (1e-3, 0.3, 0.6, 0.9):  # rotor spin inertia / smallest bus inertia
+            J = frac * 0.061
+            try:
+                env = gym.make(rbenv.DETUMBLE_ID, scene=_wheel_scene(
+                    bus, J, 600, 0, integrator, 0.5)).unwrapped
+            except ValueError as exc:
+                rows.append({"case": f"rotor J = {frac} x bus I_min", "integrator": integrator,
+                             "outcome": f"error: {type(exc).__name__}",
+                             "detail": str(exc)[:120]})
+                continue
+            rng = np.random.default_rng(0)
+            env.reset(seed=0, options={"omega_B": [0.3, -0.2, 0.4]})
+            L0, out = _momentum_W(env), "finite"
+            try:
+                for _ in range(1000):
+                    env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+            except ValueError as exc:
+                out = f"error: {type(exc).__name__}"
+            rows.append({"case": f"rotor J = {frac} x bus I_min", "integrator": integrator,
+                         "outcome": out, "L_W_drift": float(
+                             np.abs(_momentum_W(env) - L0).max() / np.linalg.norm(L0))})
+    for rate in (0.1, 0.5, 1.0, 3.0):  # rad/s tumbles, B-dot at 1 s steps
+        env = gym.make(rbenv.DETUMBLE_ID, scene=_wheel_scene(
+            bus, 3e-5, 6500, 0, "rk4", 1.0, rods=True)).unwrapped
+        env.reset(seed=0, options={"omega_B": [rate, -0.6 * rate, 0.8 * rate]})
+        inertia = env.plant.body.inertia
+        energy, rising, out = [], 0, "finite"
+        try:
+            for _ in range(500):
+                w, b = np.array(env._st.omega_B), np.array(env._st.field_B_T)
+                m = np.clip(2e4 * np.cross(w, b), -0.2, 0.2)
+                env.step(np.concatenate([np.zeros(3), m / 0.2]).astype(np.float32))
+                energy.append(0.5 * w @ inertia @ w)
+        except ValueError as exc:
+            out = f"error: {type(exc).__name__}"
+        e = np.array(energy)
+        rising = int(np.sum(np.diff(e) > 1e-12 * e[0])) if len(e) > 1 else 0
+        rows.append({"case": f"B-dot on a {rate} rad/s tumble (h|w| = {rate:.1f})",
+                     "integrator": "rk4", "outcome": out,
+                     "energy_steps_rising": rising,
+                     "energy_final_over_initial": float(e[-1] / e[0]) if len(e) else None})
+    return rows
+
+
 def main(horizon_steps: int = 1_000_000) -> dict:
     steps = sweep_step_size()
     ratios = sweep_inertia_ratio()
@@ -174,8 +276,12 @@ def main(horizon_steps: int = 1_000_000) -> dict:
                  "L_W_drift"]))
     if env:
         print(table(env, ["case", "outcome", "detail"]))
+    wheels = wheels_at_the_extremes()
+    print(table(wheels, ["case", "integrator", "outcome", "L_W_drift", "max_wheel_rpm",
+                         "energy_steps_rising", "energy_final_over_initial"]))
     data = {"step_size": steps, "inertia_ratio": ratios, "mass": masses,
-            "horizon": horizon, "horizon_steps": horizon_steps, "env_limits": env}
+            "horizon": horizon, "horizon_steps": horizon_steps, "env_limits": env,
+            "wheels": wheels}
     write_json("stability", data)
     save_figure(plot(steps, horizon), "stability")
     return data

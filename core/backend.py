@@ -68,6 +68,11 @@ class FloatNamespace:
         return -1.0 if x < 0.0 else 1.0
 
     @staticmethod
+    def sign(x):
+        """−1, 0 or +1."""
+        return (x > 0.0) - (x < 0.0) + 0.0
+
+    @staticmethod
     def all_finite(components) -> bool:
         """True when every component is finite (one sum: any NaN or inf propagates)."""
         return math.isfinite(sum(components))

@@ -149,7 +149,10 @@ def rk4(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=
     Order 4; not conservative: it slowly loses energy once h·|ω| ≳ 1.
     """
     h0, h_dot = momentum_B, momentum_rate_B
-    h_mid, h1 = _momentum_at(h0, h_dot, 0.5 * h), _momentum_at(h0, h_dot, h)
+    if h_dot is None:  # no internal momentum (or a constant one): no extra calls
+        h_mid = h1 = h0
+    else:
+        h_mid, h1 = _momentum_at(h0, h_dot, 0.5 * h), _momentum_at(h0, h_dot, h)
     k1q, k1w = _rk4_rate(body, q, w, tau_B, tau_W, h0, h_dot)
     k2q, k2w = _rk4_rate(body, _qadd(q, k1q, 0.5 * h), k.add(w, k1w, 0.5 * h), tau_B, tau_W,
                          h_mid, h_dot)

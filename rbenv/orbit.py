@@ -29,7 +29,7 @@ from core import kernels as k
 from core import validation
 from core.errors import InvalidParameterError
 
-__all__ = ["IGRF14_2025_NT", "MU_EARTH", "OMEGA_EARTH", "R_EQ", "R_REF", "Orbit"]
+__all__ = ["IGRF14_2025_NT", "MU_EARTH", "OMEGA_EARTH", "R_EQ", "R_REF", "Orbit", "OrbitTable"]
 
 MU_EARTH = 3.986004418e14  # m³/s², Earth's gravitational parameter
 R_EQ = 6378.137e3  # m, equatorial radius (altitude reference)
@@ -127,3 +127,54 @@ class Orbit:
     def field_B(self, q_BN, t, xp) -> tuple:
         """Earth's field in body axes, T."""
         return k.rotate_inverse(q_BN, self.field_N(t, xp))
+
+
+class OrbitTable:
+    """The orbit's direction and field at every integrator step of an episode, computed once.
+
+    A step then looks them up by its substep index ``k`` (time ``k·h``) instead of evaluating
+    four sines and cosines per satellite: an int for one satellite, an (N,) int array for N.
+    Past the table (a step after the episode's end) the values are computed directly for one
+    satellite and held at the last entry for a batch (those sub-envs are being reset).
+    """
+
+    def __init__(self, orbit: Orbit, h: float, substeps_per_episode: int):
+        import numpy as np
+
+        from core.backend import NUMPY
+
+        self.orbit, self.h = orbit, h
+        self.gravity_gradient = orbit.gravity_gradient
+        size = substeps_per_episode + 2 * max(1, substeps_per_episode // 1000) + 64
+        t = np.arange(size) * h
+        self.last = size - 1
+        self.direction = tuple(np.ascontiguousarray(c) for c in orbit.direction_N(t, NUMPY))
+        self.field = tuple(np.ascontiguousarray(c) for c in orbit.field_N(t, NUMPY)) \
+            if orbit.magnetic_field else None
+        self._direction_f = list(zip(*(c.tolist() for c in self.direction), strict=True))
+        self._field_f = None if self.field is None else list(
+            zip(*(c.tolist() for c in self.field), strict=True))
+
+    def _lookup(self, table, floats, index, xp, direct):
+        if type(index) is int:
+            return floats[index] if index <= self.last else direct(index * self.h, xp)
+        index = xp.minimum(index, self.last)
+        return (table[0][index], table[1][index], table[2][index])
+
+    def direction_N(self, index, xp) -> tuple:
+        """r̂_N at substep ``index``."""
+        return self._lookup(self.direction, self._direction_f, index, xp,
+                            self.orbit.direction_N)
+
+    def field_N(self, index, xp) -> tuple:
+        """Earth's field (T, ECI) at substep ``index``."""
+        return self._lookup(self.field, self._field_f, index, xp, self.orbit.field_N)
+
+    def gravity_gradient_B(self, body, q_BN, index, xp) -> tuple:
+        """``3n² r̂_B × (I r̂_B)`` at substep ``index`` (see :meth:`Orbit.gravity_gradient_B`)."""
+        r_B = k.rotate_inverse(q_BN, self.direction_N(index, xp))
+        return k.scale(k.cross(r_B, body.inertia_times(r_B)), 3.0 * self.orbit.mean_motion ** 2)
+
+    def field_B(self, q_BN, index, xp) -> tuple:
+        """Earth's field in body axes at substep ``index``, T."""
+        return k.rotate_inverse(q_BN, self.field_N(index, xp))

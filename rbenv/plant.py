@@ -26,11 +26,11 @@ import numpy as np
 
 from core import INTEGRATORS, validation
 from core import kernels as k
-from core.backend import rows
 from core.dynamics import check_finite_state, translate
 from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
 from rbenv.actuators.thrusters import ACTION_MODES, ALLOCATORS, action_matrix, nan_action_error
+from rbenv.orbit import OrbitTable
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import Scene
 
@@ -54,6 +54,7 @@ class StepNoise(NamedTuple):
 # None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
                 "model": "obj", "field_B_T": "c3"}  # field_B_T: Earth's field now, T (orbit)
+_ZERO = (0.0, 0.0, 0.0)
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
@@ -71,9 +72,11 @@ class Plant:
     compiled: bool = False  # step with core.compiled (numba) instead of NumPy
     actuators: tuple = field(init=False)
     accounting: tuple = field(init=False, repr=False)  # actuators with work after the physics
+    sole_actuator: object = field(init=False, repr=False)  # the only actuator, or None
     observed: bool = field(init=False)  # some actuator adds to the observation
     body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
     orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
+    orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
     action_shape: tuple = field(init=False)
     action_slices: tuple = field(init=False, repr=False)  # each actuator's slice of the action
     advance_kernel: object = field(init=False, repr=False)
@@ -103,9 +106,13 @@ class Plant:
                       else acts[0].action_shape,
                       action_slices=tuple(slice(a, b) for a, b in itertools.pairwise(edges)))
         values["accounting"] = tuple(a for a in acts if a.needs_account)
+        values["sole_actuator"] = acts[0] if len(acts) == 1 else None
         values["observed"] = any(a.observation_structure for a in acts)
         values["body"] = _integrated_body(self.scene, acts)
         values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
+        values["orbit_table"] = None if values["orbit"] is None else OrbitTable(
+            values["orbit"], self.scene.physics.h, self.scene.episode_steps
+            * self.scene.physics.substeps)
         if values["randomization"] is not None and values["body"] is not self.scene.body:
             raise InvalidParameterError(
                 "domain randomization of the inertia does not know the wheels' rotors yet; "
@@ -196,11 +203,11 @@ class Plant:
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
         """The actuators' summed contribution under ``action`` (each takes its slice); they
         set their own fields on ``st``. ``in_place``: the caller owns ``action``."""
-        acts, rx = self.actuators, rows(xp)
-        if len(acts) == 1:
-            act = acts[0]
-            return act.actuate(st, act.command(action, in_place, rx), noise, xp)
-        parts = [a.actuate(st, a.command(action[..., s], False, rx), noise, xp)
+        act = self.sole_actuator
+        if act is not None:
+            return act.actuate(st, act.command(action, in_place, xp), noise, xp)
+        acts = self.actuators
+        parts = [a.actuate(st, a.command(action[..., s], False, xp), noise, xp)
                  for a, s in zip(acts, self.action_slices, strict=True)]
         return sum_contributions(parts)
 
@@ -226,15 +233,17 @@ class Plant:
         h, advance = self.h, self.advance_kernel
         q, w = st.q, st.omega_B
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
-        gg = self.orbit is not None and self.orbit.gravity_gradient
+        table = self.orbit_table
+        gg = table is not None and table.gravity_gradient
         tau_c = tau
         try:
             for j in range(self.substeps):
-                if st.x is not None:
-                    self._translate(st, body, k.rotate(q, c.force_B))
+                if st.x is not None:  # actuators without a force (wheels, rods) push nothing
+                    self._translate(st, body, k.rotate(q, _ZERO if c.force_B is None
+                                                       else c.force_B))
                 if gg:  # held over the substep, from its start
-                    t = (st.steps + j / self.substeps) * self.control_dt
-                    tau = k.add(tau_c, self.orbit.gravity_gradient_B(self.scene.body, q, t, xp))
+                    tau = k.add(tau_c, table.gravity_gradient_B(
+                        self.scene.body, q, st.steps * self.substeps + j, xp))
                 if h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
                 else:  # internal momentum (wheels), moving linearly over the step
@@ -254,10 +263,11 @@ class Plant:
                                                                    + v[2] * v[2])
         st.q, st.omega_B = q, w
         st.steps = st.steps + 1
+        if table is not None:  # the actuators' bookkeeping and the field come with the orbit
+            if st.field_B_T is not None:
+                st.field_B_T = table.field_B(q, st.steps * self.substeps, xp)
         for act in self.accounting:
             act.account(st, c, self.control_dt, xp)
-        if st.field_B_T is not None:
-            st.field_B_T = self.orbit.field_B(q, st.steps * self.control_dt, xp)
         return xp.not_finite((*q, sq))
 
     def _translate(self, st, body, force_W: tuple) -> None:
@@ -340,7 +350,7 @@ class Plant:
     def complete_start(self, start: dict, xp) -> None:
         """Derived start values that need the task's attitude: the field in body axes."""
         if "field_B_T" in start:
-            start["field_B_T"] = self.orbit.field_B(start["q"], 0.0, xp)
+            start["field_B_T"] = self.orbit_table.field_B(start["q"], 0, xp)
 
     @property
     def observation_structure(self) -> dict:
@@ -358,12 +368,14 @@ class Plant:
                 out = out + act.observe(st, xp)
         return out
 
-    def info(self, st, xp) -> dict:
-        """The actuators' info values."""
-        out = {}
+    def info(self, st, xp, out: dict) -> None:
+        """Add the actuators' info values to ``out``."""
+        act = self.sole_actuator
+        if act is not None:
+            act.info(st, xp, out)
+            return
         for act in self.actuators:
-            out.update(act.info(st, xp))
-        return out
+            act.info(st, xp, out)
 
 
 NO_NOISE = StepNoise(None, None, None)
@@ -396,7 +408,12 @@ def _integrated_body(scene: Scene, actuators: tuple):
         return scene.body
     from core import RigidBody
 
-    return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
+    try:
+        return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
+    except RbenvValueError as exc:
+        raise InvalidParameterError(
+            f"wheels.inertia: the scene's inertia less the rotors' spin inertia Σ J ĝĝᵀ must "
+            f"still be a rigid body's (the bus carries the rotors), but {exc}") from None
 
 
 def _scene_scalars(sc: Scene) -> dict:

@@ -347,6 +347,8 @@ class Scene:
                 )
         object.__setattr__(self, "isp", _number("thrusters.isp", self.isp, low=1.0, high=1e5))
         object.__setattr__(self, "sources", _sources(self.sources))
+        for task_name in self.tasks:  # per-task physics/episode overrides fail at load
+            self.for_task(task_name)
         if not isinstance(self.description, str):
             raise InvalidParameterError(
                 f"description must be a string, got {describe(self.description)}"
@@ -398,10 +400,12 @@ class Scene:
             groups = {key: dataclasses.replace(getattr(self, key), **_checked(
                 f"tasks.{task_name}.{key}", value, getattr(self, key)))
                 for key, value in over.items()}
+            rest = {k: v for k, v in table.items() if k not in over}
+            return dataclasses.replace(self, tasks={**self.tasks, task_name: rest}, **groups)
+        except RbenvValueError as exc:
+            raise type(exc)(f"tasks.{task_name}: {exc}") from None
         except TypeError as exc:
             raise InvalidParameterError(f"tasks.{task_name}: {exc}") from None
-        rest = {k: v for k, v in table.items() if k not in over}
-        return dataclasses.replace(self, tasks={**self.tasks, task_name: rest}, **groups)
 
     def with_physics(self, integrator=None, control_dt=None, substeps=None) -> Scene:
         """A copy with some physics fields replaced (``None`` keeps the scene's value)."""

@@ -11,6 +11,7 @@ kind       one satellite                 N satellites                 start valu
 =========  ============================  ===========================  ======================
 ``"c3"``   tuple of 3 floats             tuple of 3 (N,) arrays       3 floats or (m,) arrays
 ``"c4"``   tuple of 4 floats             tuple of 4 (N,) arrays       4 floats or (m,) arrays
+``"cn"``   tuple of n floats             tuple of n (N,) arrays       n floats or (m,) arrays
 ``"f"``    float                         (N,) float array             a float or (m,)
 ``"i"``    int                           (N,) int64 array             a number or (m,)
 ``"row"``  (n,) array                    (N, n) array                 (m, n) array
@@ -34,7 +35,8 @@ from core.errors import InvalidParameterError
 
 __all__ = ["KINDS", "Layout", "State", "assign", "from_start"]
 
-KINDS = ("c3", "c4", "f", "i", "row", "obj")
+KINDS = ("c3", "c4", "cn", "f", "i", "row", "obj")
+_COMPONENTS = ("c3", "c4", "cn")
 
 
 class State:
@@ -81,7 +83,7 @@ class Layout:
 
 
 def _single(kind: str, value):
-    if kind in ("c3", "c4"):
+    if kind in _COMPONENTS:
         return tuple(float(c) for c in value)
     if kind == "f":
         return float(value)
@@ -93,7 +95,7 @@ def _single(kind: str, value):
 
 
 def _batch(kind: str, value):
-    if kind in ("c3", "c4"):
+    if kind in _COMPONENTS:
         return tuple(np.array(c, dtype=float) for c in value)
     if kind == "f":
         return np.array(value, dtype=float)
@@ -123,7 +125,7 @@ def assign(st: State, layout: Layout, idx: np.ndarray, start: dict) -> None:
         value, field = start.get(name), getattr(st, name)
         if value is None or field is None:
             continue
-        if kind in ("c3", "c4"):
+        if kind in _COMPONENTS:
             for comp, new in zip(field, value, strict=True):
                 comp[idx] = new
         elif kind == "obj":

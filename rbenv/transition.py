@@ -47,14 +47,6 @@ def layout(plant: Plant, task) -> Layout:
     return Layout((*plant.state_parts, (f"task {task.name!r}", task.state_fields)))
 
 
-def reward_sum(terms):
-    """The reward: the terms added left to right (one order for floats and arrays alike)."""
-    total = terms[0]
-    for t in terms[1:]:
-        total = total + t
-    return total
-
-
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
          own_action: bool = False) -> tuple:
     """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64,
@@ -65,14 +57,17 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     new = st.copy()
     contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
-    if xp.any(diverged):  # the eager paths stop here; the adapter raises
+    if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises
         return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged))
     if task.moving_target:
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
     obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
         not plant.observed else observe(plant, task, new, noise.sensor, xp)
-    return new, tuple.__new__(Outcome, (obs, reward_sum(terms), terms, success, failure,
+    reward = terms[0]  # the terms added left to right: one order for floats and arrays
+    for term in terms[1:]:
+        reward = reward + term
+    return new, tuple.__new__(Outcome, (obs, reward, terms, success, failure,
                                         info(plant, task, new, terms, success, xp), diverged))
 
 
@@ -98,7 +93,7 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     """The info dict: the task's values, the actuators' bookkeeping, the time, success and the
     reward terms (and the speed with translation)."""
     out = task.info(st, xp)
-    out.update(plant.info(st, xp))
+    plant.info(st, xp, out)
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)

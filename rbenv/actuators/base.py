@@ -68,9 +68,9 @@ class Actuator(Protocol):
     info_keys: tuple
     start_slots: int
 
-    def command(self, action, in_place: bool = False, rx=None):
+    def command(self, action, in_place: bool = False, xp=None):
         """The physical command from its (clipped) action slice; NaN raises a named error.
-        rx: the namespace of the action's array (:func:`core.backend.rows`)."""
+        xp: the state's namespace (the action is an array: :func:`core.backend.rows` of it)."""
 
     def actuate(self, st, command, noise, xp) -> Contribution:
         """Its contribution under ``command`` from state ``st``; sets its own fields on ``st``
@@ -85,5 +85,5 @@ class Actuator(Protocol):
     def observe(self, st, xp) -> tuple:
         """Its observation components (empty when ``observation_structure`` is {})."""
 
-    def info(self, st, xp) -> dict:
-        """Its info values (units in the key names)."""
+    def info(self, st, xp, out: dict) -> None:
+        """Write its info values into ``out`` (units in the key names)."""

@@ -21,7 +21,7 @@ import numpy as np
 
 from core import kernels as k
 from core import validation
-from core.backend import FLOAT, NUMPY, rows
+from core.backend import NUMPY
 from core.errors import InvalidParameterError
 from rbenv.actuators.base import Contribution
 
@@ -96,7 +96,10 @@ class Magnetorquers:
     action_shape: tuple = field(init=False)
     action_bounds: tuple = field(init=False, repr=False)
     dipole_matrix: np.ndarray = field(init=False, repr=False)  # (n, 3): fraction → m_B
-    max_power: float = field(init=False)
+    max_power: float = field(init=False)  # W
+    inv_max_power: float = field(init=False)  # 1/W (0 when the rods draw no power)
+    dipoles: tuple = field(init=False, repr=False)  # n rows μ_max,i ĝ_i, 3-tuples of floats
+    powers: tuple = field(init=False, repr=False)  # n floats, W at full dipole
     state_fields: dict = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -109,34 +112,35 @@ class Magnetorquers:
         total = float(rods.power.sum())
         values = {"n": rods.n, "action_shape": (rods.n,), "action_bounds": (low, high),
                   "dipole_matrix": matrix, "max_power": total,
-                  # mtq_dipole_B: the body dipole of the last step, A·m² (rows of 3).
+                  "inv_max_power": 1.0 / total if total else 0.0,
+                  "dipoles": tuple(tuple(float(c) for c in row) for row in matrix),
+                  "powers": tuple(float(p) for p in rods.power),
+                  # mtq_dipole_B: the body dipole of the last step, A·m² (3 components).
                   # mtq_energy_J: cumulative. (The field is the plant's field_B_T.)
-                  "state_fields": {"mtq_dipole_B": "row", "mtq_energy_J": "f"}}
+                  "state_fields": {"mtq_dipole_B": "c3", "mtq_energy_J": "f"}}
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
-    def command(self, a, in_place: bool = False, rx=NUMPY):
-        """Dipole fractions per rod, clipped to [-1, 1]; NaN raises a named error."""
-        if rx.isnan_any(a):
-            from rbenv.actuators.thrusters import nan_action_error
+    def command(self, a, in_place: bool = False, xp=NUMPY) -> tuple:
+        """Dipole fractions per rod (components), clipped to [-1, 1]; NaN raises."""
+        from rbenv.actuators.wheels import _action_components
 
-            raise nan_action_error(a)
-        return rx.clamp(a, self.action_bounds[0], self.action_bounds[1])
+        clip = xp.clip
+        return tuple(clip(c, -1.0, 1.0) for c in _action_components(a, xp))
 
     def actuate(self, st, fraction, noise, xp) -> Contribution:
         """``m_B × B_B`` with the field at the start of the step (the plant's ``field_B_T``);
         sets the mtq_* fields."""
-        rx = rows(xp)
-        m = fraction @ self.dipole_matrix  # (…, 3) A·m²
-        m_B = tuple(m.tolist()) if xp is FLOAT else (m[:, 0], m[:, 1], m[:, 2])
-        field_B = st.field_B_T
-        power = rx.sum(rx.abs(fraction) * self.rods.power, axis=-1)
-        if xp is FLOAT:
-            power = float(power)
-        st.mtq_dipole_B = m
+        f = fraction  # one component per rod
+        m_B = k.scale(self.dipoles[0], f[0])  # Σ μ_i ĝ_i, A·m², body axes
+        power = abs(f[0]) * self.powers[0]
+        for i in range(1, self.n):
+            m_B = k.add(m_B, self.dipoles[i], f[i])
+            power = power + abs(f[i]) * self.powers[i]
+        st.mtq_dipole_B = m_B
         st.mtq_energy_J = st.mtq_energy_J + power * self.control_dt
-        effort = power * (1.0 / self.max_power) if self.max_power else 0.0 * power
-        return _new(Contribution, (k.cross(m_B, field_B), None, None, None, effort))
+        return _new(Contribution, (k.cross(m_B, st.field_B_T), None, None, None,
+                                   power * self.inv_max_power))
 
     def account(self, st, contribution, dt, xp) -> None:
         """Nothing after the physics."""
@@ -144,7 +148,7 @@ class Magnetorquers:
     def sample_start(self, draws) -> dict:
         m = draws.n
         zero = draws.xp.zeros(m)
-        return {"mtq_dipole_B": np.zeros((m, 3)), "mtq_energy_J": zero}
+        return {"mtq_dipole_B": (zero, zero, zero), "mtq_energy_J": zero}
 
     def observe(self, st, xp) -> tuple:
         """The magnetometer: B_B / 50 µT, clipped to [-1, 1] (the field now)."""
@@ -152,8 +156,9 @@ class Magnetorquers:
         b = st.field_B_T
         return (clip(b[0] * s, -1.0, 1.0), clip(b[1] * s, -1.0, 1.0), clip(b[2] * s, -1.0, 1.0))
 
-    def info(self, st, xp) -> dict:
-        return {"mtq_energy_J": st.mtq_energy_J}
+    def info(self, st, xp, out: dict) -> None:
+        """mtq_energy_J (cumulative)."""
+        out["mtq_energy_J"] = st.mtq_energy_J
 
 
 def make_magnetorquers(scene, action_mode: str = "throttle",

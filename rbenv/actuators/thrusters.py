@@ -104,7 +104,7 @@ class Thrusters:
 
     # ------------------------------------------------------------------- command
 
-    def command(self, a: np.ndarray, in_place: bool = False, rx=NUMPY) -> np.ndarray:
+    def command(self, a: np.ndarray, in_place: bool = False, xp=NUMPY) -> np.ndarray:
         """Throttles (duty cycles) in [0, 1] from an action, (n,) or (N, n) (torque: (…, 3)).
 
         throttle: ``clip(a, 0, 1)`` (a ≤ 0 is off). on_off: ``a > 0`` fires at full throttle.
@@ -112,9 +112,10 @@ class Thrusters:
         rejected; in throttle mode by the adapters from the propagated NaN thrust, which the
         state's finiteness flag catches (no extra check on the hot path). ``in_place``: the
         caller owns ``a`` and lets throttle mode clip it in place (the vector env's batch).
-        rx: the namespace of the action's array (:func:`core.backend.rows`). The allocators of
-        torque mode are NumPy (SciPy for nnls and lp).
+        xp: the state's namespace (the action's rows are :func:`core.backend.rows` of it). The
+        allocators of torque mode are NumPy (SciPy for nnls and lp).
         """
+        rx = rows(xp)
         mode = self.action_mode
         low, high = self.action_bounds
         if mode == "throttle":
@@ -130,9 +131,8 @@ class Thrusters:
     def actuate(self, st, u: np.ndarray, noise, xp) -> Contribution:
         """The wrench of throttles ``u`` after faults and delay; sets health, pending,
         throttle, impulse_Ns and fuel_kg on ``st`` (the new state)."""
-        rx = rows(xp)
         if st.health is not None or st.pending is not None:
-            u = self._faults_and_delay(st, u, noise.faults, rx)
+            u = self._faults_and_delay(st, u, noise.faults, rows(xp))
         st.throttle = u
         matrix = self.action_matrix if st.model is None else st.model.action_matrix
         if xp is FLOAT:
@@ -140,7 +140,7 @@ class Thrusters:
         elif matrix.ndim == 2:
             parts = tuple(matrix.T @ u.T)
         else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
-            parts = tuple(rx.einsum("ni,nik->kn", u, matrix))
+            parts = tuple(rows(xp).einsum("ni,nik->kn", u, matrix))
         thrust = parts[3]
         impulse = thrust * self.control_dt
         st.impulse_Ns = st.impulse_Ns + impulse
@@ -183,12 +183,12 @@ class Thrusters:
         """No observation of its own."""
         return ()
 
-    def info(self, st, xp) -> dict:
+    def info(self, st, xp, out: dict) -> None:
         """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""
-        out = {"fuel_kg": st.fuel_kg, "impulse_Ns": st.impulse_Ns}
+        out["fuel_kg"] = st.fuel_kg
+        out["impulse_Ns"] = st.impulse_Ns
         if st.health is not None:
             out["failed_thrusters"] = self.n - rows(xp).sum(st.health, axis=-1)
-        return out
 
 
 def make_thrusters(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Thrusters:

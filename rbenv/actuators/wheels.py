@@ -13,9 +13,11 @@ rotors' spin inertia (the plant integrates with it) and ``u`` the net motor torq
 wheels. The motor torque is internal: it moves momentum between bus and wheels, and the total
 ``I_RW ω + G h`` (in the world frame) changes only under external torque.
 
-Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; at the speed limit
-(|Ω| ≥ Ω_max with Ω·u ≥ 0) the motor cannot accelerate the wheel further (u = 0); optional
-viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
+Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; a torque that
+speeds the wheel up is limited to ``(Ω_max − |Ω|) J/dt``, what brings it to the speed limit at
+the end of the control step, so at the limit the motor cannot accelerate it further (u = 0,
+Basilisk's rule, which checks only at the step's start and so overshoots by up to u·dt/J);
+optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
 (default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]) and
 ``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
 pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max).
@@ -32,8 +34,9 @@ from typing import ClassVar
 
 import numpy as np
 
+from core import kernels as k
 from core import validation
-from core.backend import FLOAT, NUMPY, rows
+from core.backend import FLOAT, NUMPY
 from core.errors import InvalidParameterError
 from rbenv.actuators.base import Contribution
 
@@ -130,6 +133,7 @@ class Wheels:
 
     wheels: WheelSet
     control_dt: float  # s
+    bus_inertia: np.ndarray  # (3, 3) kg·m², the whole spacecraft's (rotors included)
     action_mode: str = "throttle"
     n: int = field(init=False)
     action_shape: tuple = field(init=False)
@@ -137,6 +141,17 @@ class Wheels:
     torque_authority: np.ndarray = field(init=False, repr=False)  # (3,) N·m per unit action
     pinv: np.ndarray = field(init=False, repr=False)  # (3, n): motor torques of a body torque
     max_power: float = field(init=False)  # W
+    inv_max_power: float = field(init=False)  # 1/W
+    axes: tuple = field(init=False, repr=False)  # n spin axes, 3-tuples of floats
+    inertia: tuple = field(init=False, repr=False)  # n floats, kg·m²
+    inv_max_speed: tuple = field(init=False, repr=False)  # n floats, s/rad
+    max_speed: tuple = field(init=False, repr=False)  # n floats, rad/s
+    max_torque: tuple = field(init=False, repr=False)  # n floats, N·m
+    headroom: tuple = field(init=False, repr=False)  # n floats J/dt, N·m per rad/s of room
+    inv_max_torque: tuple = field(init=False, repr=False)  # n floats, 1/(N·m)
+    pinv_rows: tuple = field(init=False, repr=False)  # n rows of G⁺ (3-tuples)
+    authority: tuple | None = field(init=False, repr=False)  # torque_authority as floats
+    standby: float = field(init=False)  # W, all wheels
     state_fields: dict = field(init=False, repr=False)
     observation_structure: dict = field(init=False, repr=False)
     start_slots: int = field(init=False)
@@ -154,6 +169,7 @@ class Wheels:
         for arr in (low, high):
             arr.setflags(write=False)
         pinv = np.linalg.pinv(g.T)  # (n, 3): u = −pinv τ gives the body torque τ (−G u = τ)
+        inv_bus = np.linalg.inv(self.bus_inertia - ws.spin_inertia_B)  # I_RW⁻¹
         # Authority per axis: the largest body torque along it with every |u_i| <= u_max.
         col = np.abs(pinv)
         authority = np.array([np.min(ws.max_torque[col[:, a] > 0] / col[col[:, a] > 0, a])
@@ -165,10 +181,26 @@ class Wheels:
                   # wheel_speed: Ω relative to the body, rad/s. wheel_torque: the net motor
                   # torque of the last step, N·m. wheel_momentum: absolute spin momenta
                   # J (Ω + ĝᵀω) at the start of the last step, N·m·s. wheel_energy_J: cumulative.
-                  "state_fields": {"wheel_speed": "row", "wheel_torque": "row",
-                                   "wheel_momentum": "row", "wheel_energy_J": "f"},
+                  # One component per wheel.
+                  "state_fields": {"wheel_speed": "cn", "wheel_torque": "cn",
+                                   "wheel_momentum": "cn", "wheel_energy_J": "f"},
+                  # Per-wheel constants as Python floats (components multiply them).
+                  "axes": tuple(tuple(float(c) for c in g_i) for g_i in g),
+                  "inertia": tuple(float(j) for j in ws.inertia),
+                  "inv_max_speed": tuple(1.0 / float(v) for v in ws.max_speed),
+                  "max_speed": tuple(float(v) for v in ws.max_speed),
+                  "max_torque": tuple(float(v) for v in ws.max_torque),
+                  # J_eff/dt: a wheel's relative speed moves by u·dt (1/J + ĝᵀ I_RW⁻¹ ĝ), the
+                  # bus turning the other way; J_eff = 1/(1/J + ĝᵀ I_RW⁻¹ ĝ).
+                  "headroom": tuple(float(1.0 / (1.0 / j + g_i @ inv_bus @ g_i)) / self.control_dt
+                                    for j, g_i in zip(ws.inertia, g, strict=True)),
+                  "inv_max_torque": tuple(1.0 / float(v) for v in ws.max_torque),
+                  "pinv_rows": tuple(tuple(float(c) for c in row) for row in pinv),
+                  "authority": None if authority is None else tuple(authority.tolist()),
+                  "standby": float(ws.n * ws.standby_power),
                   "observation_structure": {"wheel_speed": ws.n},
                   "start_slots": ws.n if ws.random_speed else 0}
+        values["inv_max_power"] = 1.0 / values["max_power"]
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
@@ -178,47 +210,64 @@ class Wheels:
 
     # ------------------------------------------------------------------- command
 
-    def command(self, a, in_place: bool = False, rx=NUMPY):
-        """Motor torques (N·m), (n,) or (N, n), from the action (clipped to [-1, 1])."""
-        if rx.isnan_any(a):
-            from rbenv.actuators.thrusters import nan_action_error
-
-            raise nan_action_error(a)
-        low, high = self.action_bounds
-        a = rx.clamp(a, low, high)
+    def command(self, a, in_place: bool = False, xp=NUMPY) -> tuple:
+        """Motor torques (N·m), one component per wheel, from the action (clipped to [-1, 1];
+        torque mode: ``u = −G⁺ τ``, scaled down as a whole where a wheel would exceed u_max)."""
+        c = _action_components(a, xp)
+        clip = xp.clip
         if self.action_mode == "throttle":
-            return a * self.wheels.max_torque
-        u = -((a * self.torque_authority) @ self.pinv.T)  # (…, n): −G u is the body torque
-        # Scale the whole vector down where a wheel would exceed its limit (keeps the axis).
-        ratio = rx.max(rx.abs(u) / self.wheels.max_torque, axis=-1)
-        return u / rx.expand_dims(rx.maximum(ratio, 1.0), -1)
+            return tuple(clip(ci, -1.0, 1.0) * self.max_torque[i] for i, ci in enumerate(c))
+        tau = tuple(clip(ci, -1.0, 1.0) * self.authority[j] for j, ci in enumerate(c))
+        u = tuple(-k.dot(self.pinv_rows[i], tau) for i in range(self.n))
+        ratio = abs(u[0]) * self.inv_max_torque[0]
+        for i in range(1, self.n):
+            ratio = xp.maximum(ratio, abs(u[i]) * self.inv_max_torque[i])
+        scale = 1.0 / xp.maximum(ratio, 1.0)
+        return tuple(ui * scale for ui in u)
 
     # ------------------------------------------------------------------- per step
+    # Per-wheel quantities are components, one per wheel (floats for one satellite, (N,)
+    # arrays for N), as vectors are in core.kernels: one satellite steps at float speed.
 
-    def actuate(self, st, u, noise, xp) -> Contribution:
-        """Saturation and friction on the motor torques ``u``; the wheels' momentum and its
-        rate for the integrator; electrical power."""
-        rx, ws = rows(xp), self.wheels
-        speed = st.wheel_speed
-        u = rx.where((rx.abs(speed) >= ws.max_speed) & (speed * u >= 0.0), 0.0, u)
-        power = rx.sum(rx.abs(u * speed), axis=-1) + ws.n * ws.standby_power
-        if xp is FLOAT:
-            power = float(power)
+    def actuate(self, st, u: tuple, noise, xp) -> Contribution:
+        """Saturation and friction on the motor torques ``u`` (components); the wheels'
+        momentum and its rate for the integrator; electrical power."""
+        ws = self.wheels
+        speed, w = st.wheel_speed, st.omega_B
+        # A torque that speeds the wheel up is limited to what reaches Ω_max at the end of
+        # the step (zero at the limit: Basilisk's rule, without its one-step overshoot).
+        room = self.headroom
+        u = tuple(xp.where(s * c >= 0.0, xp.clip(c, -head, head), c)
+                  for s, c, head in ((s, c, xp.maximum((self.max_speed[i] - abs(s)) * room[i],
+                                                       0.0))
+                                     for i, (s, c) in enumerate(zip(speed, u, strict=True))))
+        power = self.standby
+        for s, c in zip(speed, u, strict=True):
+            power = power + abs(c * s)
         if ws.viscous or ws.coulomb:
-            u = u - ws.viscous * speed - ws.coulomb * rx.sign(speed)
-        g_omega = _project(st.omega_B, ws.axes_B, xp)  # ĝ_iᵀω, (…, n)
-        h = ws.inertia * (speed + g_omega)
+            u = tuple(c - ws.viscous * s - ws.coulomb * xp.sign(s)
+                      for s, c in zip(speed, u, strict=True))
+        h = tuple(self.inertia[i] * (speed[i] + k.dot(self.axes[i], w)) for i in range(self.n))
         st.wheel_momentum, st.wheel_torque = h, u
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
-        return _new(Contribution, (_ZERO, None, _body(h, ws.axes_B, xp),
-                                   _body(u, ws.axes_B, xp), power * (1.0 / self.max_power)))
+        return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
+                                   power * self.inv_max_power))
 
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
-        ws = self.wheels
-        h = st.wheel_momentum + st.wheel_torque * dt
+        w = st.omega_B
+        h = tuple(hi + ui * dt for hi, ui in zip(st.wheel_momentum, st.wheel_torque,
+                                                 strict=True))
         st.wheel_momentum = h
-        st.wheel_speed = h / ws.inertia - _project(st.omega_B, ws.axes_B, xp)
+        st.wheel_speed = tuple(h[i] / self.inertia[i] - k.dot(self.axes[i], w)
+                               for i in range(self.n))
+
+    def _body(self, x: tuple) -> tuple:
+        """``G x``: per-wheel values along their axes, summed: 3 body components."""
+        out = k.scale(self.axes[0], x[0])
+        for i in range(1, self.n):
+            out = k.add(out, self.axes[i], x[i])
+        return out
 
     # ------------------------------------------------------------------- start, sensing
 
@@ -231,38 +280,40 @@ class Wheels:
             u = draws.uniform_array("wheels", ws.n)
             speed = speed + ws.random_speed * (2.0 * u.T - 1.0)
             speed = np.clip(speed, -ws.max_speed, ws.max_speed)
-        zero = np.zeros((m, ws.n))
-        return {"wheel_speed": speed, "wheel_torque": zero, "wheel_momentum": zero,
-                "wheel_energy_J": draws.xp.zeros(m)}
+        zero = draws.xp.zeros(m)
+        zeros = tuple(zero for _ in range(ws.n))
+        speeds = tuple(speed[0].tolist()) if draws.xp is FLOAT else tuple(speed.T)
+        return {"wheel_speed": speeds, "wheel_torque": zeros, "wheel_momentum": zeros,
+                "wheel_energy_J": zero}
 
     def observe(self, st, xp) -> tuple:
         """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel."""
-        s = rows(xp).clamp(st.wheel_speed / self.wheels.max_speed, -1.0, 1.0)
-        return tuple(s.tolist()) if xp is FLOAT else tuple(s.T)
+        clip, inv = xp.clip, self.inv_max_speed
+        return tuple(clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed))
 
-    def info(self, st, xp) -> dict:
-        """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G h|, the stored momentum)."""
-        h = _body(st.wheel_speed * self.wheels.inertia, self.wheels.axes_B, xp)
-        return {"wheel_energy_J": st.wheel_energy_J,
-                "wheel_momentum_Nms": xp.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])}
-
-
-def _project(omega_B: tuple, axes_B: np.ndarray, xp):
-    """ĝ_iᵀω per wheel: (n,) for one satellite (ω floats), (N, n) for N."""
-    if xp is FLOAT:
-        return axes_B @ np.array(omega_B)
-    return (omega_B[0][:, None] * axes_B[:, 0] + omega_B[1][:, None] * axes_B[:, 1]
-            + omega_B[2][:, None] * axes_B[:, 2])
+    def info(self, st, xp, out: dict) -> None:
+        """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
+        relative to the bus)."""
+        h = self._body(tuple(self.inertia[i] * s for i, s in enumerate(st.wheel_speed)))
+        out["wheel_energy_J"] = st.wheel_energy_J
+        out["wheel_momentum_Nms"] = xp.sqrt(k.dot(h, h))
 
 
-def _body(x, axes_B: np.ndarray, xp) -> tuple:
-    """``G x``: per-wheel values (…, n) along their axes, summed, as 3 body components."""
-    v = x @ axes_B
-    return tuple(v.tolist()) if xp is FLOAT else (v[:, 0], v[:, 1], v[:, 2])
+def _action_components(a, xp) -> tuple:
+    """An action (n,) or (N, n) as n components (floats or (N,) arrays); NaN is refused."""
+    c = tuple(a.tolist()) if xp is FLOAT else tuple(a.T)
+    bad = c[0] != c[0]
+    for ci in c[1:]:
+        bad = bad | (ci != ci)
+    if xp.any(bad):
+        from rbenv.actuators.thrusters import nan_action_error
+
+        raise nan_action_error(a)
+    return c
 
 
 def make_wheels(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Wheels:
     """The scene's wheels (its ``[wheels]`` table) in an action mode (``allocator`` is the
     thrusters' option: wheels always use the pseudo-inverse)."""
     return Wheels(wheels=scene.actuators["wheels"], control_dt=scene.physics.control_dt,
-                  action_mode=action_mode)
+                  bus_inertia=scene.body.inertia, action_mode=action_mode)

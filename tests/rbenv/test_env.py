@@ -54,13 +54,22 @@ def pd_action(env, obs, wn=0.3, zeta=0.9, w_max=0.1):
     if mode != "on_off" or (rbenv.load_scene(scene).thrusters is not None  # on/off: thrusters
                             and "wheels" not in rbenv.load_scene(scene).actuators)])
 def test_gymnasium_and_sb3_checkers_pass_without_warnings(scene, mode):
-    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    """Gymnasium's checker runs in a base install too; SB3's where SB3 is installed."""
     render = scene == "cubesat-12u" and mode == "throttle"
     if render:
-        pytest.importorskip("pygame")
+        try:
+            import pygame  # noqa: F401
+        except ImportError:
+            render = False  # the render check needs the render extra
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         check_env(make(scene=scene, action_mode=mode).unwrapped, skip_render_check=not render)
+    try:
+        from stable_baselines3.common import env_checker as sb3_checker
+    except ImportError:
+        return  # a base install: Gymnasium's checker above is the whole check
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
         sb3_checker.check_env(make(scene=scene, action_mode=mode).unwrapped)
 
 

@@ -166,7 +166,7 @@ def test_vector_env_equal(env_id, scene, mode, quiet_scenes):
 @pytest.mark.xfail(strict=False, reason=(
     "rewards and float info values (reward_<term>, impulse_Ns, fuel_kg, rate_dps, "
     "attitude_error_deg, rate_error_dps) differ from the single env's by up to ~1e-14. The "
-    "reward terms are now summed in one order on both paths (rbenv.transition.reward_sum); "
+    "reward terms are now summed in one order on both paths (rbenv.transition.step); "
     "what remains is the throttle-to-wrench product (BLAS gemv for one satellite, gemm for "
     "N) and libm's atan2 against NumPy's: open in issue 19 item 1"))
 @pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])

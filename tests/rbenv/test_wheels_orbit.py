@@ -99,6 +99,26 @@ def test_a_wheel_at_its_speed_limit_cannot_be_accelerated_further():
     assert env._st.wheel_torque[0] == pytest.approx(-0.01)
 
 
+def test_a_wheel_near_its_limit_stops_at_it_within_the_step():
+    """u·dt/J = 50 rad/s would carry it far past 2π rad/s: the motor gives only what reaches
+    the limit (Basilisk checks at the step's start only, and overshoots)."""
+    scene = _scene(wheels={"axes": [[0, 0, 1]], "inertia": 1e-4, "max_torque": 0.01,
+                           "max_speed_rpm": 60.0, "initial_speed_rpm": 30.0},
+                   physics={"integrator": "rk4", "control_dt": 0.5})
+    env = _env(scene)
+    env.reset(seed=0, options={"omega_B": [0.0, 0.0, 0.0]})
+    env.step(np.ones(1, np.float32))
+    assert env._st.wheel_speed[0] == pytest.approx(2 * math.pi, rel=1e-9)
+    j_eff = 1.0 / (1.0 / 1e-4 + 1.0 / (0.061 - 1e-4))  # the bus turns back: Ω moves faster
+    assert env._st.wheel_torque[0] == pytest.approx(math.pi * j_eff / 0.5, rel=1e-9)
+
+
+def test_rotors_heavier_than_the_bus_allows_are_refused_naming_the_wheels():
+    with pytest.raises(InvalidParameterError, match=r"wheels\.inertia"):
+        _env(_scene(wheels={"axes": np.eye(3).tolist(), "inertia": 0.04, "max_torque": 0.01,
+                            "max_speed_rpm": 600.0}))
+
+
 def _lvlh_quaternion(orbit: Orbit, t: float, pitch: float) -> tuple:
     r_hat = np.array(orbit.direction_N(t, np))
     h_hat = np.cross(orbit.p_hat, orbit.q_hat)

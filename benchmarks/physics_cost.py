@@ -1,0 +1,117 @@
+"""What the new physics costs: reaction wheels, magnetorquers and orbit torques, per env step.
+
+    python -m benchmarks.physics_cost        (or: rbenv bench physics_cost)
+
+Times one env step of ``SatelliteReorient-v0`` (random actions, resets inline) through
+``gym.make`` and, per sub-env, through the native vector env at N = 4096, for the thruster
+scene ``cubesat-12u`` (the reference) and for ``cubesat-6u-rw`` with its models switched on one
+at a time: wheels only; wheels and magnetorquers with Earth's field; and the whole scene
+(wheels, rods, field and gravity gradient). All in one run, interleaved (process CPU time,
+best of rounds), so the ratios to ``cubesat-12u`` are what a user pays for each model. Target
+(issue 18): the whole ``cubesat-6u-rw`` within 1.5x of ``cubesat-12u`` per env step.
+
+Writes ``physics_cost.json`` and ``physics_cost.png``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+
+import gymnasium as gym
+import numpy as np
+
+import rbenv
+from benchmarks import common
+
+N_VECTOR = 4096
+
+
+def _variants() -> dict:
+    """Scene name → Scene: the reference, then the 6U scene with models added one by one."""
+    full = rbenv.load_scene("cubesat-6u-rw")
+    orbit_off = dataclasses.replace(full.orbit, model="none", gravity_gradient=False,
+                                    magnetic_field=False)
+    wheels_only = dataclasses.replace(full, orbit=orbit_off,
+                                      actuators={"wheels": full.actuators["wheels"]})
+    field_only = dataclasses.replace(full, orbit=dataclasses.replace(
+        full.orbit, gravity_gradient=False))
+    return {"cubesat-12u (thrusters)": rbenv.load_scene("cubesat-12u"),
+            "6u: wheels": wheels_only,
+            "6u: wheels + rods + field": field_only,
+            "6u: all (+ gravity gradient)": full}
+
+
+def _single(scene, steps: int = 400):
+    env = gym.make(rbenv.ENV_ID, scene=scene)
+    env.reset(seed=0)
+    acts = np.random.default_rng(0).uniform(-1, 1, (64, *env.action_space.shape))
+    acts = acts.astype(np.float32)
+
+    def run():
+        for i in range(steps):
+            _, _, te, tr, _ = env.step(acts[i % 64])
+            if te or tr:
+                env.reset()
+    return run, steps
+
+
+def _vector(scene, n: int = N_VECTOR, steps: int = 4):
+    env = gym.make_vec(rbenv.ENV_ID, num_envs=n, scene=scene)
+    env.reset(seed=0)
+    acts = np.random.default_rng(1).uniform(-1, 1, (8, *env.action_space.shape))
+    acts = acts.astype(np.float32)
+
+    def run():
+        for i in range(steps):
+            env.step(acts[i % 8])
+    return run, steps * n
+
+
+def measure(rounds: int = 7) -> dict:
+    fns, per = {}, {}
+    for name, scene in _variants().items():
+        for kind, make in (("single", _single), ("vector", _vector)):
+            fn, count = make(scene)
+            fns[(name, kind)] = fn
+            per[(name, kind)] = count
+    times = common.best_times(fns, rounds=rounds)
+    out = {}
+    for (name, kind), t in times.items():
+        out.setdefault(name, {})[f"{kind}_us"] = 1e6 * t / per[(name, kind)]
+    ref = out["cubesat-12u (thrusters)"]
+    for row in out.values():
+        row["single_vs_12u"] = row["single_us"] / ref["single_us"]
+        row["vector_vs_12u"] = row["vector_us"] / ref["vector_us"]
+    return out
+
+
+def plot(rows: dict):
+    plt = common.pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    names = list(rows)
+    x = np.arange(len(names))
+    ax.bar(x - 0.2, [rows[n]["single_vs_12u"] for n in names], 0.4, label="single env")
+    ax.bar(x + 0.2, [rows[n]["vector_vs_12u"] for n in names], 0.4,
+           label=f"vector env, per sub-env (N = {N_VECTOR})")
+    ax.axhline(1.5, color="k", ls="--", lw=0.8, label="target 1.5x")
+    ax.set_xticks(x, names, rotation=12, fontsize=8)
+    ax.set_ylabel("cost per env step / cubesat-12u")
+    ax.set_title("What each model costs (SatelliteReorient-v0, one run)")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def main(argv=()) -> dict:
+    rows = measure()
+    print(common.table([{"scene": n, **{k: round(v, 3) for k, v in r.items()}}
+                        for n, r in rows.items()],
+                       ["scene", "single_us", "vector_us", "single_vs_12u", "vector_vs_12u"]))
+    common.write_json("physics_cost", {"rows": rows, "n_vector": N_VECTOR,
+                                       "command": "python -m benchmarks.physics_cost"})
+    common.save_figure(plot(rows), "physics_cost")
+    return rows
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
