@@ -102,7 +102,7 @@ class _TorqueController:
                 f"scripted controllers drive action_mode 'throttle' or 'torque', got "
                 f"{plant.action_mode!r}"
             )
-        if self.allocate is None:  # reaction wheels: per-wheel motor torques, −G u = τ
+        if plant.wheels is not None:  # reaction wheels (they drive, thrusters or not): −G u = τ
             wheels = plant.wheels
             u = -(torque_B @ wheels.pinv.T) / wheels.wheels.max_torque
             scale = np.maximum(np.abs(u).max(axis=-1, keepdims=True), 1.0)
@@ -294,6 +294,8 @@ def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:
     """The names of ``env_id``'s registered baselines that run on ``scene``."""
     import gymnasium as gym
 
+    if scene is not None and not registry.get(env_id).runs_on(scene):
+        return []  # the task itself cannot run there (desaturation without wheels)
     env = gym.make(env_id, scene=scene, **(env_kwargs or {}))
     try:
         names = []
@@ -370,6 +372,132 @@ class BDot:
         out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)
         out[:, self.plant.action_slices[self.plant.actuators.index(self.rods)]] = mu
         return (out[0], state) if single else (out, state)
+
+
+def _full_slices(plant: Plant, task: Task) -> dict:
+    """name → slice of the whole observation: the task's parts, then the actuators'."""
+    where = dict(task.observation_slices())
+    start = task.observation_size()
+    for act in plant.actuators:
+        for name, width in act.observation_structure.items():
+            where[name] = slice(start, start + width)
+            start += width
+    return where
+
+
+@dataclass(frozen=True, eq=False)
+class WheelHoldPD(QuaternionPD):
+    """Hold the target attitude through the reaction wheels; nothing else acts.
+
+    :class:`QuaternionPD` on the wheel slice of the action, with its gains scaled to the
+    control step (``ω_n = min(0.3, 0.2/dt)`` rad/s, so the damping per step ``c·dt = 2ζω_n dt``
+    stays at 0.4, well inside the discrete limit of 2, at the 10 s step of a magnetic
+    desaturation) and the wheels' momentum in the gyroscopic term: ``τ = −I c (ω − ω_c) +
+    ω × (I ω + h_w)``, h_w = G J Ω from the observed wheel speeds. It never unloads: the
+    momentum only moves between wheels and bus (the Desaturate task's floor).
+    """
+
+    slices: dict = field(init=False, repr=False)
+    wheels: object = field(init=False, repr=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        wheels = self.plant.wheels
+        if wheels is None:
+            raise NotApplicable(f"{type(self).__name__} needs reaction wheels; scene "
+                                f"{self.plant.scene.name!r} has none")
+        object.__setattr__(self, "wheels", wheels)
+        object.__setattr__(self, "slices", _full_slices(self.plant, self.task))
+        if self.max_rate is None:
+            object.__setattr__(self, "max_rate", 0.1 * self.task.rate_limit)
+        nat = min(0.3, 0.2 / self.plant.control_dt)
+        object.__setattr__(self, "natural_frequency", nat)
+
+    def wheel_momentum_B(self, obs: np.ndarray) -> np.ndarray:
+        """h_w = G (J ⊙ Ω) (N, 3) N·m·s from the observed wheel speeds (relative, Ω/Ω_max)."""
+        ws = self.wheels.wheels
+        speed = obs[:, self.slices["wheel_speed"]] * ws.max_speed
+        return (speed * ws.inertia) @ ws.axes_B
+
+    def hold_torque(self, obs: np.ndarray, state, episode_start):
+        """The wheels' body-torque demand (N, 3) N·m and the recurrent state."""
+        decoded = self.task.decode(obs[:, :self.task.observation_size()])
+        q_err = self._continuous_sign(decoded["q_err"], state, episode_start)
+        omega_B = decoded["omega_B"]
+        tau = self.torque(q_err, omega_B) + cross(omega_B, self.wheel_momentum_B(obs))
+        return tau, q_err.astype(np.float32)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        tau, new_state = self.hold_torque(obs, state, episode_start)
+        action = self._act(tau)
+        return (action[0], new_state[0]) if single else (action, new_state)
+
+
+@dataclass(frozen=True, eq=False)
+class Unload(WheelHoldPD):
+    """Momentum unloading while the wheels hold the attitude (reference note §4).
+
+    With magnetorquers, the cross-product law of Basilisk's mtbMomentumManagementSimple,
+    ``m = K_p (h_w × B)/|B|²`` (A·m²), which produces ``τ = m × B = −K_p h_w⊥`` (the part of
+    h_w across B): the external torque takes momentum out of the wheels. The dipole goes to
+    the rods by the pseudo-inverse of their axes and is scaled down as a whole at a rod's
+    limit (the torque keeps its direction). Without rods, the thrusters give
+    ``τ = −(g/dt) h_w`` through the allocator (thruster dumping). In both cases the
+    external torque actually produced is fed forward into the wheel command (mtbFeedforward):
+    the wheels make ``τ_hold − τ_ext``, so the attitude loop does not fight the dump and the
+    wheels absorb exactly what leaves the satellite. ``K_p`` = 0.003 1/s (Basilisk's
+    example); ``g`` = 0.2 (a fifth of the momentum per control step).
+    """
+
+    gain: float = 0.003  # 1/s, K_p of the magnetic law
+    dump_fraction: float = 0.2  # of h_w per control step, thrusters
+    rods: object = field(init=False, repr=False)
+    rod_pinv: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        super().__post_init__()
+        from rbenv.actuators import Magnetorquers
+
+        rods = next((a for a in self.plant.actuators if isinstance(a, Magnetorquers)), None)
+        if rods is None and self.plant.thrusters is None:
+            raise NotApplicable(f"unload needs magnetorquers or thrusters; scene "
+                                f"{self.plant.scene.name!r} has neither")
+        object.__setattr__(self, "rods", rods)
+        object.__setattr__(self, "rod_pinv",
+                           None if rods is None else np.linalg.pinv(rods.dipole_matrix))
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        from rbenv.actuators.magnetorquers import FIELD_SCALE_T
+
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        tau, new_state = self.hold_torque(obs, state, episode_start)
+        h_w = self.wheel_momentum_B(obs)
+        plant = self.plant
+        out = np.zeros((len(obs), plant.action_shape[0]), np.float32)
+        if self.rods is not None:
+            b = obs[:, self.slices["field_B"]] * FIELD_SCALE_T
+            m = self.gain * cross(h_w, b) / np.maximum(np.sum(b * b, axis=1, keepdims=True),
+                                                       1e-18)
+            mu = m @ self.rod_pinv  # rod fractions (N, n)
+            mu = mu / np.maximum(np.abs(mu).max(axis=1, keepdims=True), 1.0)
+            mu = mu.astype(np.float32)  # what the env receives
+            tau_ext = cross(mu.astype(float) @ self.rods.dipole_matrix, b)
+            out[:, plant.action_slices[plant.actuators.index(self.rods)]] = mu
+        else:
+            thr = plant.thrusters
+            demand = -(self.dump_fraction / plant.control_dt) * h_w
+            throttle = self.allocate(demand).astype(np.float32)
+            tau_ext = throttle.astype(float) @ plant.scene.thrusters.torque_matrix_B.T
+            out[:, plant.action_slices[plant.actuators.index(thr)]] = throttle
+        wheel_action = self._act(tau - tau_ext)
+        idx = plant.action_slices[plant.actuators.index(self.wheels)]
+        out[:, idx] = wheel_action[:, idx]
+        return (out[0], new_state[0]) if single else (out, new_state)
 
 
 def resolve_baseline(ref):

@@ -86,8 +86,10 @@ def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],
     ``timesteps_for(algo, env_id, scene)`` gives each cell's budget (or one int for all).
     """
     budget = timesteps_for if callable(timesteps_for) else (lambda *_: int(timesteps_for))
+    scenes = list(scenes)
     return [Cell(algo, env_id, scene, int(seed), int(budget(algo, env_id, scene)))
-            for seed in seeds for env_id in env_ids for scene in scenes for algo in algos]
+            for seed in seeds for env_id in env_ids for scene in scenes for algo in algos
+            if rbenv.registry.get(env_id).runs_on(scene)]  # desaturation needs wheels
 
 
 # --- one cell ---------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ def run(episodes: int, seed: int) -> list[dict]:
     rows = []
     for spec in rbenv.registry.specs():
         env_id, task = spec.env_id, spec.name
-        for scene in rbenv.list_scenes():
+        for scene in filter(spec.runs_on, rbenv.list_scenes()):  # desaturate: wheels only
             for policy in (*applicable_baselines(env_id, scene), "zero"):
                 start = time.perf_counter()
                 s = evaluate(policy, episodes=episodes, seed=seed, scene=scene, env_id=env_id,

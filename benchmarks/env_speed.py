@@ -99,7 +99,9 @@ def single_env() -> list[dict]:
     pend = gym.make("Pendulum-v1")
     cases = {"Pendulum-v1": _single_stepper(pend, _actions(pend.action_space, N_ACTIONS))}
     for env_id in rbenv.ENV_IDS:
-        scenes = rbenv.list_scenes() if env_id == rbenv.ENV_ID else ["cubesat-12u"]
+        spec = rbenv.registry.get(env_id)
+        scenes = rbenv.list_scenes() if env_id == rbenv.ENV_ID else \
+            [spec.default_scene or "cubesat-12u"]
         for scene in scenes:
             env = gym.make(env_id, scene=scene)
             cases[f"{env_id} {scene}"] = _single_stepper(env, _actions(env.action_space,

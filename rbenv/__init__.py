@@ -1,6 +1,6 @@
 """rbenv: attitude control of a thruster-actuated satellite, as Gymnasium environments.
 
-``import rbenv`` registers three tasks on one plant, each with a single env and a native NumPy
+``import rbenv`` registers four tasks on one plant, each with a single env and a native NumPy
 vector env (its ``vector_entry_point``)::
 
     import gymnasium as gym
@@ -9,6 +9,7 @@ vector env (its ``vector_entry_point``)::
     env = gym.make("rbenv/SatelliteReorient-v0", scene="cubesat-12u")
     envs = gym.make_vec("rbenv/SatelliteDetumble-v0", num_envs=1024)
     env = gym.make("rbenv/SatelliteTrack-v0", randomize={"inertia_scale": 0.2})
+    env = gym.make("rbenv/SatelliteDesaturate-v0")  # a wheel scene: cubesat-6u-rw
 
 Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v0"``, which makes
 Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :class:`Scene`.
@@ -21,11 +22,11 @@ from importlib.metadata import PackageNotFoundError, version
 from rbenv import registry
 from rbenv.randomization import Randomization
 from rbenv.scene import Scene, list_scenes, load_scene
-from rbenv.tasks import detumble, reorient, track
+from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
 # The shipped tasks: one registry entry each (rbenv.registry). A new task adds its line here.
-for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC):
+for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC):
     registry.register(_spec)
 
 from rbenv.env import (  # noqa: E402 (made by the registrations above)
@@ -45,6 +46,7 @@ except PackageNotFoundError:  # running from a source tree that was never instal
     __version__ = "0.0.0+unknown"
 
 __all__ = [
+    "DESATURATE_ID",
     "DETUMBLE_ID",
     "ENV_ID",
     "ENV_IDS",
@@ -67,6 +69,7 @@ __all__ = [
 ENV_ID = reorient.SPEC.env_id
 DETUMBLE_ID = detumble.SPEC.env_id
 TRACK_ID = track.SPEC.env_id
+DESATURATE_ID = desaturate.SPEC.env_id
 MAX_EPISODE_STEPS = registry.MAX_EPISODE_STEPS
 # id -> (single env class name, vector env class name), for every registered task.
 ENV_IDS = {s.env_id: (s.class_stem + "Env", s.class_stem + "VectorEnv")

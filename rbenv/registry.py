@@ -46,7 +46,9 @@ class TaskSpec:
     baselines: scripted policy name → ``"module:Class"`` or class with ``from_env``.
     budget: algorithm → training timesteps. scene_budgets: (algorithm, scene) → timesteps,
     where a scene needs more. hyperparams: algorithm → settings in RL Zoo's format (every
-    algorithm of ``budget`` needs one). env_doc: the env classes' docstring.
+    algorithm of ``budget`` needs one). env_doc: the env classes' docstring. default_scene:
+    the scene ``gym.make(env_id)`` uses (None: the package's default, cubesat-12u). needs:
+    scene tables the task cannot run without (``("wheels",)``); :meth:`runs_on` checks them.
     """
 
     env_id: str
@@ -58,6 +60,8 @@ class TaskSpec:
     scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
     max_episode_steps: int = MAX_EPISODE_STEPS
     env_doc: str = ""
+    default_scene: str | None = None
+    needs: tuple = ()
 
     @property
     def name(self) -> str:
@@ -69,6 +73,13 @@ class TaskSpec:
         """``SatelliteReorient`` for ``rbenv/SatelliteReorient-v0`` (env class names)."""
         stem = self.env_id.split("/", 1)[1].rsplit("-v", 1)
         return stem[0] + ("" if stem[1] == "0" else f"V{stem[1]}")
+
+    def runs_on(self, scene) -> bool:
+        """Whether ``scene`` (a name, path or Scene) has every table the task needs."""
+        from rbenv.scene import load_scene
+
+        tables = load_scene(scene).actuators
+        return all(tables.get(name) is not None for name in self.needs)
 
     def timesteps(self, algo: str, scene: str | None = None) -> int:
         """The training budget of ``algo`` (on ``scene``, where it needs more)."""

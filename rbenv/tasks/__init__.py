@@ -25,7 +25,9 @@ def build(task_name: str, scene=None, *, integrator=None, control_dt=None, subst
     from rbenv.scene import DEFAULT_SCENE, load_scene
 
     spec = registry.by_name(task_name)
-    scene = load_scene(DEFAULT_SCENE if scene is None else scene).for_task(task_name)
+    if scene is None:
+        scene = spec.default_scene or DEFAULT_SCENE
+    scene = load_scene(scene).for_task(task_name)
     plant = make_plant(scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
                        action_mode=action_mode, allocator=allocator, randomize=randomize,
                        compiled=compiled)

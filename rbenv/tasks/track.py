@@ -6,6 +6,13 @@ frame of a nadir-pointing spacecraft or the line of sight to a ground target doe
 after ``t`` seconds is ``exp(Ω_W t) ⊗ q_target(0)``, exact; seen from the body its rate is
 ``ω_t_B = Rᵀ Ω_W`` and that rate changes at ``d(ω_t_B)/dt = ω_t_B × ω_B``.
 
+With the option ``target = "nadir"`` the target is instead the local-vertical frame (LVLH,
+CCSDS) of the scene's circular orbit: body z to nadir, body y to the negative orbit normal,
+body x along track; it turns at ``Ω_W = n ĥ`` (n the mean motion, ĥ the orbit normal), which
+is ``[0, −n, 0]`` in its own axes, from its attitude at the episode start (the actuators-and-
+orbit reference note, §6). That is the same constant-rate motion, so nothing else changes. A
+scene without an orbit refuses it by name.
+
 The episode starts within ``max_initial_angle_deg`` of the target, tumbling at up to the scene's
 ``max_initial_rate``, and always runs to the scene's duration unless control is lost. Rewards
 accrue for tracking at every step; ``is_success`` (on the last step) requires the satellite to
@@ -19,8 +26,12 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
+import numpy as np
+
 from core import kernels as k
 from core import validation
+from core.errors import InvalidParameterError
+from core.quaternion import from_matrix
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
@@ -82,13 +93,15 @@ class Track(Task):
                                     "on_steps": "i"}
     reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4, "omega_target_W": 3}
     OPTIONS: ClassVar[dict] = {"max_target_rate_fraction": 0.3, "max_initial_angle_deg": 30.0,
-                               "min_track_fraction": 0.9}
+                               "min_track_fraction": 0.9, "target": "random"}
 
     weights: TrackWeights = TrackWeights()
     max_target_rate: float = 0.0  # rad/s
     max_initial_angle: float = math.radians(30.0)  # rad
     max_initial_rate: float = 0.0  # rad/s
     min_track_fraction: float = 0.9
+    # Nadir pointing: (q_target(0) as 4 floats, Ω_W as 3 floats, rad/s), or None (random).
+    nadir: tuple | None = None
 
     @property
     def episode_steps(self) -> int:
@@ -122,11 +135,15 @@ class Track(Task):
         g = draws.normal("task", 13)
         u = draws.uniform("task", 3, offset=26)
         q_target = k.qnormalize(g[0:4])
+        omega_target_W = k.scale(unit(g[10:13], xp), self.max_target_rate * u[2])
+        if self.nadir is not None:  # the same draws, the target replaced by the LVLH frame
+            zero = 0.0 * u[0]
+            q_target = tuple(c + zero for c in self.nadir[0])
+            omega_target_W = tuple(c + zero for c in self.nadir[1])
         theta = restricted_haar_angle(u[0], self.max_initial_angle, xp)
         q = k.qmul(q_target, k.exp(k.scale(unit(g[4:7], xp), theta)))
         return {"q": q, "omega_B": k.scale(unit(g[7:10], xp), self.max_initial_rate * u[1]),
-                "q_target": q_target,
-                "omega_target_W": k.scale(unit(g[10:13], xp), self.max_target_rate * u[2])}
+                "q_target": q_target, "omega_target_W": omega_target_W}
 
     def complete_start(self, start: dict, xp) -> None:
         q_target_conj = conj(start.pop("q_target"))
@@ -200,6 +217,22 @@ class Track(Task):
         return st.angle
 
 
+def lvlh_target(orbit) -> tuple:
+    """The LVLH frame (CCSDS) of a circular orbit at the episode start and its rate.
+
+    ``ẑ_L = −r̂`` (nadir), ``ŷ_L = −ĥ`` (ĥ the orbit normal), ``x̂_L = ŷ_L × ẑ_L`` (along
+    track); returns (q_NL as 4 floats, body→world, scalar first; ``Ω_W = n ĥ`` as 3 floats,
+    rad/s). Reference note §6.
+    """
+    r_hat = np.array(orbit.direction_N(0.0, math))
+    h_hat = np.cross(orbit.p_hat, orbit.q_hat)
+    z, y = -r_hat, -h_hat
+    R = np.column_stack([np.cross(y, z), y, z])
+    q = from_matrix(R)
+    return (tuple(float(c) for c in q),
+            tuple(float(c) for c in orbit.mean_motion * h_hat))
+
+
 def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initial_rate=None,
                task_options=None) -> Track:
     """The tracking task on ``plant`` (options: scene ``[tasks.track]``, then task_options)."""
@@ -211,10 +244,20 @@ def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initi
                             low=0.0, high=180.0)
     share = validation.number("tasks.track.min_track_fraction", opts["min_track_fraction"],
                               low=0.0, high=1.0)
+    target = validation.choice("tasks.track.target", opts["target"], ("random", "nadir"))
+    nadir = None
+    if target == "nadir":
+        orbit = plant.scene.orbit
+        if not orbit.enabled:
+            raise InvalidParameterError(
+                f"tasks.track.target = 'nadir' points at the local vertical of the scene's "
+                f"orbit, but scene {plant.scene.name!r} has none ([orbit] model = 'none'); "
+                "give it an [orbit] table or use target = 'random'")
+        nadir = lvlh_target(orbit)
     task = Track(plant=plant, weights=TrackWeights.from_mapping(reward_weights),
                  max_target_rate=frac * limit, max_initial_angle=math.radians(deg),
                  max_initial_rate=plant.scene.episode.max_initial_rate,
-                 min_track_fraction=share)
+                 min_track_fraction=share, nadir=nadir)
     return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
 
@@ -224,7 +267,9 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
     :class:`SatelliteReorientEnv`; ``task_options`` overrides the scene's ``[tasks.track]``
     table: ``max_target_rate_fraction`` (the target turns about a random world-fixed axis at a
     rate uniform up to this), ``max_initial_angle_deg`` (initial tracking error),
-    ``min_track_fraction`` (success threshold, below).
+    ``min_track_fraction`` (success threshold, below), ``target`` (``"random"``, default,
+    or ``"nadir"``: the LVLH frame of the scene's orbit, turning at ``[0, −n, 0]`` in its
+    own axes; refused on a scene without an orbit).
 
     **Observation** ``Box(-1, 1, (10,), float32)``, ``{"q_err": 4, "omega_err_B": 3,
     "omega_target_B": 3}``: the canonical error quaternion to the *moving* target, the rate

@@ -51,7 +51,8 @@ def pd_action(env, obs, wn=0.3, zeta=0.9, w_max=0.1):
 
 @pytest.mark.parametrize(("scene", "mode"), [
     (scene, mode) for scene in rbenv.list_scenes() for mode in MODES
-    if mode != "on_off" or rbenv.load_scene(scene).thrusters is not None])  # on/off: thrusters
+    if mode != "on_off" or (rbenv.load_scene(scene).thrusters is not None  # on/off: thrusters
+                            and "wheels" not in rbenv.load_scene(scene).actuators)])
 def test_gymnasium_and_sb3_checkers_pass_without_warnings(scene, mode):
     """Gymnasium's checker runs in a base install too; SB3's where SB3 is installed."""
     render = scene == "cubesat-12u" and mode == "throttle"

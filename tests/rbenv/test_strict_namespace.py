@@ -154,7 +154,9 @@ CASES = [(env_id, scene, mode, integ)
          for env_id in rbenv.ENV_IDS for scene in rbenv.list_scenes()
          for mode, integ in (("throttle", None), ("on_off", None), ("throttle", "euler"),
                              ("throttle", "semi_implicit"), ("throttle", "euler_seed"))
-         if mode != "on_off" or rbenv.load_scene(scene).thrusters is not None]
+         if (mode != "on_off" or (rbenv.load_scene(scene).thrusters is not None  # wheels
+                                  and "wheels" not in rbenv.load_scene(scene).actuators))
+         and rbenv.registry.get(env_id).runs_on(scene)]
 
 
 @pytest.mark.parametrize(("env_id", "scene", "mode", "integrator"), CASES)

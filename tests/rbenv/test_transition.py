@@ -27,8 +27,9 @@ def _equal(a, b) -> bool:
     return np.array_equal(np.asarray(a), np.asarray(b))
 
 
-@pytest.mark.parametrize("env_id", list(rbenv.ENV_IDS))
-@pytest.mark.parametrize("scene", ["cubesat-12u", "cubesat-12u-dr", "boom-sat"])
+@pytest.mark.parametrize(("env_id", "scene"), [  # every id on the thruster scenes it runs on
+    (i, s) for s in ("cubesat-12u", "cubesat-12u-dr", "boom-sat", "cubesat-12u-rw")
+    for i in rbenv.ENV_IDS if rbenv.registry.get(i).runs_on(s)])
 def test_step_returns_a_new_state_and_leaves_its_input_unchanged(env_id, scene):
     for vector in (False, True):
         env = (gym.make_vec(env_id, num_envs=5, scene=scene) if vector

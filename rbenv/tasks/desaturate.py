@@ -1,0 +1,281 @@
+"""Desaturate: hold the attitude while bringing the stored wheel momentum down.
+
+``rbenv/SatelliteDesaturate-v0``. Reaction wheels absorb every disturbance torque, so their
+momentum grows until it is dumped with an external torque: the magnetorquers' ``m × B`` or
+the thrusters (the actuators-and-orbit reference note, §4). The episode starts near a fixed
+target attitude (error Haar-uniform within the option ``max_initial_angle_deg``, 2°; rate up
+to ``max_initial_rate_fraction``, 1 %, of the rate limit) with the wheels loaded: the wheel
+speeds are ``Ω = f·Ω_max ⊙ d``, ``d`` a uniformly random unit vector of R^n (stream "task"),
+``f`` the option ``initial_speed_fraction``.
+
+Success: the stored momentum ``|G J Ω|`` (relative speeds, as Basilisk's
+mtbMomentumManagement) below ``momentum_threshold_fraction`` of one wheel's largest momentum
+``J Ω_max``, *and* the attitude error below the success angle and |ω| below the success rate,
+held for the hold time. Failure: |ω| above the rate limit, or the attitude error above
+``max_error_deg`` (the attitude was not held).
+
+Refused (named error) on a scene without ``[wheels]``: there is no momentum to dump.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from core import kernels as k
+from core import validation
+from core.backend import FLOAT, rows
+from core.errors import InvalidParameterError
+from rbenv.hyperparams import tuned
+from rbenv.registry import TaskSpec
+from rbenv.tasks.base import (
+    _DEG,
+    Task,
+    Weights,
+    conj,
+    error_quaternion,
+    option_table,
+    restricted_haar_angle,
+    unit,
+)
+from rbenv.tasks.reorient import initial_ranges
+
+
+@dataclass(frozen=True)
+class DesaturateWeights(Weights):
+    """Reward weights (per control step; θ the attitude error, θ_f the failure angle,
+    |h| the stored wheel momentum, h_0 its start ``f·J·Ω_max``: one wheel's largest momentum
+    times the initial speed fraction f).
+
+    attitude ``−w·min(θ/θ_f, 1)``; momentum ``−w·min(|h|/h_0, 1)``; progress
+    ``w·(|h|_prev − |h|)/h_0`` (potential-based); effort ``−w·effort`` (the actuators' share of
+    their full power or propellant rate); hold ``+w`` per step inside every threshold; failure
+    ``−w`` once (rate limit, or θ > θ_f).
+    """
+
+    attitude: float = 1.0
+    momentum: float = 0.2
+    progress: float = 10.0
+    effort: float = 0.05
+    hold: float = 1.0
+    failure: float = 25.0
+
+
+class DesaturateTerms(NamedTuple):
+    """Reward terms of one step; they sum, left to right, to the reward."""
+
+    attitude: object
+    momentum: object
+    progress: object
+    effort: object
+    hold: object
+    failure: object
+
+
+@dataclass(frozen=True, eq=False)
+class Desaturate(Task):
+    """Hold a fixed attitude and unload the wheels (see the module docstring)."""
+
+    name: ClassVar[str] = "desaturate"
+    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3}
+    start_slots: ClassVar[int] = 24 + 32
+    error_info_key: ClassVar[str] = "attitude_error_deg"
+    Terms: ClassVar[type] = DesaturateTerms
+    WeightsType: ClassVar[type] = DesaturateWeights
+    state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
+                                    "rate": "f", "momentum": "f", "hold": "i"}
+    reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4}
+    OPTIONS: ClassVar[dict] = {"initial_speed_fraction": 0.3,
+                               "momentum_threshold_fraction": 0.1,
+                               "max_error_deg": 20.0, "max_initial_angle_deg": 2.0,
+                               "max_initial_rate_fraction": 0.01}
+
+    weights: DesaturateWeights = DesaturateWeights()
+    max_initial_angle: float = math.radians(2.0)  # rad
+    max_initial_rate: float = 0.0  # rad/s
+    initial_speed_fraction: float = 0.3  # of each wheel's Ω_max
+    momentum_threshold: float = 0.0  # N·m·s, success below it
+    momentum_scale: float = 1.0  # N·m·s, h_0 of the reward
+    max_error: float = math.radians(20.0)  # rad, failure above it
+    axes_B: np.ndarray = None  # (n, 3) wheel spin axes
+    spin_inertia: np.ndarray = None  # (n,) kg·m²
+    max_speed: np.ndarray = None  # (n,) rad/s
+
+    def observation_scale(self) -> dict:
+        return {"q_err": 1.0, "omega_B": self.rate_limit}
+
+    def with_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None):
+        deg = math.degrees(self.max_initial_angle) if max_initial_angle_deg is None \
+            else max_initial_angle_deg
+        rate = self.max_initial_rate if max_initial_rate is None else max_initial_rate
+        angle, rate = initial_ranges(self.plant.scene, deg, rate)
+        return replace(self, max_initial_angle=angle, max_initial_rate=rate)
+
+    # ------------------------------------------------------------------- momentum
+
+    def stored_momentum(self, wheel_speed, xp):
+        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed (n,) rad/s (one satellite) or (N, n)."""
+        h = (wheel_speed * self.spin_inertia) @ self.axes_B  # (3,) or (N, 3)
+        if xp is FLOAT:
+            return math.sqrt(float(h @ h))
+        return xp.sqrt(rows(xp).sum(h * h, axis=-1))
+
+    # ------------------------------------------------------------------- episode start
+
+    def sample_start(self, draws) -> dict:
+        """Target uniform on SO(3), error within the angle, a small tumble, loaded wheels.
+
+        Stream "task": normals 0–3 target, 4–6 error axis, 7–9 rate direction, uniforms 20
+        (error angle) and 21 (rate); normals 12… the wheel-speed direction in R^n.
+        """
+        xp = draws.xp
+        g = draws.normal("task", 10)
+        u = draws.uniform("task", 2, offset=20)
+        q_target = k.qnormalize(g[0:4])
+        theta = restricted_haar_angle(u[0], self.max_initial_angle, xp)
+        q = k.qmul(q_target, k.exp(k.scale(unit(g[4:7], xp), theta)))
+        d = draws.normal_array("task", len(self.spin_inertia), offset=24).T  # (m, n)
+        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        return {"q": q, "omega_B": k.scale(unit(g[7:10], xp), self.max_initial_rate * u[1]),
+                "q_target": q_target,
+                "wheel_load": self.initial_speed_fraction * self.max_speed * d}
+
+    def complete_start(self, start: dict, xp) -> None:
+        # The plant's start holds the scene's wheel speeds; this task replaces them.
+        load = start.pop("wheel_load")
+        start["wheel_speed"] = np.array(load, dtype=float)
+        q_target_conj = conj(start.pop("q_target"))
+        e, angle = error_quaternion(q_target_conj, start["q"], xp)
+        w = start["omega_B"]
+        speed = start["wheel_speed"]
+        momentum = self.stored_momentum(speed[0], xp) if xp is FLOAT \
+            else self.stored_momentum(speed, xp)
+        start.update(q_target_conj=q_target_conj, q_err=e, angle=angle,
+                     rate=xp.sqrt(k.dot(w, w)), momentum=momentum, hold=0 * angle)
+
+    # ------------------------------------------------------------------- per step
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """Canonical q_err (4), then ω_B / rate_limit clipped to [-1, 1] (3)."""
+        e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
+        s = self.inv_rate_limit
+        clip = xp.clip
+        return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
+                clip(w[2] * s, -1.0, 1.0))
+
+    def evaluate(self, st, effort, xp):
+        """Reward terms, success (all thresholds held) and failure (rate limit, lost hold)."""
+        wt = self.weights
+        st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
+        w = st.omega_B
+        st.rate = rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        momentum = self.stored_momentum(st.wheel_speed, xp)
+        inside = (angle < self.success_angle) & (rate < self.success_rate) & \
+            (momentum < self.momentum_threshold)
+        st.hold = xp.where(inside, st.hold + 1, 0)
+        failure = (rate > self.rate_limit) | (angle > self.max_error)
+        inv_h = 1.0 / self.momentum_scale
+        terms = tuple.__new__(DesaturateTerms, (
+            -wt.attitude * xp.minimum(angle * (1.0 / self.max_error), 1.0),
+            -wt.momentum * xp.minimum(momentum * inv_h, 1.0),
+            wt.progress * inv_h * (st.momentum - momentum),
+            -wt.effort * effort,
+            wt.hold * inside,
+            -wt.failure * failure,
+        ))
+        st.angle, st.momentum = angle, momentum
+        return terms, st.hold >= self.hold_steps, failure
+
+    def info(self, st, xp) -> dict:
+        """attitude_error_deg and rate_dps (the wheels report wheel_momentum_Nms)."""
+        return {"attitude_error_deg": st.angle * _DEG, "rate_dps": st.rate * _DEG}
+
+    def target(self, st) -> tuple:
+        c = st.q_target_conj
+        return (c[0], -c[1], -c[2], -c[3])
+
+    def error_angle(self, st):
+        return st.angle
+
+
+def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
+                    max_initial_rate=None, task_options=None) -> Desaturate:
+    """The desaturation task on ``plant`` (options: scene ``[tasks.desaturate]``, then
+    ``task_options``); a scene without wheels is refused by name."""
+    opts = option_table(plant.scene, Desaturate, task_options)
+    wheels = plant.wheels
+    if wheels is None:
+        raise InvalidParameterError(
+            f"task 'desaturate' unloads reaction wheels, but scene {plant.scene.name!r} has "
+            "no [wheels] table; use a scene with wheels (cubesat-6u-rw, cubesat-12u-rw)")
+    ws = wheels.wheels
+    frac = validation.number("tasks.desaturate.initial_speed_fraction",
+                             opts["initial_speed_fraction"], low=0.0, high=1.0)
+    thr = validation.number("tasks.desaturate.momentum_threshold_fraction",
+                            opts["momentum_threshold_fraction"], low=0.0, high=1.0,
+                            low_open=True)
+    fail = validation.number("tasks.desaturate.max_error_deg", opts["max_error_deg"],
+                             low=0.0, high=180.0, low_open=True)
+    deg = validation.number("tasks.desaturate.max_initial_angle_deg",
+                            opts["max_initial_angle_deg"], low=0.0, high=fail)
+    rate = validation.number("tasks.desaturate.max_initial_rate_fraction",
+                             opts["max_initial_rate_fraction"], low=0.0, high=1.0,
+                             high_open=True)
+    h_wheel = float(np.min(ws.inertia * ws.max_speed))  # one wheel's largest momentum
+    task = Desaturate(plant=plant, weights=DesaturateWeights.from_mapping(reward_weights),
+                      initial_speed_fraction=frac, momentum_threshold=thr * h_wheel,
+                      momentum_scale=max(frac, thr) * h_wheel, max_error=math.radians(fail),
+                      max_initial_angle=math.radians(deg),
+                      max_initial_rate=rate * plant.scene.episode.rate_limit,
+                      axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed)
+    if task.success_angle >= task.max_error:
+        raise InvalidParameterError(
+            f"tasks.desaturate.max_error_deg must exceed the success angle "
+            f"{math.degrees(task.success_angle):g} deg, got {fail!r}")
+    return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
+
+
+ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' momentum.
+
+    Made by ``gym.make("rbenv/SatelliteDesaturate-v0", **kwargs)``; arguments as
+    :class:`SatelliteReorientEnv`; the scene (default ``"cubesat-6u-rw"``) must have
+    ``[wheels]``.
+    ``task_options`` overrides the scene's ``[tasks.desaturate]`` table:
+    ``initial_speed_fraction`` (0.3: each wheel starts at this fraction of its speed limit
+    along a random direction of wheel-speed space), ``momentum_threshold_fraction`` (0.1:
+    success below this fraction of one wheel's largest momentum J·Ω_max),
+    ``max_error_deg`` (20: the attitude hold is lost above it), ``max_initial_angle_deg`` (2)
+    and ``max_initial_rate_fraction`` (0.01 of the rate limit): the start near the target.
+
+    **Action**: every actuator of the scene (wheels, then magnetorquers or thrusters).
+    **Observation** ``{"q_err": 4, "omega_B": 3}`` as the reorientation env, then the
+    actuators' parts (``wheel_speed`` Ω/Ω_max, ``field_B`` the magnetometer).
+
+    **Reward**: attitude ``−1·min(θ/θ_f, 1)``, momentum ``−0.2·min(|h|/h_0, 1)``, progress
+    ``10·(|h|_prev − |h|)/h_0``, effort ``−0.05·effort``, hold ``+1`` per step inside every
+    threshold, failure ``−25`` (h_0 = initial_speed_fraction·J·Ω_max).
+
+    **Episode end**: ``terminated`` with success when |h| < threshold, θ < success angle and
+    |ω| < success rate are held for the hold time; ``terminated`` without success above the
+    rate limit or ``max_error_deg``; ``truncated`` at the scene's duration
+    (``[tasks.desaturate.episode]``). **Info**: ``attitude_error_deg``, ``rate_dps``,
+    ``wheel_momentum_Nms``, energy, ``is_success``, ``reward_<term>``.
+    **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,)}``.
+
+    **Version History**
+
+    * v0: first release.
+    """
+
+# The registry entry (rbenv.registry): registered by rbenv/__init__.py. Episodes are longer
+# than the other tasks' 160 steps: magnetic unloading takes a good part of an orbit.
+SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate,
+                make=make_desaturate,
+                baselines={"unload": "agents.controllers:Unload",
+                           "pd": "agents.controllers:WheelHoldPD"},
+                budget={"ppo": 2_000_000, "sac": 200_000},
+                max_episode_steps=300, hyperparams=tuned.ALL, env_doc=ENV_DOC,
+                default_scene="cubesat-6u-rw", needs=("wheels",))
