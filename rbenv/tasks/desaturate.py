@@ -27,7 +27,7 @@ import numpy as np
 
 from core import kernels as k
 from core import validation
-from core.backend import FLOAT, rows
+from core.backend import FLOAT
 from core.errors import InvalidParameterError
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
@@ -103,6 +103,8 @@ class Desaturate(Task):
     axes_B: np.ndarray = None  # (n, 3) wheel spin axes
     spin_inertia: np.ndarray = None  # (n,) kg·m²
     max_speed: np.ndarray = None  # (n,) rad/s
+    axes: tuple = ()  # the spin axes as n 3-tuples of floats (the per-step path)
+    spin: tuple = ()  # the spin inertias as n floats, kg·m²
 
     def observation_scale(self) -> dict:
         return {"q_err": 1.0, "omega_B": self.rate_limit}
@@ -116,12 +118,13 @@ class Desaturate(Task):
 
     # ------------------------------------------------------------------- momentum
 
-    def stored_momentum(self, wheel_speed, xp):
-        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed (n,) rad/s (one satellite) or (N, n)."""
-        h = (wheel_speed * self.spin_inertia) @ self.axes_B  # (3,) or (N, 3)
-        if xp is FLOAT:
-            return math.sqrt(float(h @ h))
-        return xp.sqrt(rows(xp).sum(h * h, axis=-1))
+    def stored_momentum(self, wheel_speed: tuple, xp):
+        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed one component per wheel, rad/s (floats for
+        one satellite, (N,) arrays for N; the wheels' state kind ``cn``)."""
+        h = (0.0, 0.0, 0.0)
+        for i, s in enumerate(wheel_speed):
+            h = k.add(h, self.axes[i], self.spin[i] * s)
+        return xp.sqrt(k.dot(h, h))
 
     # ------------------------------------------------------------------- episode start
 
@@ -145,14 +148,13 @@ class Desaturate(Task):
 
     def complete_start(self, start: dict, xp) -> None:
         # The plant's start holds the scene's wheel speeds; this task replaces them.
-        load = start.pop("wheel_load")
-        start["wheel_speed"] = np.array(load, dtype=float)
+        load = np.asarray(start.pop("wheel_load"), dtype=float)  # (m, n)
+        start["wheel_speed"] = tuple(load[0].tolist()) if xp is FLOAT else tuple(load.T)
         q_target_conj = conj(start.pop("q_target"))
         e, angle = error_quaternion(q_target_conj, start["q"], xp)
         w = start["omega_B"]
         speed = start["wheel_speed"]
-        momentum = self.stored_momentum(speed[0], xp) if xp is FLOAT \
-            else self.stored_momentum(speed, xp)
+        momentum = self.stored_momentum(speed, xp)
         start.update(q_target_conj=q_target_conj, q_err=e, angle=angle,
                      rate=xp.sqrt(k.dot(w, w)), momentum=momentum, hold=0 * angle)
 
@@ -230,7 +232,9 @@ def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                       momentum_scale=max(frac, thr) * h_wheel, max_error=math.radians(fail),
                       max_initial_angle=math.radians(deg),
                       max_initial_rate=rate * plant.scene.episode.rate_limit,
-                      axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed)
+                      axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed,
+                      axes=tuple(tuple(float(c) for c in g) for g in ws.axes_B),
+                      spin=tuple(float(j) for j in ws.inertia))
     if task.success_angle >= task.max_error:
         raise InvalidParameterError(
             f"tasks.desaturate.max_error_deg must exceed the success angle "
