@@ -27,7 +27,6 @@ import numpy as np
 
 from core import kernels as k
 from core import validation
-from core.backend import FLOAT, rows
 from core.errors import InvalidParameterError
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
@@ -116,12 +115,15 @@ class Desaturate(Task):
 
     # ------------------------------------------------------------------- momentum
 
-    def stored_momentum(self, wheel_speed, xp):
-        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed (n,) rad/s (one satellite) or (N, n)."""
-        h = (wheel_speed * self.spin_inertia) @ self.axes_B  # (3,) or (N, 3)
-        if xp is FLOAT:
-            return math.sqrt(float(h @ h))
-        return xp.sqrt(rows(xp).sum(h * h, axis=-1))
+    def stored_momentum(self, wheel_speed: tuple, xp):
+        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed n components, rad/s (floats for one
+        satellite, (N,) arrays for N; the wheels' state kind "cn")."""
+        g, J = self.axes_B, self.spin_inertia
+        h = [0.0, 0.0, 0.0]
+        for i, s in enumerate(wheel_speed):
+            js = J[i] * s
+            h = [h[0] + js * g[i, 0], h[1] + js * g[i, 1], h[2] + js * g[i, 2]]
+        return xp.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
 
     # ------------------------------------------------------------------- episode start
 
@@ -137,22 +139,20 @@ class Desaturate(Task):
         q_target = k.qnormalize(g[0:4])
         theta = restricted_haar_angle(u[0], self.max_initial_angle, xp)
         q = k.qmul(q_target, k.exp(k.scale(unit(g[4:7], xp), theta)))
-        d = draws.normal_array("task", len(self.spin_inertia), offset=24).T  # (m, n)
-        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        d = draws.normal("task", len(self.spin_inertia), offset=24)  # n components
+        inv = 1.0 / xp.maximum(xp.sqrt(sum(c * c for c in d)), 1e-300)
+        f = self.initial_speed_fraction
+        load = tuple(f * float(self.max_speed[i]) * inv * c for i, c in enumerate(d))
         return {"q": q, "omega_B": k.scale(unit(g[7:10], xp), self.max_initial_rate * u[1]),
-                "q_target": q_target,
-                "wheel_load": self.initial_speed_fraction * self.max_speed * d}
+                "q_target": q_target, "wheel_load": load}
 
     def complete_start(self, start: dict, xp) -> None:
         # The plant's start holds the scene's wheel speeds; this task replaces them.
-        load = start.pop("wheel_load")
-        start["wheel_speed"] = np.array(load, dtype=float)
+        start["wheel_speed"] = start.pop("wheel_load")
         q_target_conj = conj(start.pop("q_target"))
         e, angle = error_quaternion(q_target_conj, start["q"], xp)
         w = start["omega_B"]
-        speed = start["wheel_speed"]
-        momentum = self.stored_momentum(speed[0], xp) if xp is FLOAT \
-            else self.stored_momentum(speed, xp)
+        momentum = self.stored_momentum(start["wheel_speed"], xp)
         start.update(q_target_conj=q_target_conj, q_err=e, angle=angle,
                      rate=xp.sqrt(k.dot(w, w)), momentum=momentum, hold=0 * angle)
 
