@@ -20,8 +20,9 @@ strict NumPy namespace whose arrays refuse any direct ``np.`` call.
 Names beyond the element-wise functions, for the per-actuator rows ((N, n) arrays; a single
 satellite's rows are NumPy (n,) arrays, so :data:`FLOAT` has none of them): ``where``,
 ``expand_dims``, ``sum``, ``max``, ``abs``, ``sign``, ``einsum``, ``clamp`` / ``clamp_into``
-(clip to bounds, the latter in place where the backend can), ``to_float`` (bool → 0.0/1.0)
-and ``isnan_any``.
+(clip to bounds, the latter in place where the backend can), ``to_float`` (bool → 0.0/1.0),
+``isnan_any``, and ``const`` (a plant constant, a read-only NumPy array, in the backend: itself
+for NumPy, a cached device copy for torch, :mod:`core.torch_backend`).
 """
 
 from __future__ import annotations
@@ -163,6 +164,11 @@ class NumpyNamespace:
     @staticmethod
     def isnan_any(x) -> bool:
         return bool(np.isnan(x).any())
+
+    @staticmethod
+    def const(value):
+        """A constant of the plant (a NumPy array) in this backend: itself."""
+        return value
 
 
 FLOAT = FloatNamespace()

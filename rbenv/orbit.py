@@ -159,7 +159,8 @@ class OrbitTable:
         if type(index) is int:
             return floats[index] if index <= self.last else direct(index * self.h, xp)
         index = xp.minimum(index, self.last)
-        return (table[0][index], table[1][index], table[2][index])
+        const = xp.const
+        return (const(table[0])[index], const(table[1])[index], const(table[2])[index])
 
     def direction_N(self, index, xp) -> tuple:
         """r̂_N at substep ``index``."""

@@ -138,7 +138,7 @@ class Thrusters:
         if xp is FLOAT:
             parts = (u @ matrix).tolist()  # a list of floats: the kernels index it alike
         elif matrix.ndim == 2:
-            parts = tuple(matrix.T @ u.T)
+            parts = tuple(rows(xp).const(matrix).T @ u.T)
         else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
             parts = tuple(rows(xp).einsum("ni,nik->kn", u, matrix))
         thrust = parts[3]
