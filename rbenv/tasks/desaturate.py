@@ -27,6 +27,7 @@ import numpy as np
 
 from core import kernels as k
 from core import validation
+from core.backend import FLOAT
 from core.errors import InvalidParameterError
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
@@ -102,6 +103,8 @@ class Desaturate(Task):
     axes_B: np.ndarray = None  # (n, 3) wheel spin axes
     spin_inertia: np.ndarray = None  # (n,) kg·m²
     max_speed: np.ndarray = None  # (n,) rad/s
+    axes: tuple = ()  # the spin axes as n 3-tuples of floats (the per-step path)
+    spin: tuple = ()  # the spin inertias as n floats, kg·m²
 
     def observation_scale(self) -> dict:
         return {"q_err": 1.0, "omega_B": self.rate_limit}
@@ -116,14 +119,12 @@ class Desaturate(Task):
     # ------------------------------------------------------------------- momentum
 
     def stored_momentum(self, wheel_speed: tuple, xp):
-        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed n components, rad/s (floats for one
-        satellite, (N,) arrays for N; the wheels' state kind "cn")."""
-        g, J = self.axes_B, self.spin_inertia
-        h = [0.0, 0.0, 0.0]
+        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed one component per wheel, rad/s (floats for
+        one satellite, (N,) arrays for N; the wheels' state kind ``cn``)."""
+        h = (0.0, 0.0, 0.0)
         for i, s in enumerate(wheel_speed):
-            js = J[i] * s
-            h = [h[0] + js * g[i, 0], h[1] + js * g[i, 1], h[2] + js * g[i, 2]]
-        return xp.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
+            h = k.add(h, self.axes[i], self.spin[i] * s)
+        return xp.sqrt(k.dot(h, h))
 
     # ------------------------------------------------------------------- episode start
 
@@ -139,20 +140,21 @@ class Desaturate(Task):
         q_target = k.qnormalize(g[0:4])
         theta = restricted_haar_angle(u[0], self.max_initial_angle, xp)
         q = k.qmul(q_target, k.exp(k.scale(unit(g[4:7], xp), theta)))
-        d = draws.normal("task", len(self.spin_inertia), offset=24)  # n components
-        inv = 1.0 / xp.maximum(xp.sqrt(sum(c * c for c in d)), 1e-300)
-        f = self.initial_speed_fraction
-        load = tuple(f * float(self.max_speed[i]) * inv * c for i, c in enumerate(d))
+        d = draws.normal_array("task", len(self.spin_inertia), offset=24).T  # (m, n)
+        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
         return {"q": q, "omega_B": k.scale(unit(g[7:10], xp), self.max_initial_rate * u[1]),
-                "q_target": q_target, "wheel_load": load}
+                "q_target": q_target,
+                "wheel_load": self.initial_speed_fraction * self.max_speed * d}
 
     def complete_start(self, start: dict, xp) -> None:
         # The plant's start holds the scene's wheel speeds; this task replaces them.
-        start["wheel_speed"] = start.pop("wheel_load")
+        load = np.asarray(start.pop("wheel_load"), dtype=float)  # (m, n)
+        start["wheel_speed"] = tuple(load[0].tolist()) if xp is FLOAT else tuple(load.T)
         q_target_conj = conj(start.pop("q_target"))
         e, angle = error_quaternion(q_target_conj, start["q"], xp)
         w = start["omega_B"]
-        momentum = self.stored_momentum(start["wheel_speed"], xp)
+        speed = start["wheel_speed"]
+        momentum = self.stored_momentum(speed, xp)
         start.update(q_target_conj=q_target_conj, q_err=e, angle=angle,
                      rate=xp.sqrt(k.dot(w, w)), momentum=momentum, hold=0 * angle)
 
@@ -230,7 +232,9 @@ def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                       momentum_scale=max(frac, thr) * h_wheel, max_error=math.radians(fail),
                       max_initial_angle=math.radians(deg),
                       max_initial_rate=rate * plant.scene.episode.rate_limit,
-                      axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed)
+                      axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed,
+                      axes=tuple(tuple(float(c) for c in g) for g in ws.axes_B),
+                      spin=tuple(float(j) for j in ws.inertia))
     if task.success_angle >= task.max_error:
         raise InvalidParameterError(
             f"tasks.desaturate.max_error_deg must exceed the success angle "

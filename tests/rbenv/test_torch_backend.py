@@ -63,9 +63,8 @@ def _close(a, b, where):
 CASES = [(env_id, scene, mode)
          for env_id in rbenv.ENV_IDS for scene in rbenv.list_scenes()
          for mode in ("throttle", "on_off")
-         if (mode != "on_off" or (rbenv.load_scene(scene).thrusters is not None  # wheels
-                                  and "wheels" not in rbenv.load_scene(scene).actuators))
-         and rbenv.registry.get(env_id).runs_on(scene)]  # desaturation needs wheels
+         if rbenv.registry.get(env_id).runs_on(scene)
+         and (mode != "on_off" or not rbenv.load_scene(scene).actuators)]  # on/off: thrusters
 
 
 def test_torch_tensors_dispatch_to_the_torch_namespace():
