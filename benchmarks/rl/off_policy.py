@@ -143,7 +143,7 @@ def summary(directory: Path = RESULTS) -> Path:
 
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="action", required=True)
     c = sub.add_parser("collect", help="copy a run folder's results into a JSON")
     c.add_argument("run")
     c.add_argument("name")
@@ -155,7 +155,7 @@ def main(argv=None) -> None:
                         "rbenv evaluate --json result and the command that made it")
     sub.add_parser("summary", help="write summary.md from the JSONs")
     args = p.parse_args(argv)
-    if args.command == "collect":
+    if args.action == "collect":
         print(collect(Path(args.run), args.name, args.command,
                       Path(args.load) if args.load else None,
                       [(int(n), None if w == "-" else float(w), Path(j), c)
