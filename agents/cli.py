@@ -90,8 +90,8 @@ def _parser() -> argparse.ArgumentParser:
                    help="settings (hyperparameters, envs, budget, env options) come from "
                         "rbenv/hyperparams/ALGO.py, the file rl_zoo3 reads")
     t.add_argument("--timesteps", type=_positive, default=None,
-                   help="default: the shipped n_timesteps (ppo 2M, off-policy 300k); with "
-                        "--resume, a new total")
+                   help="default: the shipped n_timesteps (ppo 2M, tqc 200k, sac/td3/crossq "
+                        "300k); with --resume, a new total")
     t.add_argument("--n-envs", type=_positive, default=None,
                    help="default: the shipped n_envs (ppo 64, off-policy 32)")
     t.add_argument("--seed", type=int, default=0)

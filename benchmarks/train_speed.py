@@ -130,6 +130,8 @@ def off_policy_configs(quick: bool = False) -> list[dict]:
     return [
         *shipped,
         sac("sac shipped, 2 threads", threads=2),
+        sac("sac shipped, fused Adam", policy_kwargs={"net_arch": [256, 256],
+                                                      "optimizer_kwargs": {"fused": True}}),
         sac("sac 64 envs x 16 updates", n_envs=64, gradient_steps=16),
         sac("sac 128 envs x 32 updates", n_envs=128, gradient_steps=32),
         sac("sac batch 256", batch_size=256),

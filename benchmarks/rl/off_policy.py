@@ -41,7 +41,11 @@ def _load_during(log: Path, start: float, end: float) -> dict | None:
             "load1_min": float(load1.min()), "load1_max": float(load1.max())}
 
 
-def collect(run: Path, name: str, command: str, load_log: Path | None = None) -> Path:
+def collect(run: Path, name: str, command: str, load_log: Path | None = None,
+            checkpoints: list[tuple[int, float | None, Path, str]] = ()) -> Path:
+    """``checkpoints``: (timesteps, training wall time at it as ``latest.json`` recorded it,
+    ``rbenv evaluate --json`` file, its command) for checkpoints evaluated on the same held-out
+    episodes as the final model."""
     run = Path(run)
     config = json.loads((run / "config.json").read_text())
     summary = json.loads((run / "training.json").read_text())
@@ -61,7 +65,13 @@ def collect(run: Path, name: str, command: str, load_log: Path | None = None) ->
                                                 "timesteps", "hyperparams", "env_kwargs",
                                                 "normalize", "threads")},
             "versions": config.get("versions"), "training": summary,
-            "held_out": evaluation, "curve": curve, "load_average_during_training": load}
+            "held_out": evaluation, "curve": curve, "load_average_during_training": load,
+            "held_out_checkpoints": []}
+    for steps, wall, path, how in checkpoints:
+        result = json.loads(Path(path).read_text())
+        result = result[0] if isinstance(result, list) else result
+        data["held_out_checkpoints"].append({"timesteps": steps, "wall_time_s": wall,
+                                             "command": how, "result": result})
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps(data, indent=2) + "\n")
@@ -101,6 +111,23 @@ def summary(directory: Path = RESULTS) -> Path:
             f"{1e3 * trained['fuel']['mean']:.2f} | "
             f"{_fmt(trained['settle_time_s']['median'], '.1f')} | "
             f"{trained['final_error_deg']['median']:.3g} | {target} |")
+        for c in data.get("held_out_checkpoints", []):
+            r = c["result"]
+            wall = c.get("wall_time_s")
+            lines.append(
+                f"| {data['name']}, checkpoint {c['timesteps'] // 1000}k | {algo} | "
+                f"{c['timesteps']:,} | {_fmt(wall and wall / 60, '.1f')} | — | — | — | "
+                f"{100 * r['success_rate']:.1f} % ({r['episodes']} episodes) | "
+                f"{1e3 * r['fuel']['mean']:.2f} | {_fmt(r['settle_time_s']['median'], '.1f')} | "
+                f"{r['final_error_deg']['median']:.3g} | — |")
+    lines += ["", "Periodic deterministic evaluation during training (100 episodes from seed "
+              "10,000; not the held-out set):", "", "| run | success at timesteps |", "|---|---|"]
+    for path in sorted(directory.glob("*.json")):
+        data = json.loads(path.read_text())
+        curve = data.get("curve") or {"timesteps": [], "success_rate": []}
+        points = ", ".join(f"{t // 1000}k: {100 * r:.0f} %"
+                           for t, r in zip(curve["timesteps"], curve["success_rate"], strict=True))
+        lines.append(f"| {data['name']} | {points or '—'} |")
     lines += ["", "Scripted baselines on the same held-out episodes (torque-mode env options):",
               "", "| policy | success | fuel mean (g) | settle median (s) |", "|---|---|---|---|"]
     for name, b in baselines.items():
@@ -116,17 +143,23 @@ def summary(directory: Path = RESULTS) -> Path:
 
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="action", required=True)
     c = sub.add_parser("collect", help="copy a run folder's results into a JSON")
     c.add_argument("run")
     c.add_argument("name")
     c.add_argument("--command", required=True, help="the exact command that trained the run")
     c.add_argument("--load", default=None, help="load-average log: 'unix_time l1 l5 l15' lines")
+    c.add_argument("--checkpoint", nargs=4, action="append", default=[],
+                   metavar=("STEPS", "WALL_S", "JSON", "COMMAND"),
+                   help="a checkpoint: its timesteps, training wall time (s; '-' if unknown), "
+                        "rbenv evaluate --json result and the command that made it")
     sub.add_parser("summary", help="write summary.md from the JSONs")
     args = p.parse_args(argv)
-    if args.command == "collect":
+    if args.action == "collect":
         print(collect(Path(args.run), args.name, args.command,
-                      Path(args.load) if args.load else None))
+                      Path(args.load) if args.load else None,
+                      [(int(n), None if w == "-" else float(w), Path(j), c)
+                       for n, w, j, c in args.checkpoint]))
     print(summary())
 
 
