@@ -21,6 +21,7 @@ from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
 
 RENDER_MODES = ("human", "rgb_array")
+_FLOATS = frozenset((np.dtype(np.float32), np.dtype(np.float64)))
 
 
 def unknown_options(owner: str, unknown: dict, valid) -> None:
@@ -79,8 +80,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         if st is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         plant = self.plant
-        if type(action) is np.ndarray and action.dtype.kind in "fiu" \
-                and action.shape == plant.action_shape:
+        if type(action) is np.ndarray and action.dtype in _FLOATS \
+                and action.shape == plant.action_shape:  # the common case, one lookup
             a = np.asarray(action, dtype=np.float64)
         else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
             a = action_array(action, plant.action_shape)
