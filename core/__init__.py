@@ -6,7 +6,7 @@ quaternions are scalar-first (w, x, y, z), Hamilton, body→world; names carry f
 """
 
 from core import inertia, kernels, quaternion
-from core.body import BodyState, RigidBody, angular_momentum_W, rotational_energy
+from core.body import BodyState, RigidBody, Wheels, angular_momentum_W, rotational_energy
 from core.dynamics import simulate, step
 from core.errors import (
     InvalidInertiaError,
@@ -26,6 +26,7 @@ __all__ = [
     "RbenvValueError",
     "RigidBody",
     "ThrusterLayout",
+    "Wheels",
     "angular_momentum_W",
     "inertia",
     "kernels",

@@ -18,6 +18,45 @@ MIN_MASS = float(np.finfo(float).tiny)
 
 
 @dataclass(frozen=True, eq=False)
+class Wheels:
+    """Reaction wheels of a rigid body: n rotors spinning about body-fixed axes.
+
+    axes: (n, 3) spin axes in body axes (normalised here). inertia: (n,) kg·m², each rotor's
+    spin-axis inertia (> 0). The rotors' spin inertia is part of the body's inertia; the
+    integrators step the bus ``I − Σ J ĝĝᵀ`` with the rotors' absolute spin momentum as
+    internal angular momentum (:mod:`core.integrators`).
+    """
+
+    axes: np.ndarray
+    inertia: np.ndarray
+
+    def __post_init__(self):
+        axes = check.finite_array("wheels.axes", self.axes)
+        if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 64:
+            raise check.InvalidParameterError(
+                f"wheels.axes must be 1 to 64 spin axes [x, y, z], got shape {axes.shape}")
+        norms = np.linalg.norm(axes, axis=1)
+        if np.any(norms <= 1e-12):
+            raise check.InvalidParameterError(f"wheels.axes must be non-zero, got {axes.tolist()}")
+        inertia = np.broadcast_to(check.finite_array("wheels.inertia", self.inertia),
+                                  (len(axes),)).astype(float)
+        if np.any(inertia <= 0.0):
+            raise check.InvalidParameterError(
+                f"wheels.inertia must be > 0 kg·m² per rotor, got {inertia.tolist()}")
+        object.__setattr__(self, "axes", axes / norms[:, None])
+        object.__setattr__(self, "inertia", inertia)
+
+    @property
+    def n(self) -> int:
+        return len(self.inertia)
+
+    @property
+    def spin_inertia(self) -> np.ndarray:
+        """(3, 3) ``Σ J_i ĝ_i ĝ_iᵀ``, kg·m²."""
+        return (self.axes.T * self.inertia) @ self.axes
+
+
+@dataclass(frozen=True, eq=False)
 class RigidBody:
     """Mass (kg) and inertia (kg·m², (3, 3), about the centre of mass, body axes) of one body.
 
@@ -31,6 +70,7 @@ class RigidBody:
     mass: float
     inertia: np.ndarray
     specialize: bool = True
+    wheels: Wheels | None = None  # reaction wheels (their rotors are inside ``inertia``)
     inertia_inv: np.ndarray = field(init=False, repr=False)
     kind: str = field(init=False)
     _diag: tuple = field(init=False, repr=False)
@@ -38,10 +78,24 @@ class RigidBody:
     _rows: tuple = field(init=False, repr=False)
     _inv_rows: tuple = field(init=False, repr=False)
     inverse_columns: tuple = field(init=False, repr=False)
+    bus: RigidBody | None = field(init=False, repr=False)  # without the rotors' spin (wheels)
 
     def __post_init__(self):
         mass = check.number("mass", self.mass, low=MIN_MASS)
         check.flag("specialize", self.specialize)
+        bus = None
+        if self.wheels is not None:
+            if not isinstance(self.wheels, Wheels):
+                raise check.InvalidParameterError(
+                    f"wheels must be a core.Wheels, got {type(self.wheels).__name__}")
+            try:
+                bus = RigidBody(mass, np.asarray(self.inertia, dtype=float)
+                                - self.wheels.spin_inertia, self.specialize)
+            except InvalidInertiaError as exc:
+                raise InvalidInertiaError(
+                    f"wheels.inertia: the body's inertia less its rotors' spin inertia must "
+                    f"still be a rigid body's, but {exc}") from None
+        object.__setattr__(self, "bus", bus)
         inertia = validate(self.inertia)
         inertia.setflags(write=False)
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
@@ -147,8 +201,15 @@ class BodyState:
     velocity: np.ndarray = None
     orientation: np.ndarray = None
     angular_velocity: np.ndarray = None
+    wheel_speeds: np.ndarray = None  # (..., n) rad/s relative to the body, or None (no wheels)
 
     def __post_init__(self):
+        if self.wheel_speeds is not None:
+            speeds = check.finite_array("wheel_speeds", self.wheel_speeds)
+            if speeds.ndim < 1:
+                raise check.InvalidParameterError(
+                    f"wheel_speeds must be (..., n) rad/s, one per wheel, got a scalar {speeds}")
+            object.__setattr__(self, "wheel_speeds", np.array(speeds, dtype=float))
         given = {
             "position": (self.position, 3),
             "velocity": (self.velocity, 3),
@@ -169,13 +230,15 @@ class BodyState:
             object.__setattr__(self, name, full)
 
     @classmethod
-    def from_arrays(cls, position, velocity, orientation, angular_velocity) -> BodyState:
+    def from_arrays(cls, position, velocity, orientation, angular_velocity,
+                    wheel_speeds=None) -> BodyState:
         """Build a state from already-checked float arrays without validation (hot paths)."""
         state = object.__new__(cls)
         object.__setattr__(state, "position", position)
         object.__setattr__(state, "velocity", velocity)
         object.__setattr__(state, "orientation", orientation)
         object.__setattr__(state, "angular_velocity", angular_velocity)
+        object.__setattr__(state, "wheel_speeds", wheel_speeds)
         return state
 
     @property

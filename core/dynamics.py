@@ -129,16 +129,23 @@ def _prepare(body, state, dt, force, torque, integrator, torque_B):
 
 
 def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
-         integrator: str = "midpoint", *, torque_B=None, translation: bool = True) -> BodyState:
+         integrator: str = "midpoint", *, torque_B=None, translation: bool = True,
+         wheel_torque=None) -> BodyState:
     """Advance ``state`` by ``dt`` seconds with force and torque held constant over the step.
 
     body: the rigid body. state: BodyState with batch shape (...). dt: step in s, > 0.
     force: (..., 3) N, world frame, through the centre of mass. torque: (..., 3) N·m about the
     centre of mass, world frame (use :func:`core.forces.wrench_at_points` for forces at points).
     torque_B: (..., 3) N·m fixed in the body frame during the step (thrusters).
+    wheel_torque: (n,) or (..., n) N·m, the motor torque on each of ``body.wheels`` (internal:
+    it moves momentum between bus and rotors); ``state.wheel_speeds`` (rad/s, relative to the
+    body) start at zero when not given.
     integrator: a name in ``INTEGRATORS``. translation: False skips the centre-of-mass update.
     Returns the new BodyState; raises NonFiniteError if the result is not finite.
     """
+    if body.wheels is not None or wheel_torque is not None or state.wheel_speeds is not None:
+        return simulate(body, state, dt, 1, force, torque, integrator, torque_B=torque_B,
+                        translation=translation, wheel_torque=wheel_torque)
     h, kernel, force, torque, torque_B = _prepare(body, state, dt, force, torque, integrator,
                                                   torque_B)
     q = kernels.unpack(state.orientation)
@@ -158,13 +165,14 @@ def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
 
 def simulate(body: RigidBody, state: BodyState, dt: float, n_steps: int, force=None, torque=None,
              integrator: str = "midpoint", *, torque_B=None, translation: bool = True,
-             trajectory: bool = False):
+             trajectory: bool = False, wheel_torque=None):
     """Take ``n_steps`` steps of :func:`step` with constant force/torque (same units and frames).
 
     n_steps: integer in [0, MAX_STEPS]. The state is checked after every step, so a divergence
     raises :class:`NonFiniteError` at the step where it happens. Returns the final BodyState,
     or with ``trajectory=True`` a BodyState whose fields carry a leading time axis of length
-    n_steps + 1 (the initial state first).
+    n_steps + 1 (the initial state first). wheel_torque: constant motor torques of
+    ``body.wheels`` (see :func:`step`).
     """
     h, kernel, force, torque, torque_B = _prepare(body, state, dt, force, torque, integrator,
                                                   torque_B)
@@ -175,21 +183,74 @@ def simulate(body: RigidBody, state: BodyState, dt: float, n_steps: int, force=N
     w_B = kernels.rotate_inverse(q, kernels.unpack(state.angular_velocity))
     tau_B, tau_W = _parts(torque_B), _parts(torque)
     x, v = state.position, state.velocity
-    history = [(x, v, _pack(q, shape), _pack(w_B, shape))]
+    rotors = _Rotors.of(body, state, wheel_torque, shape)
+    history = [(x, v, _pack(q, shape), _pack(w_B, shape), rotors.speeds(w_B))]
     advance = kernel.advance
     try:
         for _ in range(n_steps):
-            q, w_B = advance(body, q, w_B, h, tau_B, tau_W)
+            if rotors.wheels is None:
+                q, w_B = advance(body, q, w_B, h, tau_B, tau_W)
+            else:
+                q, w_B = rotors.advance(advance, q, w_B, h, tau_B, tau_W)
             if translation:
                 x, v = translate(integrator, body, x, v, h, force)
                 check_finite_state(q, w_B, integrator, h, x, v)
             else:
                 check_finite_state(q, w_B, integrator, h)
             if trajectory:
-                history.append((x, v, _pack(q, shape), _pack(w_B, shape)))
+                history.append((x, v, _pack(q, shape), _pack(w_B, shape), rotors.speeds(w_B)))
     except _OVERFLOW as exc:
         _diverged_inside(exc, integrator, h)
     if trajectory:
-        xs, vs, qs, ws = (np.stack(f) for f in zip(*history, strict=True))
-        return BodyState.from_arrays(xs, vs, qs, quaternion.rotate(qs, ws))
-    return BodyState.from_arrays(x, v, _pack(q, shape), _pack(kernels.rotate(q, w_B), shape))
+        xs, vs, qs, ws = (np.stack(f) for f in list(zip(*history, strict=True))[:4])
+        speeds = None if rotors.wheels is None else np.stack([hh[4] for hh in history])
+        return BodyState.from_arrays(xs, vs, qs, quaternion.rotate(qs, ws), speeds)
+    return BodyState.from_arrays(x, v, _pack(q, shape), _pack(kernels.rotate(q, w_B), shape),
+                                 rotors.speeds(w_B))
+
+
+class _Rotors:
+    """The wheels' absolute spin momenta ``h_i = J_i (Ω_i + ĝ_iᵀω_B)`` over a simulation.
+
+    The integrators step the bus (``body.bus``) with ``G h`` as internal momentum and ``G u``
+    as its rate; ``h`` then moves by ``u·dt`` exactly (u is held), and the relative speeds
+    are ``Ω = h/J − Gᵀω_B``.
+    """
+
+    def __init__(self, wheels, h, u, bus):
+        self.wheels, self.h, self.u, self.bus = wheels, h, u, bus
+
+    @classmethod
+    def of(cls, body, state, wheel_torque, shape):
+        wheels = body.wheels
+        if wheels is None:
+            if wheel_torque is not None or state.wheel_speeds is not None:
+                raise InvalidParameterError(
+                    "wheel_torque and wheel_speeds need a body with wheels "
+                    "(RigidBody(..., wheels=core.Wheels(axes, inertia)))")
+            return cls(None, None, None, None)
+        n = wheels.n
+        speeds = np.zeros((*shape, n)) if state.wheel_speeds is None else state.wheel_speeds
+        u = np.zeros(n) if wheel_torque is None else check.finite_array("wheel_torque",
+                                                                          wheel_torque)
+        for name, arr in (("wheel_speeds", speeds), ("wheel_torque", u)):
+            if arr.shape[-1:] != (n,):
+                raise InvalidParameterError(
+                    f"{name} must have one entry per wheel, (..., {n}), got shape {arr.shape}")
+        w_B = quaternion.rotate_inverse(state.orientation, state.angular_velocity)
+        h = wheels.inertia * (np.broadcast_to(speeds, (*shape, n)) + w_B @ wheels.axes.T)
+        return cls(wheels, h, np.broadcast_to(u, (*shape, n)), body.bus)
+
+    def advance(self, advance, q, w_B, dt, tau_B, tau_W):
+        axes = self.wheels.axes
+        out = advance(self.bus, q, w_B, dt, tau_B, tau_W, kernels.unpack(self.h @ axes),
+                      kernels.unpack(self.u @ axes))
+        self.h = self.h + self.u * dt
+        return out
+
+    def speeds(self, w_B):
+        """(..., n) relative wheel speeds, rad/s, for body rates w_B (components), or None."""
+        if self.wheels is None:
+            return None
+        w = np.stack(np.broadcast_arrays(*w_B), axis=-1)
+        return self.h / self.wheels.inertia - w @ self.wheels.axes.T
