@@ -20,7 +20,7 @@ Refused (named error) on a scene without ``[wheels]``: there is no momentum to d
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -32,8 +32,6 @@ from core.errors import InvalidParameterError
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
-    _DEG,
-    Task,
     Weights,
     conj,
     error_quaternion,
@@ -41,7 +39,7 @@ from rbenv.tasks.base import (
     restricted_haar_angle,
     unit,
 )
-from rbenv.tasks.reorient import initial_ranges
+from rbenv.tasks.reorient import Reorient
 
 
 @dataclass(frozen=True)
@@ -76,18 +74,16 @@ class DesaturateTerms(NamedTuple):
 
 
 @dataclass(frozen=True, eq=False)
-class Desaturate(Task):
-    """Hold a fixed attitude and unload the wheels (see the module docstring)."""
+class Desaturate(Reorient):
+    """Hold a fixed attitude and unload the wheels (see the module docstring). Its
+    observation, info, rendering and initial ranges are reorientation's."""
 
     name: ClassVar[str] = "desaturate"
-    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3}
     start_slots: ClassVar[int] = 24 + 32
-    error_info_key: ClassVar[str] = "attitude_error_deg"
     Terms: ClassVar[type] = DesaturateTerms
     WeightsType: ClassVar[type] = DesaturateWeights
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
                                     "rate": "f", "momentum": "f", "hold": "i"}
-    reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3, "q_target": 4}
     OPTIONS: ClassVar[dict] = {"initial_speed_fraction": 0.3,
                                "momentum_threshold_fraction": 0.1,
                                "max_error_deg": 20.0, "max_initial_angle_deg": 2.0,
@@ -105,16 +101,6 @@ class Desaturate(Task):
     max_speed: np.ndarray = None  # (n,) rad/s
     axes: tuple = ()  # the spin axes as n 3-tuples of floats (the per-step path)
     spin: tuple = ()  # the spin inertias as n floats, kg·m²
-
-    def observation_scale(self) -> dict:
-        return {"q_err": 1.0, "omega_B": self.rate_limit}
-
-    def with_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None):
-        deg = math.degrees(self.max_initial_angle) if max_initial_angle_deg is None \
-            else max_initial_angle_deg
-        rate = self.max_initial_rate if max_initial_rate is None else max_initial_rate
-        angle, rate = initial_ranges(self.plant.scene, deg, rate)
-        return replace(self, max_initial_angle=angle, max_initial_rate=rate)
 
     # ------------------------------------------------------------------- momentum
 
@@ -160,14 +146,6 @@ class Desaturate(Task):
 
     # ------------------------------------------------------------------- per step
 
-    def observe(self, st, q, w, xp) -> tuple:
-        """Canonical q_err (4), then ω_B / rate_limit clipped to [-1, 1] (3)."""
-        e = st.q_err if q is st.q else error_quaternion(st.q_target_conj, q, xp)[0]
-        s = self.inv_rate_limit
-        clip = xp.clip
-        return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
-                clip(w[2] * s, -1.0, 1.0))
-
     def evaluate(self, st, effort, xp):
         """Reward terms, success (all thresholds held) and failure (rate limit, lost hold)."""
         wt = self.weights
@@ -190,18 +168,6 @@ class Desaturate(Task):
         ))
         st.angle, st.momentum = angle, momentum
         return terms, st.hold >= self.hold_steps, failure
-
-    def info(self, st, xp) -> dict:
-        """attitude_error_deg and rate_dps (the wheels report wheel_momentum_Nms)."""
-        return {"attitude_error_deg": st.angle * _DEG, "rate_dps": st.rate * _DEG}
-
-    def target(self, st) -> tuple:
-        c = st.q_target_conj
-        return (c[0], -c[1], -c[2], -c[3])
-
-    def error_angle(self, st):
-        return st.angle
-
 
 def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                     max_initial_rate=None, task_options=None) -> Desaturate:
