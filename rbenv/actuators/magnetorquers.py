@@ -20,9 +20,9 @@ from typing import ClassVar
 import numpy as np
 
 from core import kernels as k
-from core import validation
 from core.backend import NUMPY
 from core.errors import InvalidParameterError
+from rbenv.actuators import tables
 from rbenv.actuators.base import Contribution
 
 __all__ = ["Magnetorquers", "make_magnetorquers", "parse_magnetorquers"]
@@ -46,36 +46,15 @@ class RodSet:
 
 def parse_magnetorquers(table: dict, com_B=None) -> RodSet:
     """``axes`` (list of [x, y, z]), ``max_dipole`` (A·m², one or per rod), ``power_W``."""
-    allowed = {"axes", "max_dipole", "power_W"}
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise InvalidParameterError(f"magnetorquers has unknown key(s) {unknown}; allowed: "
-                                    f"{sorted(allowed)}")
-    for key in ("axes", "max_dipole"):
-        if key not in table:
-            raise InvalidParameterError(f"magnetorquers.{key} is required")
-    axes = validation.finite_array("magnetorquers.axes", table["axes"])
-    if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 16:
-        raise InvalidParameterError(
-            f"magnetorquers.axes must be a list of 1 to 16 [x, y, z] axes, got shape "
-            f"{axes.shape}")
-    norms = np.linalg.norm(axes, axis=1)
-    if np.any(norms < 1e-9):
-        raise InvalidParameterError(f"magnetorquers.axes must be non-zero, got {axes.tolist()}")
+    tables.keys("magnetorquers", table, {"axes", "max_dipole", "power_W"},
+                ("axes", "max_dipole"))
+    axes = tables.axes("magnetorquers", table["axes"])
     n = len(axes)
-
-    def per_rod(key, default, low, high):
-        arr = validation.finite_array(f"magnetorquers.{key}", table.get(key, default))
-        arr = np.broadcast_to(arr, (n,)) if arr.ndim == 0 else arr
-        if arr.shape != (n,):
-            raise InvalidParameterError(f"magnetorquers.{key} must be a number or {n} numbers, "
-                                        f"got shape {arr.shape}")
-        for i, v in enumerate(arr):
-            validation.number(f"magnetorquers.{key}[{i}]", float(v), low=low, high=high)
-        return np.array(arr, dtype=float)
-
-    return RodSet(axes_B=axes / norms[:, None], max_dipole=per_rod("max_dipole", 0.0, 1e-9, 1e4),
-                  power=per_rod("power_W", 0.0, 0.0, 1e4))
+    return RodSet(axes_B=axes,
+                  max_dipole=tables.per_element("magnetorquers", table, "max_dipole", n, 0.0,
+                                                1e-9, 1e4),
+                  power=tables.per_element("magnetorquers", table, "power_W", n, 0.0, 0.0,
+                                           1e4))
 
 
 @dataclass(frozen=True, eq=False)

@@ -38,6 +38,7 @@ from core import kernels as k
 from core import validation
 from core.backend import FLOAT, NUMPY
 from core.errors import InvalidParameterError
+from rbenv.actuators import tables
 from rbenv.actuators.base import Contribution
 
 __all__ = ["Wheels", "make_wheels", "parse_wheels"]
@@ -77,33 +78,15 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
     """The ``[wheels]`` table: axes (list of [x, y, z]), inertia (kg·m²), max_torque (N·m),
     max_speed_rpm, and optional viscous (N·m·s/rad), coulomb (N·m), standby_power (W),
     initial_speed_rpm and random_speed_rpm (± uniform spread per episode)."""
-    allowed = {"axes", "inertia", "max_torque", "max_speed_rpm", "viscous", "coulomb",
-               "standby_power", "initial_speed_rpm", "random_speed_rpm"}
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise InvalidParameterError(f"wheels has unknown key(s) {unknown}; allowed: "
-                                    f"{sorted(allowed)}")
-    for key in ("axes", "inertia", "max_torque", "max_speed_rpm"):
-        if key not in table:
-            raise InvalidParameterError(f"wheels.{key} is required")
-    axes = validation.finite_array("wheels.axes", table["axes"])
-    if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 16:
-        raise InvalidParameterError(
-            f"wheels.axes must be a list of 1 to 16 [x, y, z] spin axes, got shape {axes.shape}")
-    norms = np.linalg.norm(axes, axis=1)
-    if np.any(norms < 1e-9):
-        raise InvalidParameterError(f"wheels.axes must be non-zero, got {axes.tolist()}")
+    tables.keys("wheels", table, {"axes", "inertia", "max_torque", "max_speed_rpm",
+                                  "viscous", "coulomb", "standby_power", "initial_speed_rpm",
+                                  "random_speed_rpm"},
+                ("axes", "inertia", "max_torque", "max_speed_rpm"))
+    axes = tables.axes("wheels", table["axes"])
     n = len(axes)
 
     def per_wheel(key, low, high, scale=1.0):
-        arr = validation.finite_array(f"wheels.{key}", table.get(key, 0.0))
-        arr = np.broadcast_to(arr, (n,)) if arr.ndim == 0 else arr
-        if arr.shape != (n,):
-            raise InvalidParameterError(f"wheels.{key} must be a number or {n} numbers, got "
-                                        f"shape {arr.shape}")
-        for i, v in enumerate(arr):
-            validation.number(f"wheels.{key}[{i}]", float(v), low=low, high=high)
-        return np.array(arr, dtype=float) * scale
+        return tables.per_element("wheels", table, key, n, 0.0, low, high) * scale
 
     def scalar(key, high):
         return validation.number(f"wheels.{key}", table.get(key, 0.0), low=0.0, high=high)
@@ -114,7 +97,7 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
         raise InvalidParameterError(
             "wheels.initial_speed_rpm must be within ±max_speed_rpm, got "
             f"{table['initial_speed_rpm']}")
-    return WheelSet(axes_B=axes / norms[:, None], inertia=per_wheel("inertia", 1e-9, 1e3),
+    return WheelSet(axes_B=axes, inertia=per_wheel("inertia", 1e-9, 1e3),
                     max_torque=per_wheel("max_torque", 1e-9, 1e3), max_speed=speed,
                     viscous=scalar("viscous", 1e3), coulomb=scalar("coulomb", 1e3),
                     standby_power=scalar("standby_power", 1e4), initial_speed=start,
