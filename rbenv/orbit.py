@@ -107,9 +107,8 @@ class Orbit:
     # ------------------------------------------------------------------- torques, field
 
     def gravity_gradient_B(self, body, q_BN, t, xp) -> tuple:
-        """``3n² r̂_B × (I r̂_B)``, N·m, body axes; ``body`` a RigidBody (or BatchBody)."""
-        r_B = k.rotate_inverse(q_BN, self.direction_N(t, xp))
-        return k.scale(k.cross(r_B, body.inertia_times(r_B)), 3.0 * self.mean_motion ** 2)
+        """Gravity-gradient torque at time t (:func:`gravity_gradient_torque_B`)."""
+        return gravity_gradient_torque_B(body, q_BN, self.direction_N(t, xp), self.mean_motion)
 
     def field_N(self, t, xp) -> tuple:
         """Earth's field at the satellite, T, ECI axes (tilted dipole, IGRF-14 2025.0)."""
@@ -127,6 +126,13 @@ class Orbit:
     def field_B(self, q_BN, t, xp) -> tuple:
         """Earth's field in body axes, T."""
         return k.rotate_inverse(q_BN, self.field_N(t, xp))
+
+
+def gravity_gradient_torque_B(body, q_BN, r_hat_N: tuple, mean_motion: float) -> tuple:
+    """``3n² r̂_B × (I r̂_B)``, N·m, body axes: r̂_N the unit position (ECI components), n the
+    mean motion (rad/s); ``body`` a RigidBody (or BatchBody)."""
+    r_B = k.rotate_inverse(q_BN, r_hat_N)
+    return k.scale(k.cross(r_B, body.inertia_times(r_B)), 3.0 * mean_motion ** 2)
 
 
 class OrbitTable:
@@ -172,9 +178,9 @@ class OrbitTable:
         return self._lookup(self.field, self._field_f, index, xp, self.orbit.field_N)
 
     def gravity_gradient_B(self, body, q_BN, index, xp) -> tuple:
-        """``3n² r̂_B × (I r̂_B)`` at substep ``index`` (see :meth:`Orbit.gravity_gradient_B`)."""
-        r_B = k.rotate_inverse(q_BN, self.direction_N(index, xp))
-        return k.scale(k.cross(r_B, body.inertia_times(r_B)), 3.0 * self.orbit.mean_motion ** 2)
+        """Gravity-gradient torque at substep ``index`` (:func:`gravity_gradient_torque_B`)."""
+        return gravity_gradient_torque_B(body, q_BN, self.direction_N(index, xp),
+                                         self.orbit.mean_motion)
 
     def field_B(self, q_BN, index, xp) -> tuple:
         """Earth's field in body axes at substep ``index``, T."""
