@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -79,10 +77,7 @@ print(json.dumps({"single_us": 1e6 * single("rbenv/SatelliteReorient-v0"),
 
 
 def _probe(tree: Path) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", PROBE], env=env, cwd=tree, check=True,
-                         capture_output=True, text=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return common.run_in_tree(tree, PROBE)
 
 
 def main(argv=()) -> dict:

@@ -125,6 +125,19 @@ def _jsonable(obj):
     return obj
 
 
+def run_in_tree(tree: Path, program: str, *args: str) -> dict:
+    """Run ``program`` (Python source) in a fresh interpreter on source tree ``tree``
+    (``PYTHONPATH`` set to it, one BLAS thread) and parse its last stdout line as JSON: the
+    way A/B benchmarks compare two revisions in one run."""
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", program, *args], env=env, cwd=tree,
+                         check=True, capture_output=True, text=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def write_json(name: str, data: dict) -> Path:
     """Write ``data`` plus the machine record to ``benchmarks/results/<name>.json``."""
     RESULTS.mkdir(parents=True, exist_ok=True)

@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -124,10 +122,7 @@ print(json.dumps(out))
 
 def probe(tree: Path, quick: bool) -> dict:
     """Digest of every case, run in a fresh interpreter on the source tree ``tree``."""
-    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", PROBE, "1" if quick else "0"], env=env,
-                         cwd=tree, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return common.run_in_tree(tree, PROBE, "1" if quick else "0")
 
 
 def main(argv=()) -> dict:
