@@ -1,4 +1,4 @@
-"""The ``rbenv`` command: train, evaluate and benchmark (also ``python -m agents.cli``).
+"""The ``rbenv`` command: train, evaluate and benchmark (also ``python -m rbenv.agents.cli``).
 
     rbenv train [--algo ppo|sac|td3|tqc|crossq] [--timesteps N] [--n-envs K] [--seed S]
                 [--scene NAME] [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
@@ -17,50 +17,29 @@ when a model is trained or loaded, or a plot is drawn.
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
+import os
 import pkgutil
+import subprocess
 import sys
 from pathlib import Path
 
 BENCH_OUT = "bench-results"
 
 
-def _benchmarks_package():
-    """rbenv's own ``benchmarks`` package, or None if it is not installed.
-
-    Some wheels (torchrl) ship a top-level ``benchmarks`` folder into site-packages. That
-    namespace package wins over an editable install of ours, so ours is loaded from beside
-    ``agents`` when the import finds someone else's.
-    """
-    import importlib.util
-
-    init = Path(__file__).resolve().parent.parent / "benchmarks" / "__init__.py"
-    try:
-        package = importlib.import_module("benchmarks")
-    except ImportError:
-        package = None
-    if package is not None and getattr(package, "__file__", None) and \
-            Path(package.__file__).resolve() == init:
-        return package
-    if not init.is_file():
-        return None
-    for name in [m for m in sys.modules if m == "benchmarks" or m.startswith("benchmarks.")]:
-        del sys.modules[name]  # the foreign package and anything imported from it
-    spec = importlib.util.spec_from_file_location("benchmarks", init,
-                                                  submodule_search_locations=[str(init.parent)])
-    package = importlib.util.module_from_spec(spec)
-    sys.modules["benchmarks"] = package
-    spec.loader.exec_module(package)
-    return package
+CHECKOUT = Path(__file__).resolve().parent.parent  # the repository root, in a source checkout
 
 
 def benchmarks() -> list[str]:
-    """Benchmark modules (each with a ``main()``) in rbenv's ``benchmarks`` package."""
-    package = _benchmarks_package()
-    if package is None:
+    """Benchmark modules (each runnable as ``python -m benchmarks.NAME``) of a source checkout.
+
+    benchmarks/ is not installed (other wheels, torchrl among them, install a top-level
+    ``benchmarks``), so a wheel install lists none. The modules are listed, not imported.
+    """
+    folder = CHECKOUT / "benchmarks"
+    if not (folder / "__init__.py").is_file():
         return []
-    return sorted(m.name for m in pkgutil.iter_modules(package.__path__)
+    return sorted(m.name for m in pkgutil.iter_modules([str(folder)])
                   if not m.name.startswith("_") and m.name != "common")
 
 
@@ -127,7 +106,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
     t.add_argument("--engine", choices=("sb3", "rllib"), default="sb3",
                    help="sb3 (default) or rllib: PPO on Ray RLlib (needs the ray extra)")
-    from agents.rllib import add_arguments as add_rllib_arguments
+    from rbenv.agents.rllib import add_arguments as add_rllib_arguments
 
     add_rllib_arguments(t)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
@@ -163,8 +142,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
                    help=f"results folder (default ./{BENCH_OUT} in the current directory; "
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
-    from agents.suite import add_arguments
-    from agents.tune import add_arguments as add_ray_arguments
+    from rbenv.agents.suite import add_arguments
+    from rbenv.agents.tune import add_arguments as add_ray_arguments
 
     add_ray_arguments(add_arguments(sub.add_parser(
         "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
@@ -176,10 +155,10 @@ FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "env_id", "checkpoint_every",
 
 
 def _train(args) -> int:
-    from agents.train import TrainConfig, train
+    from rbenv.agents.train import TrainConfig, train
 
     if args.engine == "rllib":
-        from agents.rllib import train_from_args
+        from rbenv.agents.rllib import train_from_args
 
         train_from_args(args)
         return 0
@@ -206,7 +185,7 @@ def _train(args) -> int:
 
 
 def _evaluate(args) -> int:
-    from agents.evaluate import evaluate, format_table, record_video, write_json
+    from rbenv.agents.evaluate import evaluate, format_table, record_video, write_json
 
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
                       env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action,
@@ -220,7 +199,7 @@ def _evaluate(args) -> int:
     if json_path:
         print(f"summary: {write_json([result], json_path)}")
     if plot_path:
-        from agents.evaluate import plot_episodes
+        from rbenv.agents.evaluate import plot_episodes
 
         print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
@@ -238,7 +217,7 @@ def _env_id(args) -> str:
         return args.env_id
     path = Path(args.policy)
     if args.policy not in ("pd", "bangbang", "zero", "random") and path.exists():
-        from agents import runs
+        from rbenv.agents import runs
 
         if path.is_dir() and (path / runs.CONFIG).is_file():  # a run folder, SB3 or RLlib
             config = runs.read_config(path)
@@ -249,10 +228,10 @@ def _env_id(args) -> str:
 
 
 def _suite(args) -> int:
-    from agents.suite import main as suite_main
+    from rbenv.agents.suite import main as suite_main
 
     if args.ray or args.address:
-        from agents.tune import main as tune_main
+        from rbenv.agents.tune import main as tune_main
 
         tune_main(args)
         return 0
@@ -261,28 +240,30 @@ def _suite(args) -> int:
 
 
 def _bench(args) -> int:
-    _benchmarks_package()
-    import benchmarks.common as common
+    """Run ``python -m benchmarks.NAME`` in the checkout, in a child process.
 
-    module = importlib.import_module(f"benchmarks.{args.name}")
-    if not callable(getattr(module, "main", None)):
-        raise SystemExit(f"benchmarks.{args.name} has no main()")
-    common.RESULTS = Path(args.out).resolve()  # write_json/save_figure read it at call time
-    print(f"results go to {common.RESULTS}")
-    module.main()
-    return 0
+    The checkout goes first on the child's path, so its ``benchmarks`` wins over any installed
+    package of that name; ``RBENV_BENCH_OUT`` tells it where to write (benchmarks.common).
+    """
+    out = Path(args.out).resolve()
+    env = dict(os.environ, RBENV_BENCH_OUT=str(out),
+               PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT),
+                                                        os.environ.get("PYTHONPATH")])))
+    print(f"results go to {out}")
+    return subprocess.run([sys.executable, "-m", f"benchmarks.{args.name}"], env=env,
+                          cwd=CHECKOUT, check=False).returncode
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run a command. From the command line (``argv`` None) a documented error (a
-    ``ValueError`` subclass of :mod:`core.errors`, such as a corrupt run file) is printed as
+    ``ValueError`` subclass of :mod:`rbenv.core.errors`, such as a corrupt run file) is printed as
     ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
     args = _parser().parse_args(argv)
     command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
                "suite": _suite}[args.command]
     if argv is not None:
         return command(args)
-    from core.errors import RbenvValueError
+    from rbenv.core.errors import RbenvValueError
 
     try:
         return command(args)

@@ -17,8 +17,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+from rbenv.core.vec import cross
 
-from core.vec import cross
 from rbenv import registry
 from rbenv.allocation import axis_authority, make_allocator
 from rbenv.plant import Plant

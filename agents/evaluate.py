@@ -14,10 +14,10 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.controllers import BASELINES, RandomPolicy, ZeroPolicy, baseline, env_parts
+from rbenv.agents.runs import RunPolicy
 
 import rbenv
-from agents.controllers import BASELINES, RandomPolicy, ZeroPolicy, baseline, env_parts
-from agents.runs import RunPolicy
 
 SCRIPTED = ("pd", "bangbang", "zero", "random")
 
@@ -65,15 +65,15 @@ class SB3Policy(RunPolicy):
 
     ``model_path`` is a run folder, a final ``policy.pt`` (statistics: ``obs_stats.npz``
     beside it) or a checkpoint ``policy_<N>.pt`` (statistics: its own ``obs_stats_<N>.npz``);
-    ``vecnormalize_path`` overrides the statistics; ``action`` as :class:`agents.runs.RunPolicy`
-    (default: the mean throttle for PPO/A2C in throttle mode). Pickle-based files (an older
-    run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``) load only with
-    ``trust_pickle=True``. Same as :func:`agents.runs.load_policy`.
+    ``vecnormalize_path`` overrides the statistics; ``action`` as
+    :class:`rbenv.agents.runs.RunPolicy` (default: the mean throttle for PPO/A2C in throttle mode).
+    Pickle-based files (an older run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``)
+    load only with ``trust_pickle=True``. Same as :func:`rbenv.agents.runs.load_policy`.
     """
 
     def __init__(self, model_path, vecnormalize_path=None, action: str = "auto",
                  trust_pickle: bool = False):
-        from agents import runs
+        from rbenv.agents import runs
 
         files = runs.locate(model_path)
         algo = (files.config or {}).get("algo")
@@ -87,15 +87,15 @@ class SB3Policy(RunPolicy):
 
 def _load_model_policy(name: str, action: str = "auto", trust_pickle: bool = False) -> tuple:
     """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib);
-    ``action`` as :class:`agents.runs.RunPolicy` (SB3 models); ``trust_pickle``: allow
+    ``action`` as :class:`rbenv.agents.runs.RunPolicy` (SB3 models); ``trust_pickle``: allow
     pickle-based files (older SB3 runs, foreign .zip files, RLlib checkpoints)."""
-    from agents import runs
+    from rbenv.agents import runs
 
     path = Path(name)
     if path.is_dir() and (path / runs.CONFIG).is_file():
         config = runs.read_config(path)
         if config.get("engine") == "rllib":  # needs the ray extra (agents.rllib says so)
-            from agents.rllib import RLlibPolicy
+            from rbenv.agents.rllib import RLlibPolicy
 
             return RLlibPolicy(path, trust_pickle=trust_pickle), runs.env_kwargs_of(config)
     policy = SB3Policy(name, action=action, trust_pickle=trust_pickle)
@@ -125,7 +125,7 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
 
     env_id: any registered rbenv id (reorient, detumble, track); episode i is seeded
     ``seed + i``, so every policy evaluated with the same seed meets the same episodes.
-    action: for a model given by path, how it acts (:class:`agents.runs.RunPolicy`).
+    action: for a model given by path, how it acts (:class:`rbenv.agents.runs.RunPolicy`).
     trust_pickle: a model given by path may be a pickle-based file (see :class:`SB3Policy`).
     """
     env_kwargs = dict(env_kwargs or {})

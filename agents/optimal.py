@@ -248,7 +248,7 @@ def replay(throttles, seed: int, scene=None) -> dict:
         zero = np.zeros(plant.n, dtype=np.float32)
         policy = None if isinstance(throttles, np.ndarray) else throttles
         if isinstance(policy, str):
-            from agents.controllers import baseline
+            from rbenv.agents.controllers import baseline
 
             policy = baseline(env, policy)
         obs, state = env.reset(seed=seed)[0], None

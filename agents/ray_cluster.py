@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import socket
 
-from core.errors import RbenvValueError
+from rbenv.core.errors import RbenvValueError
 
 INSTALL = ('pip install -e ".[ray]"  (Ray pins gymnasium==1.2.2, so use a venv of its own, '
            'e.g. python3 -m venv .venv-ray && .venv-ray/bin/pip install torch==2.13.0 && '

@@ -5,11 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from rbenv.agents.controllers import applicable_baselines
+from rbenv.agents.evaluate import SB3Policy, evaluate, format_table, plot_episodes
+from rbenv.agents.runs import atomic_write, write_json
 
 import rbenv
-from agents.controllers import applicable_baselines
-from agents.evaluate import SB3Policy, evaluate, format_table, plot_episodes
-from agents.runs import atomic_write, write_json
 
 
 def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
@@ -84,7 +84,7 @@ def write_report(run_dir, cfg, summary: dict) -> Path:
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
         "for the scene's hold time",
-        f"- load the policy with `agents.runs.load_policy({str(run_dir)!r})`: it applies the "
+        f"- load the policy with `rbenv.agents.runs.load_policy({str(run_dir)!r})`: it applies the "
         "observation normalisation (`obs_stats.npz`) that the bare weights lack",
     ]
     return finish_report(run_dir, lines, table, curve)

@@ -33,12 +33,12 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents import runs
+from rbenv.agents.ray_cluster import connect, require_ray, shutdown
+from rbenv.agents.runs import RunFolderError, atomic_write, write_json
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from agents import runs
-from agents.ray_cluster import connect, require_ray, shutdown
-from agents.runs import RunFolderError, atomic_write, write_json
-from core.errors import InvalidParameterError
 
 ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every Ray process
 POLICY_DIR = "policy"
@@ -382,7 +382,7 @@ def _train_locked(cfg: RLlibConfig, out: Path, resume: bool, progress: bool) -> 
         print(f"resuming rllib ppo in {str(out)!r} from {done} timesteps ({folder.name})")
     else:
         set_log_std(algo, cfg.log_std_init)
-    from agents.train import load_eval_history
+    from rbenv.agents.train import load_eval_history
 
     history = load_eval_history(log, done)
     start, start_steps = time.perf_counter(), done
@@ -462,10 +462,10 @@ class _LivePolicy(RLlibPolicy):
 
 def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
     """The trained policy and the task's scripted baselines on the same seeded episodes."""
-    from agents.controllers import applicable_baselines
-    from agents.evaluate import evaluate, format_table, plot_episodes
-    from agents.evaluate import write_json as write_results
-    from agents.report import finish_report, plot_training_curve
+    from rbenv.agents.controllers import applicable_baselines
+    from rbenv.agents.evaluate import evaluate, format_table, plot_episodes
+    from rbenv.agents.evaluate import write_json as write_results
+    from rbenv.agents.report import finish_report, plot_training_curve
 
     kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
               "env_kwargs": cfg.env_kwargs, "env_id": cfg.env_id}
@@ -488,7 +488,7 @@ def write_report(out: Path, cfg: RLlibConfig, summary: dict) -> Path:
         + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else ""),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy",
-        f"- load the policy with `agents.rllib.RLlibPolicy({str(out)!r}, trust_pickle=True)` "
+        f"- load the policy with `rbenv.agents.rllib.RLlibPolicy({str(out)!r}, trust_pickle=True)` "
         "(SB3-style `predict`; RLlib checkpoints are pickles)",
     ]
     return finish_report(out, lines, table, curve)
@@ -527,10 +527,11 @@ def train_from_args(args) -> Path:
 
 
 def main(argv: list[str] | None = None) -> Path:
-    """``python -m agents.rllib``: the same flags as ``rbenv train --engine rllib``."""
+    """``python -m rbenv.agents.rllib``: the same flags as ``rbenv train --engine rllib``."""
     import json
 
-    p = argparse.ArgumentParser(prog="python -m agents.rllib", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="python -m rbenv.agents.rllib",
+                                description=__doc__.split("\n")[0])
     p.add_argument("--timesteps", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scene", default="cubesat-12u")

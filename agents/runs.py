@@ -10,15 +10,15 @@ A run folder (written by ``rbenv train``)::
     policy.pt, policy.json, obs_stats.npz, training.json, report.md, *.png    the finished run
 
 A run folder is data: weights are tensors loaded with ``torch.load(weights_only=True)``, the
-rest JSON or ``.npz`` loaded without pickle (:mod:`agents.weights`). Run folders written before
-issue 19 (``model.zip``, ``vecnormalize.pkl``, ``model_<N>.zip``, ``vecnormalize_<N>.pkl``,
+rest JSON or ``.npz`` loaded without pickle (:mod:`rbenv.agents.weights`). Run folders written
+before issue 19 (``model.zip``, ``vecnormalize.pkl``, ``model_<N>.zip``, ``vecnormalize_<N>.pkl``,
 ``replay_buffer_<N>.pkl``) and foreign SB3 ``.zip`` files are pickles: unpickling runs any code
 their author put in them, so they load only with ``trust_pickle=True`` (``--trust-pickle``)
 and are refused otherwise with :class:`UntrustedPickleError`.
 
 Loading a trained policy for plain ``gym.make`` code::
 
-    from agents.runs import load_policy
+    from rbenv.agents.runs import load_policy
     policy = load_policy("runs/ppo-cubesat-12u-seed0")       # or .../checkpoints/model_N.zip
     env = policy.make_env()                                   # the run's task, scene and env kwargs
     obs, _ = env.reset(seed=0)
@@ -44,8 +44,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from core.errors import InvalidParameterError, RbenvValueError
+from rbenv.core.errors import InvalidParameterError, RbenvValueError
 
 CONFIG = "config.json"
 LOCK = "run.lock"
@@ -386,7 +385,7 @@ def load_stats(path: Path, venv=None, *, trust_pickle: bool = False):
     it; without: an object with ``normalize_obs`` and ``obs_rms``. Errors name the file."""
     path = Path(path)
     if path.suffix != ".pkl":
-        from agents import weights
+        from rbenv.agents import weights
 
         stats = weights.load_stats(path)
         return stats if venv is None else stats.vecnormalize(venv)
@@ -427,7 +426,7 @@ def load_model(path: Path, algo: str | None = None, *, env=None, hyperparams=Non
     path = Path(path)
     check_model_file(path)
     if path.suffix == ".pt":
-        from agents import weights
+        from rbenv.agents import weights
 
         return weights.load_model(path, env=env, hyperparams=hyperparams, seed=seed)
     require_trust(path, "a Stable-Baselines3 .zip (it holds cloudpickled objects)",
@@ -550,7 +549,7 @@ class RunPolicy:
         self.action = self._resolve_action(action)
 
     def _resolve_action(self, action: str) -> str:
-        from core import validation
+        from rbenv.core import validation
 
         validation.choice("action", action, POLICY_ACTIONS)
         gaussian = _is_unsquashed_gaussian(self.model)

@@ -1,6 +1,6 @@
 """``rbenv suite``: the learning suite, algorithm × task × scene × seed, with reference results.
 
-Each cell of the grid is one training run (:mod:`agents.train`, resumable) in
+Each cell of the grid is one training run (:mod:`rbenv.agents.train`, resumable) in
 ``OUT/cells/<cell.name>/run``, then one held-out evaluation: the trained policy and every
 scripted baseline of the task on the same seeded episodes (episode i seeded ``eval_seed + i``).
 The cell's outcome is written atomically to ``OUT/cells/<cell.name>/result.json``; a cell whose
@@ -23,9 +23,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from rbenv.agents.runs import RunFolderError, read_json, write_json
 
 import rbenv
-from agents.runs import RunFolderError, read_json, write_json
 
 RESULT_VERSION = 3  # 3: mean-throttle action, checkpoints selected on validation episodes
 # The grid's tasks and their training budgets come from the task registry (rbenv.registry).
@@ -113,7 +113,7 @@ def read_result(path: Path, cell: Cell | None = None) -> dict | None:
 
 def train_config(cell: Cell, run: Path, threads: int):
     """The TrainConfig of ``cell``: the algorithm's shipped defaults, periodic evaluations."""
-    from agents.train import TrainConfig
+    from rbenv.agents.train import TrainConfig
 
     every = max(cell.timesteps // CURVE_POINTS, 1)
     return TrainConfig(algo=cell.algo, env_id=cell.env_id, scene=cell.scene, seed=cell.seed,
@@ -124,8 +124,8 @@ def train_config(cell: Cell, run: Path, threads: int):
 
 def train_cell(cell: Cell, run: Path, threads: int) -> dict:
     """Train ``cell`` in ``run`` (resuming what is there); returns training.json."""
-    from agents import runs
-    from agents.train import train
+    from rbenv.agents import runs
+    from rbenv.agents.train import train
 
     cfg = train_config(cell, run, threads)
     resume = (run / runs.CONFIG).is_file()
@@ -135,7 +135,7 @@ def train_cell(cell: Cell, run: Path, threads: int) -> dict:
 
 def _settings(run: Path) -> dict:
     """What the run was trained with (from its config.json): n_envs and hyperparameters."""
-    from agents import runs
+    from rbenv.agents import runs
 
     config = runs.read_config(run)
     return {"n_envs": config.get("n_envs"), "hyperparams": config.get("hyperparams")}
@@ -143,7 +143,7 @@ def _settings(run: Path) -> dict:
 
 def learning_curve(run: Path) -> dict:
     """Periodic evaluations of the run: timesteps and success rate at each."""
-    from agents import runs
+    from rbenv.agents import runs
 
     log = run / runs.EVAL_LOG
     if not log.is_file():
@@ -160,7 +160,7 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     The validation episodes (:func:`validation_curve`) are never the held-out ones, so this is
     model selection on a validation set. Without a checkpoint at that step, the final model.
     """
-    from agents import runs
+    from rbenv.agents import runs
 
     if curve["success_rate"]:
         best = max(curve["success_rate"])
@@ -177,8 +177,8 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
     """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes
     of the cell's task and scene; ``env_kwargs``: further gym.make options of the env the run
     trained in (physics setting, randomization)."""
-    from agents import runs
-    from agents.evaluate import SB3Policy, evaluate
+    from rbenv.agents import runs
+    from rbenv.agents.evaluate import SB3Policy, evaluate
 
     ckpts = sorted(runs.checkpoints(run / runs.CHECKPOINTS, report=lambda _: None),
                    key=lambda c: c.steps)
@@ -196,8 +196,8 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     """On the same held-out episodes: the checkpoint selected on validation episodes and the
     final model (both with the mean-throttle action), the final model with SB3's deterministic
     action clip(μ, 0, 1), and every scripted baseline of the task."""
-    from agents.controllers import applicable_baselines
-    from agents.evaluate import SB3Policy, evaluate
+    from rbenv.agents.controllers import applicable_baselines
+    from rbenv.agents.evaluate import SB3Policy, evaluate
 
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
@@ -222,8 +222,8 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     The evidence for a cell that misses its target: whether the policy was still improving
     when its budget ran out, and how far from the success thresholds it ends.
     """
-    from agents import runs
-    from agents.evaluate import SB3Policy, evaluate
+    from rbenv.agents import runs
+    from rbenv.agents.evaluate import SB3Policy, evaluate
 
     rows = []
     ckpts = sorted(runs.checkpoints(cell_dir(cell, out) / "run" / runs.CHECKPOINTS,
@@ -243,7 +243,7 @@ def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
 
     A complete result.json for the same cell is returned as is (nothing is retrained).
     """
-    from agents.train import set_threads
+    from rbenv.agents.train import set_threads
 
     folder = cell_dir(cell, out)
     path = folder / "result.json"
@@ -521,5 +521,5 @@ def main(args) -> dict:
 
 
 if __name__ == "__main__":
-    main(add_arguments(argparse.ArgumentParser(prog="python -m agents.suite",
+    main(add_arguments(argparse.ArgumentParser(prog="python -m rbenv.agents.suite",
                                                description=__doc__.split("\n")[0])).parse_args())

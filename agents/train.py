@@ -1,7 +1,7 @@
 """``rbenv train``: PPO, SAC, TD3, TQC or CrossQ on the native vector env, with checkpoints,
 resume and a report. Settings come from ``rbenv/hyperparams/<algo>.py`` (RL Zoo's format).
 
-The run folder layout, its lock and the loader are in :mod:`agents.runs`. A run is safe to
+The run folder layout, its lock and the loader are in :mod:`rbenv.agents.runs`. A run is safe to
 kill, corrupt and share:
 
 - every file is written to a unique temporary name and renamed, and ``latest.json`` moves
@@ -30,15 +30,15 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from rbenv.agents import runs
+from rbenv.agents.runs import RunFolderError, atomic_write, write_json
+from rbenv.agents.sb3 import SB3VecEnv
+from rbenv.core.errors import InvalidParameterError
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
 
 import rbenv
-from agents import runs
-from agents.runs import RunFolderError, atomic_write, write_json
-from agents.sb3 import SB3VecEnv
-from core.errors import InvalidParameterError
 
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
 OFF_POLICY = ("sac", "td3", "tqc", "crossq")
@@ -172,7 +172,7 @@ class AtomicCheckpoint(_Every):
 class PeriodicEval(_Every):
     """Deterministic evaluation every ``every`` timesteps, logged to ``eval/evaluations.npz``.
 
-    The policy acts as a loaded one does (:class:`agents.runs.RunPolicy` with
+    The policy acts as a loaded one does (:class:`rbenv.agents.runs.RunPolicy` with
     ``action="auto"``: the mean throttle for PPO in throttle mode), so the training curve
     shows the controller that ``rbenv evaluate`` and the report measure. ``run_config``: the
     run's configuration (its ``env_kwargs`` name the action mode). The history is loaded from
@@ -277,7 +277,7 @@ class WallClock:
 def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None) -> None:
     """Write policy_<steps>.pt/.json and obs_stats_<steps>.npz (and an off-policy model's
     replay_buffer_<steps>.npz), then point latest.json at them. No file is a pickle."""
-    from agents import weights
+    from rbenv.agents import weights
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -299,7 +299,7 @@ def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | Non
 def load_replay_buffer(model, directory: Path, steps: int, trust_pickle: bool = False) -> None:
     """Restore an off-policy model's replay buffer saved with checkpoint ``steps``, if any:
     ``replay_buffer_<steps>.npz``, or an older run's ``.pkl`` only with ``trust_pickle``."""
-    from agents import weights
+    from rbenv.agents import weights
 
     if getattr(model, "replay_buffer", None) is None:
         return
@@ -367,7 +367,7 @@ def load_checkpoint(cfg: TrainConfig, directory: Path, base, trust_pickle: bool 
 
 
 def _missing_file(ckpt: runs.Checkpoint) -> Path | None:
-    from agents import weights
+    from rbenv.agents import weights
 
     needed = [ckpt.model, ckpt.stats]
     if ckpt.model.suffix == ".pt":
@@ -497,7 +497,7 @@ def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
         summary = _train_locked(cfg, out, resume, tensorboard, progress_bar, verbose,
                                 trust_pickle)
     if report:
-        from agents.report import write_report
+        from rbenv.agents.report import write_report
 
         write_report(out, cfg, summary)
     print(f"run saved in {out}; {runs.LOAD_HINT.replace('PATH', repr(str(out)))}")
@@ -545,7 +545,7 @@ def _train_locked(cfg: TrainConfig, out: Path, resume: bool, tensorboard, progre
     latest = latest_checkpoint(ckpt_dir)
     if latest is None or latest["timesteps"] != steps:
         save_checkpoint(model, ckpt_dir, steps, clock.total())  # a longer resume continues here
-    from agents import weights
+    from rbenv.agents import weights
 
     weights.save_model(model, out / runs.FINAL_MODEL)
     atomic_write(out / runs.FINAL_STATS, lambda p: weights.save_stats(env, p))

@@ -1,8 +1,8 @@
 """``rbenv suite --ray``: the learning suite's grid on Ray Tune, one trial per cell.
 
-Each trial calls :func:`agents.suite.run_cell` for its cell, so a trial writes exactly what the
-serial suite writes (``OUT/cells/<name>/run`` and ``result.json``), and the driver then calls
-:func:`agents.suite.aggregate` on every trial's result: the same ``suite.json``, ``suite.md``
+Each trial calls :func:`rbenv.agents.suite.run_cell` for its cell, so a trial writes exactly what
+the serial suite writes (``OUT/cells/<name>/run`` and ``result.json``), and the driver then calls
+:func:`rbenv.agents.suite.aggregate` on every trial's result: the same ``suite.json``, ``suite.md``
 and curves as ``run_serial``. Trials are spread over every core of this machine, or of a
 cluster (``address``); each asks for ``cpus_per_trial`` CPUs.
 
@@ -21,7 +21,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from agents.ray_cluster import connect, shutdown
+from rbenv.agents.ray_cluster import connect, shutdown
 
 TRIAL_RECORD = "tune_trial.json"  # in the cell's folder: pid, node and attempt of its trial
 
@@ -30,9 +30,8 @@ def _trial(config: dict) -> None:
     """One Tune trial: run (or resume) one cell, report its whole result to the driver."""
     import ray
     from ray import tune
-
-    from agents import suite
-    from agents.runs import write_json
+    from rbenv.agents import suite
+    from rbenv.agents.runs import write_json
 
     cell = suite.Cell(**config["cell"])
     out = Path(config["out"])
@@ -62,8 +61,8 @@ def run_tune(cells: list, out: Path, *, eval_episodes: int, eval_seed: int, thre
     ``address``: None for a private Ray instance on this machine (``num_cpus`` caps it),
     ``"auto"`` or ``HOST:PORT`` for a running cluster.
     """
-    from agents import suite
-    from agents.runs import write_json
+    from rbenv.agents import suite
+    from rbenv.agents.runs import write_json
 
     out = Path(out).resolve()
     started = connect(address, num_cpus=num_cpus, feature="--ray")  # before ray is imported
@@ -99,7 +98,7 @@ def run_tune(cells: list, out: Path, *, eval_episodes: int, eval_seed: int, thre
 
 def main(args) -> dict:
     """``rbenv suite --ray``: the suite's arguments plus ``--address``, ``--cpus-per-trial``."""
-    from agents import suite
+    from rbenv.agents import suite
 
     out = Path(args.out or ("runs/suite-quick" if args.quick else "runs/suite"))
     episodes = args.episodes or (suite.QUICK["episodes"] if args.quick else suite.EVAL_EPISODES)
@@ -133,8 +132,8 @@ def add_arguments(p):
 if __name__ == "__main__":
     import argparse
 
-    from agents import suite
+    from rbenv.agents import suite
 
     parser = add_arguments(suite.add_arguments(argparse.ArgumentParser(
-        prog="python -m agents.tune", description=__doc__.split("\n")[0])))
+        prog="python -m rbenv.agents.tune", description=__doc__.split("\n")[0])))
     main(parser.parse_args())

@@ -30,8 +30,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-
-from agents.runs import RunFolderError
+from rbenv.agents.runs import RunFolderError
 
 FORMAT = 1
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")  # every rbenv train --algo (agents.train.ALGOS)
@@ -161,7 +160,7 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
                 seed: int | None = None, verbose: int = 0):
     """A new SB3 model from ``config`` (:func:`model_config`): for training on ``env`` with
     ``hyperparams``, or, with no env, for inference with the saved spaces."""
-    from agents.runs import _model_classes
+    from rbenv.agents.runs import _model_classes
 
     cls = _model_classes()[config["algo"]]
     kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
@@ -313,7 +312,7 @@ def load_replay_buffer(model, path: Path) -> int:
 
 def save_model(model, path: Path) -> None:
     """Write ``<name>.pt`` and ``<name>.json`` for ``model``, each atomically (json last)."""
-    from agents.runs import atomic_write, write_json
+    from rbenv.agents.runs import atomic_write, write_json
 
     config = model_config(model)
     atomic_write(Path(path), lambda p: save_tensors(model_tensors(model), p))

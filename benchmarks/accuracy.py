@@ -1,7 +1,7 @@
 """Work–precision: every integrator over a geometric sweep of dt, against exact references.
 
 Scenes: (a) torque-free rotation near the major axis, (b) near the intermediate axis (the
-Dzhanibekov flip), both against the exact Jacobi-elliptic solution (``core.reference``); (c) a
+Dzhanibekov flip), both against the exact Jacobi-elliptic solution (``rbenv.core.reference``); (c) a
 thruster-driven slew with piecewise-constant body torque against a tight SciPy DOP853 solution.
 Error: geodesic attitude angle at the final time, plus relative drift of energy and L_W.
 Cost: wall time per simulated second, for one body and per body in a batch of N = 4096.
@@ -12,6 +12,8 @@ Run: ``python -m benchmarks.accuracy`` or ``rbenv bench accuracy``.
 from __future__ import annotations
 
 import numpy as np
+from rbenv.core import INTEGRATORS, RigidBody, quaternion, reference
+from rbenv.core.body import invariants
 
 from benchmarks.common import (
     best_times,
@@ -22,8 +24,6 @@ from benchmarks.common import (
     table,
     write_json,
 )
-from core import INTEGRATORS, RigidBody, quaternion, reference
-from core.body import invariants
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
 Q0 = quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2]))

@@ -16,9 +16,10 @@ import sys
 import time
 from pathlib import Path
 
+from rbenv.agents.controllers import applicable_baselines
+from rbenv.agents.evaluate import evaluate
+
 import rbenv
-from agents.controllers import applicable_baselines
-from agents.evaluate import evaluate
 from benchmarks import common
 
 

@@ -10,10 +10,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from rbenv.core import kernels
 
-from core import kernels
-
-RESULTS = Path(__file__).resolve().parent / "results"
+# Where write_json and save_figure put files: benchmarks/results, or the folder that
+# `rbenv bench NAME --out DIR` passes in RBENV_BENCH_OUT.
+RESULTS = Path(os.environ.get("RBENV_BENCH_OUT") or Path(__file__).resolve().parent / "results")
 
 
 def best_time(fn: Callable[[], object], *, repeats: int = 5, min_time: float = 0.05) -> float:
@@ -80,7 +81,7 @@ def best_times(fns: dict[str, Callable[[], object]], *, rounds: int = 9,
 def components(arr) -> tuple:
     """Kernel components of an array: floats for a (k,) vector, contiguous (N,) arrays for (N, k).
 
-    The form :mod:`core.kernels` and the integrators take (one body runs on Python floats).
+    The form :mod:`rbenv.core.kernels` and the integrators take (one body runs on Python floats).
     """
     parts = kernels.unpack(np.asarray(arr, dtype=float))
     return parts if isinstance(parts[0], float) else tuple(np.ascontiguousarray(p) for p in parts)

@@ -11,9 +11,9 @@ import dataclasses
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.controllers import QuaternionPD
 
 import rbenv
-from agents.controllers import QuaternionPD
 from rbenv.scene import Faults
 
 

@@ -27,10 +27,10 @@ import sys
 
 import gymnasium as gym
 import numpy as np
+from rbenv.core import compiled
 
 import rbenv
 from benchmarks.common import best_times, pyplot, save_figure, table, write_json
-from core import compiled
 
 ROUNDS = 5
 N_ACTIONS = 1024

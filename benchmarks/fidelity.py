@@ -2,10 +2,10 @@
 
 Run ``python -m benchmarks.fidelity`` (``--quick`` for a smoke form). For each physics setting a
 user might pick for speed (integrator × substeps per 0.5 s control step), PPO is trained with
-the shipped defaults (:func:`agents.suite.train_config`, :func:`agents.train.train`) on the
-default reorientation task, scene cubesat-12u, with only ``integrator`` and ``substeps``
+the shipped defaults (:func:`rbenv.agents.suite.train_config`, :func:`rbenv.agents.train.train`) on
+the default reorientation task, scene cubesat-12u, with only ``integrator`` and ``substeps``
 changed. Every policy is then evaluated, with the learning suite's mean-throttle action
-(``action="mean_throttle"`` of :class:`agents.runs.RunPolicy`), on the suite's 500 held-out
+(``action="mean_throttle"`` of :class:`rbenv.agents.runs.RunPolicy`), on the suite's 500 held-out
 episodes (seed 1,000,000 + i):
 
 - on **reference physics** (:data:`REFERENCE`, RK4 with 16 substeps), checked to be converged by
@@ -34,10 +34,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from rbenv.agents import suite
+from rbenv.agents.runs import RunFolderError, read_json, write_json
 
 import rbenv
-from agents import suite
-from agents.runs import RunFolderError, read_json, write_json
 
 RESULT_VERSION = 1
 SCENE = "cubesat-12u"
@@ -86,7 +86,7 @@ def parse_setting(text: str) -> Setting:
 # --- one run: train on a setting, evaluate on the reference and on the setting ----------------
 
 def _evaluate(policy, setting: Setting, episodes: int, seed: int) -> dict:
-    from agents.evaluate import evaluate
+    from rbenv.agents.evaluate import evaluate
 
     name = policy if isinstance(policy, str) else "ppo"
     return evaluate(policy, name=name, episodes=episodes, seed=seed, scene=SCENE, record=0,
@@ -97,11 +97,11 @@ def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, thread
                   ) -> dict:
     """Train PPO (shipped defaults) on ``setting``; training.json plus this process's CPU time.
 
-    ``cpu_time_s`` is the CPU time of this process during :func:`agents.train.train` (one torch
-    thread), None when the run was resumed from a checkpoint written by another process.
+    ``cpu_time_s`` is the CPU time of this process during :func:`rbenv.agents.train.train` (one
+    torch thread), None when the run was resumed from a checkpoint written by another process.
     """
-    from agents import runs
-    from agents.train import train
+    from rbenv.agents import runs
+    from rbenv.agents.train import train
 
     cell = suite.Cell("ppo", rbenv.ENV_ID, SCENE, seed, timesteps)
     cfg = suite.train_config(cell, run, threads)
@@ -147,8 +147,8 @@ def collect(out: Path, settings: list[Setting], timesteps: int, episodes: int) -
 def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, timesteps: int,
                 episodes: int, threads: int = 1) -> dict:
     """Train on ``setting`` and evaluate on reference, check and own physics; cached as JSON."""
-    from agents.evaluate import SB3Policy
-    from agents.train import set_threads
+    from rbenv.agents.evaluate import SB3Policy
+    from rbenv.agents.train import set_threads
 
     path = result_path(out, setting, seed)
     expect = {"setting": asdict(setting), "seed": seed, "timesteps": timesteps,
@@ -243,8 +243,7 @@ def open_loop_divergence(settings: list[Setting], *, episodes: int = 100,
     the model error a policy trained on the setting meets on the reference, before feedback.
     """
     import gymnasium as gym
-
-    from agents.controllers import baseline
+    from rbenv.agents.controllers import baseline
 
     def make(setting):
         env = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, scene=SCENE,

@@ -2,7 +2,7 @@
 
 Every probe is one call with one bad, extreme or unusual input. It is classified as:
 
-* ``clear error``: a ``core.errors.RbenvValueError`` (or, for a wrong type, a ``TypeError``)
+* ``clear error``: a ``rbenv.core.errors.RbenvValueError`` (or, for a wrong type, a ``TypeError``)
   whose message names the field;
 * ``unclear error``: any other exception (``TypeError``, ``OverflowError``, ``LinAlgError``,
   ``RecursionError``, a numpy broadcasting message, or a named error that omits the field);
@@ -91,7 +91,7 @@ def _all_finite(value, depth=0) -> bool:
 
 def run_probe(fn, expect: str, fields: tuple, timeout: float) -> tuple[str, str]:
     """Call ``fn()`` under an alarm; return (column, detail)."""
-    from core.errors import RbenvValueError
+    from rbenv.core.errors import RbenvValueError
 
     signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
@@ -185,8 +185,9 @@ def integer_pool():
 
 
 def core_probes(tmp: Path):
-    import core
-    from core import BodyState, RigidBody, ThrusterLayout, inertia, quaternion, simulate, step
+    from rbenv.core import BodyState, RigidBody, ThrusterLayout, inertia, quaternion, simulate, step
+
+    from rbenv import core
 
     body = RigidBody(mass=1.0, inertia=np.diag([1.0, 2.0, 2.5]))
     iso = RigidBody(mass=1.0, inertia=np.eye(3))
@@ -606,8 +607,8 @@ def main(argv=None) -> dict:
 
     cap = int(args.memory_gb * 2**30)
     resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-    import core
     import rbenv
+    from rbenv import core
 
     t_start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp_name:

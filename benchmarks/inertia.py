@@ -8,9 +8,9 @@ Run: ``python -m benchmarks.inertia`` or ``rbenv bench inertia``.
 from __future__ import annotations
 
 import numpy as np
+from rbenv.core import inertia
 
 from benchmarks.common import fit_order, pyplot, save_figure, table, write_json
-from core import inertia
 
 MASS = 2.0
 BOX = (1.0, 2.0, 3.0)

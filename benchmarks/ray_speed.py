@@ -29,10 +29,9 @@ RUNNERS = (0, 1, 2)
 
 def _sb3():
     """A function that collects STEPS env steps with SB3 PPO; returns steps collected."""
+    from rbenv.agents.train import TrainConfig, make_vec_env
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
-
-    from agents.train import TrainConfig, make_vec_env
 
     cfg = TrainConfig(n_envs=ENVS).resolve()
     env = VecNormalize(make_vec_env(cfg, ENVS, 0))
@@ -54,8 +53,7 @@ def _sb3():
 def _rllib(runners: int):
     """A function that samples at least STEPS env steps on ``runners`` env runners."""
     from ray.rllib.execution.rollout_ops import synchronous_parallel_sample
-
-    from agents.rllib import RLlibConfig, algorithm_config, register_env
+    from rbenv.agents.rllib import RLlibConfig, algorithm_config, register_env
 
     register_env()
     cfg = RLlibConfig(env_runners=runners, envs_per_runner=ENVS).resolve()
@@ -72,8 +70,7 @@ def _rllib(runners: int):
 
 def measure(rounds: int = ROUNDS) -> list[dict]:
     import torch
-
-    from agents.ray_cluster import connect, shutdown
+    from rbenv.agents.ray_cluster import connect, shutdown
 
     torch.set_num_threads(1)
     started = connect(None, num_cpus=max(RUNNERS) + 1)

@@ -12,9 +12,9 @@ from __future__ import annotations
 from functools import partial
 
 import numpy as np
+from rbenv.core import INTEGRATORS, BodyState, RigidBody, inertia, quaternion, simulate
 
 from benchmarks.common import best_times, components, pyplot, save_figure, table, write_json
-from core import INTEGRATORS, BodyState, RigidBody, inertia, quaternion, simulate
 
 STEPS = 200
 H = 0.05

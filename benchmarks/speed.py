@@ -3,7 +3,7 @@
 1. Core: time per body-step for each integrator, N = 1 … 262 144 (N = 1 is the float path),
    with a fit ``t(N) = a + b·N`` that separates per-call Python/NumPy overhead (a) from the
    per-body cost (b): overhead stops dominating at N = a/b, marked on the chart. With numba
-   (extra ``fast``), the compiled path (:mod:`core.compiled`) beside it: its JIT cost, and the
+   (extra ``fast``), the compiled path (:mod:`rbenv.core.compiled`) beside it: its JIT cost, and the
    NumPy/compiled ratio at every N. Above 2·BATCH_CHUNK bodies, ``advance_batch`` (the step
    fed chunk by chunk, so its temporaries stay in cache) beside the one-call step. All timings
    at one N are interleaved, best of rounds (process CPU time).
@@ -21,6 +21,8 @@ import time
 from itertools import pairwise
 
 import numpy as np
+from rbenv.core import INTEGRATORS, RigidBody, compiled, quaternion
+from rbenv.core.integrators import BATCH_CHUNK
 
 from benchmarks.common import (
     best_times,
@@ -30,8 +32,6 @@ from benchmarks.common import (
     table,
     write_json,
 )
-from core import INTEGRATORS, RigidBody, compiled, quaternion
-from core.integrators import BATCH_CHUNK
 
 MOMENTS = (5.0, 10.0, 13.0)
 SIZES = (1, 4, 16, 64, 256, 1024, 4096, 16384, 65536, 262144)

@@ -10,10 +10,10 @@ Run: ``python -m benchmarks.stability`` or ``rbenv bench stability``.
 from __future__ import annotations
 
 import numpy as np
+from rbenv.core import INTEGRATORS, RigidBody, quaternion
+from rbenv.core.body import invariants
 
 from benchmarks.common import pyplot, save_figure, table, write_json
-from core import INTEGRATORS, RigidBody, quaternion
-from core.body import invariants
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
 AXES = {"minor": [2.0, 0.3, 0.2], "intermediate": [0.05, 2.0, 0.05], "major": [0.2, 0.3, 2.0]}
@@ -177,7 +177,7 @@ def _wheel_scene(inertia_B, wheel_J, speed_rpm, start_rpm, integrator, dt, rods=
 
 
 def _momentum_W(env) -> np.ndarray:
-    from core import kernels
+    from rbenv.core import kernels
 
     st, plant = env._st, env.plant
     ws = plant.wheels.wheels

@@ -37,10 +37,9 @@ THREADS = (1, 2)
 
 
 def _model():
+    from rbenv.agents.train import TrainConfig, make_vec_env
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
-
-    from agents.train import TrainConfig, make_vec_env
 
     cfg = TrainConfig().resolve()
     env = VecNormalize(make_vec_env(cfg, cfg.n_envs, 0))
@@ -145,9 +144,8 @@ def off_policy_configs(quick: bool = False) -> list[dict]:
 
 
 def _off_policy_model(spec: dict):
+    from rbenv.agents.train import TrainConfig, _algo_class, make_vec_env, model_kwargs
     from stable_baselines3.common.vec_env import VecNormalize
-
-    from agents.train import TrainConfig, _algo_class, make_vec_env, model_kwargs
 
     hp = {**copy.deepcopy(spec["changes"]), "buffer_size": 200_000}
     cfg = TrainConfig(algo=spec["algo"], n_envs=spec.get("n_envs"), hyperparams=hp).resolve()

@@ -1,6 +1,6 @@
-"""Cost of the per-step finiteness check in ``core.step`` and ``core.simulate``.
+"""Cost of the per-step finiteness check in ``rbenv.core.step`` and ``rbenv.core.simulate``.
 
-``core.dynamics.check_finite_state`` runs after every step (|q| and ω finite and |q| = 1; the
+``rbenv.core.dynamics.check_finite_state`` runs after every step (|q| and ω finite and |q| = 1; the
 position and velocity too when translation is integrated). This benchmark times the same calls
 with the check and with it replaced by a no-op, in one run, interleaved, and reports the
 ratio (best of several repeats; the machine is shared, so only the ratio is meaningful). It
@@ -18,8 +18,7 @@ import timeit
 from pathlib import Path
 
 import numpy as np
-
-from core import BodyState, RigidBody, dynamics, simulate, step
+from rbenv.core import BodyState, RigidBody, dynamics, simulate, step
 
 
 def _time(fn, number: int, repeat: int) -> float:
@@ -66,7 +65,7 @@ def measure_components(repeat: int = 31) -> list[dict]:
 
     Short calls timed many times are far less sensitive to a noisy machine than whole runs.
     """
-    from core import integrators, kernels
+    from rbenv.core import integrators, kernels
 
     body = RigidBody(mass=2.0, inertia=np.diag([1.0, 2.0, 2.5]))
     rng = np.random.default_rng(0)

@@ -1,6 +1,6 @@
 """The one seam between one body (Python floats) and many (arrays): array namespaces.
 
-Every formula in :mod:`core.kernels`, :mod:`rbenv.plant` and the tasks is written once on
+Every formula in :mod:`rbenv.core.kernels`, :mod:`rbenv.plant` and the tasks is written once on
 *components* (a vector is 3 values, a quaternion 4), and each component is either a Python float
 (one satellite: about 30 ns per operation, no NumPy call at all) or an (N,) array (a batch,
 structure of arrays). Arithmetic works on both as it is. The few operations that differ
@@ -22,7 +22,7 @@ satellite's rows are NumPy (n,) arrays, so :data:`FLOAT` has none of them): ``wh
 ``expand_dims``, ``sum``, ``max``, ``abs``, ``sign``, ``einsum``, ``clamp`` / ``clamp_into``
 (clip to bounds, the latter in place where the backend can), ``to_float`` (bool → 0.0/1.0),
 ``isnan_any``, and ``const`` (a plant constant, a read-only NumPy array, in the backend: itself
-for NumPy, a cached device copy for torch, :mod:`core.torch_backend`).
+for NumPy, a cached device copy for torch, :mod:`rbenv.core.torch_backend`).
 """
 
 from __future__ import annotations

@@ -5,11 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from core import kernels, quaternion
-from core import validation as check
-from core.errors import InvalidInertiaError
-from core.inertia import validate
+from rbenv.core import kernels, quaternion
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidInertiaError
+from rbenv.core.inertia import validate
 
 # A tensor whose principal moments agree to this relative tolerance is treated as isotropic.
 _ISOTROPIC_RTOL = 1e-12
@@ -24,7 +23,7 @@ class Wheels:
     axes: (n, 3) spin axes in body axes (normalised here). inertia: (n,) kg·m², each rotor's
     spin-axis inertia (> 0). The rotors' spin inertia is part of the body's inertia; the
     integrators step the bus ``I − Σ J ĝĝᵀ`` with the rotors' absolute spin momentum as
-    internal angular momentum (:mod:`core.integrators`).
+    internal angular momentum (:mod:`rbenv.core.integrators`).
     """
 
     axes: np.ndarray
@@ -194,7 +193,7 @@ class BodyState:
     quaternion (w, x, y, z), body→world. angular_velocity (..., 3) rad/s: ω_W, world frame, as in
     the lecture. Fields not given default to zero (identity orientation). Construction checks
     shapes, finiteness and that orientations are unit to 1e-6 (normalise with
-    ``core.quaternion.normalize`` first if needed).
+    ``rbenv.core.quaternion.normalize`` first if needed).
     """
 
     position: np.ndarray = None
@@ -255,7 +254,7 @@ class BodyState:
 def invariants(body: RigidBody, q: tuple, w_B: tuple) -> tuple:
     """Energy ``½ ω_B·Iω_B`` (J) and world momentum ``L_W = R I ω_B`` (N·m·s) on components.
 
-    q: body→world quaternion, w_B: body rates (rad/s), as :mod:`core.kernels` components
+    q: body→world quaternion, w_B: body rates (rad/s), as :mod:`rbenv.core.kernels` components
     (floats for one body, (N,) arrays for a batch). Returns (energy, L_W components).
     """
     m = body.inertia_times(w_B)

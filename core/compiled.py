@@ -1,14 +1,15 @@
 """Optional compiled path (extra ``rbenv[fast]``: numba): the float-path kernels, compiled.
 
-The one-body step runs :mod:`core.integrators` and :mod:`core.kernels` on Python floats. This
-module compiles *those same functions* with numba and loops them over a batch in machine code;
+The one-body step runs :mod:`rbenv.core.integrators` and :mod:`rbenv.core.kernels` on Python floats.
+This module compiles *those same functions* with numba and loops them over a batch in machine code;
 it restates no formula. Three registrations make that possible:
 
-* every function of :mod:`core.kernels`, :mod:`core.integrators` and :mod:`core.splitting` is
-  declared to numba as compiling as it is (``overload`` returning the function itself);
-* :func:`core.backend.namespace` of a float returns, in compiled code, a namespace whose
+* every function of :mod:`rbenv.core.kernels`, :mod:`rbenv.core.integrators` and
+  :mod:`rbenv.core.splitting` is declared to numba as compiling as it is (``overload``
+  returning the function itself);
+* :func:`rbenv.core.backend.namespace` of a float returns, in compiled code, a namespace whose
   ``sqrt``/``sin``/``cos``/``tan`` are :mod:`math`'s (a third backend, next to FLOAT and NUMPY);
-* a :class:`~core.body.RigidBody` becomes a numba type whose fields are compile-time constants
+* a :class:`~rbenv.core.body.RigidBody` becomes a numba type whose fields are compile-time constants
   and whose methods *are* RigidBody's ``inertia_times`` and ``inverse_times`` (its ``kind``
   branches fold away; each distinct body compiles its own loop).
 
@@ -18,8 +19,8 @@ them by name. The NumPy path stays the default; results agree with it to round-o
 float path bit for bit (tests/core/test_compiled.py). The first call of each integrator pays the
 JIT compilation (seconds; ``benchmarks.speed`` reports it).
 
-Use: ``core.compiled.get("rk4").advance(body, q, w, h, tau_B, tau_W)`` on component tuples of
-(N,) arrays, or of floats for one body, exactly like ``core.INTEGRATORS["rk4"].advance``.
+Use: ``rbenv.core.compiled.get("rk4").advance(body, q, w, h, tau_B, tau_W)`` on component tuples of
+(N,) arrays, or of floats for one body, exactly like ``rbenv.core.INTEGRATORS["rk4"].advance``.
 """
 
 from __future__ import annotations
@@ -31,10 +32,9 @@ import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from core import backend, integrators, kernels, splitting
-from core.body import RigidBody
-from core.errors import InvalidParameterError
+from rbenv.core import backend, integrators, kernels, splitting
+from rbenv.core.body import RigidBody
+from rbenv.core.errors import InvalidParameterError
 
 try:
     import numba
@@ -212,7 +212,7 @@ def _arrays(components, n: int):
 
 @dataclass(frozen=True)
 class CompiledIntegrator:
-    """A compiled integrator: ``advance`` has the interface of ``core.INTEGRATORS[name]``.
+    """A compiled integrator: ``advance`` has the interface of ``rbenv.core.INTEGRATORS[name]``.
 
     loop: the batch loop (components are (N,) arrays). kernel: the float kernel itself,
     compiled for one body whose components are floats (the single env's state).

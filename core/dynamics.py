@@ -5,11 +5,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from core import integrators, kernels, quaternion
-from core import validation as check
-from core.body import BodyState, RigidBody
-from core.errors import InvalidParameterError, NonFiniteError
+from rbenv.core import integrators, kernels, quaternion
+from rbenv.core import validation as check
+from rbenv.core.body import BodyState, RigidBody
+from rbenv.core.errors import InvalidParameterError, NonFiniteError
 
 _UNIT_TOL2 = check.UNIT_TOL * check.UNIT_TOL
 # Largest n_steps that simulate() accepts (10x the longest run in the stability benchmark).
@@ -135,8 +134,8 @@ def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
 
     body: the rigid body. state: BodyState with batch shape (...). dt: step in s, > 0.
     force: (..., 3) N, world frame, through the centre of mass. torque: (..., 3) N·m about the
-    centre of mass, world frame (use :func:`core.forces.wrench_at_points` for forces at points).
-    torque_B: (..., 3) N·m fixed in the body frame during the step (thrusters).
+    centre of mass, world frame (use :func:`rbenv.core.forces.wrench_at_points` for forces at
+    points). torque_B: (..., 3) N·m fixed in the body frame during the step (thrusters).
     wheel_torque: (n,) or (..., n) N·m, the motor torque on each of ``body.wheels`` (internal:
     it moves momentum between bus and rotors); ``state.wheel_speeds`` (rad/s, relative to the
     body) start at zero when not given.

@@ -30,21 +30,22 @@ class NonFiniteError(InvalidParameterError):
 
 
 def describe(value) -> str:
-    """Short, readable rendering of a value for error messages; see :func:`core.validation.show`."""
-    from core.validation import show
+    """Short, readable rendering of a value for error messages; see
+    :func:`rbenv.core.validation.show`."""
+    from rbenv.core.validation import show
 
     return show(value)
 
 
 def require_finite(name: str, value) -> np.ndarray:
-    """``value`` as a finite float array; see :func:`core.validation.finite_array`."""
-    from core.validation import finite_array
+    """``value`` as a finite float array; see :func:`rbenv.core.validation.finite_array`."""
+    from rbenv.core.validation import finite_array
 
     return finite_array(name, value)
 
 
 def require_positive(name: str, value) -> float:
-    """``value`` as a finite float > 0; see :func:`core.validation.positive`."""
-    from core.validation import positive
+    """``value`` as a finite float > 0; see :func:`rbenv.core.validation.positive`."""
+    from rbenv.core.validation import positive
 
     return positive(name, value)

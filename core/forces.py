@@ -5,10 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from core import validation as check
-from core.errors import InvalidParameterError, describe
-from core.vec import cross
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, describe
+from rbenv.core.vec import cross
 
 # Most thrusters a layout may have (allocation and per-step cost grow with the count).
 MAX_THRUSTERS = 256

@@ -15,10 +15,9 @@ import inspect
 from dataclasses import dataclass
 
 import numpy as np
-
-from core import validation as check
-from core.errors import InvalidInertiaError, InvalidParameterError, NonFiniteError, describe
-from core.mesh import MeshError, check_closed_oriented, check_mesh_arrays, load_mesh
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidInertiaError, InvalidParameterError, NonFiniteError, describe
+from rbenv.core.mesh import MeshError, check_closed_oriented, check_mesh_arrays, load_mesh
 
 __all__ = [
     "InvalidInertiaError",

@@ -3,9 +3,9 @@
 Every integrator here advances the same state by ``h`` seconds: ``q`` body→world unit quaternion
 (w, x, y, z) and ``w`` body angular velocity ω_B in rad/s, with a torque held constant over the
 step: ``tau_B`` (N·m) fixed in the body frame (thrusters) plus ``tau_W`` (N·m) fixed in the world
-frame; either may be ``None``. States are component tuples (see :mod:`core.kernels`): floats for
-one body, (N,) arrays for a batch. The single env, the vector env, ``core.step`` and
-``core.simulate`` all call these functions: the dynamics exist once.
+frame; either may be ``None``. States are component tuples (see :mod:`rbenv.core.kernels`): floats
+for one body, (N,) arrays for a batch. The single env, the vector env, ``rbenv.core.step`` and
+``rbenv.core.simulate`` all call these functions: the dynamics exist once.
 
 Equations (correcting the lecture, see docs/design.md, "Where the lecture is wrong"):
     q̇ = ½ q ⊗ (0, ω_B),    I ω̇_B = τ_B − ω_B × (I ω_B + h_B) − ḣ_B   (Euler's equations)
@@ -24,11 +24,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from core import kernels as k
-from core import splitting as split
-from core.body import RigidBody
-from core.errors import InvalidParameterError
+from rbenv.core import kernels as k
+from rbenv.core import splitting as split
+from rbenv.core.body import RigidBody
+from rbenv.core.errors import InvalidParameterError
 
 Kernel = Callable[..., tuple[tuple, tuple]]
 
@@ -288,7 +287,8 @@ def _midpoint_internal(body, q, w, h, tau_B, tau_W, h_B, h_dot_B):
 
 def splitting(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
               momentum_rate_B=None):
-    """Explicit symplectic splitting of the free body (:mod:`core.splitting`), torque as kicks.
+    """Explicit symplectic splitting of the free body (:mod:`rbenv.core.splitting`), torque as
+    kicks.
 
     Strang: half kick ``m += ½h τ``, the free step ``A(h/2) C(h) A(h/2) S(h)`` (each part an
     exact rotation about a principal axis or about m), half kick at the new attitude. Order 2,
@@ -358,7 +358,7 @@ class Integrator:
     """A named integrator: its kernel, its order and what it conserves without torque.
 
     ``advance`` is the step as written, for one body (floats) or a batch, and what
-    :mod:`core.compiled` compiles. ``advance_batch`` is the same step for large batches, fed
+    :mod:`rbenv.core.compiled` compiles. ``advance_batch`` is the same step for large batches, fed
     chunk by chunk (:func:`chunked`) when ``element_wise``; use it where N may exceed
     2·BATCH_CHUNK (it costs one Python call more on a single body). The midpoint's Newton
     decides convergence over the whole batch, so it is not split: its round-off would depend on

@@ -4,8 +4,8 @@ A vector is a tuple of 3 components and a quaternion a tuple of 4 (scalar first)
 is either a Python float (one body) or an array of shape (N,) (a batch, structure-of-arrays).
 The same expressions then run at Python-float speed for the single env (a (3,)-array NumPy call
 costs about a microsecond, a float operation about 30 ns) and vectorised for the vector env.
-Every quaternion and rotation formula of the package lives here once; :mod:`core.quaternion` and
-the integrators call these.
+Every quaternion and rotation formula of the package lives here once; :mod:`rbenv.core.quaternion`
+and the integrators call these.
 
 Conventions: quaternions (w, x, y, z), Hamilton product, body→world.
 """
@@ -13,8 +13,7 @@ Conventions: quaternions (w, x, y, z), Hamilton product, body→world.
 from __future__ import annotations
 
 import numpy as np
-
-from core.backend import namespace
+from rbenv.core.backend import namespace
 
 Vec = tuple
 Quat = tuple
@@ -124,7 +123,7 @@ def cos_sin_half(theta, xp):
     Exact to round-off for every θ (t stays below ~1.6e16, so t² never overflows), and one
     tangent costs a fraction of a sine and a cosine (NumPy: about 2.5 ns against 2 × 18 ns per
     element on x86). A non-finite θ gives NaN: ``x + (x − x)`` is x for finite x and NaN for
-    ±inf, where ``math.tan`` would raise. ``xp``: the namespace of θ (:mod:`core.backend`).
+    ±inf, where ``math.tan`` would raise. ``xp``: the namespace of θ (:mod:`rbenv.core.backend`).
     """
     x = 0.25 * theta
     t = xp.tan(x + (x - x))

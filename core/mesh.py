@@ -2,7 +2,7 @@
 
 NumPy only. Vertices are (V, 3) float arrays in metres; faces are (F, 3) integer arrays of vertex
 indices, wound counter-clockwise seen from outside (right-hand rule gives the outward normal).
-:func:`core.inertia.from_mesh` turns a checked mesh into mass properties.
+:func:`rbenv.core.inertia.from_mesh` turns a checked mesh into mass properties.
 """
 
 from __future__ import annotations
@@ -11,9 +11,8 @@ import re
 from pathlib import Path
 
 import numpy as np
-
-from core import validation as check
-from core.errors import InvalidParameterError, describe
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, describe
 
 __all__ = ["MeshError", "check_closed_oriented", "check_mesh_arrays", "load_mesh", "weld"]
 

@@ -11,11 +11,10 @@ Every function accepts arrays with leading batch dimensions, ``(..., 4)`` for qu
 from __future__ import annotations
 
 import numpy as np
-
-from core import kernels
-from core import validation as check
-from core.errors import InvalidParameterError, describe
-from core.vec import dot
+from rbenv.core import kernels
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, describe
+from rbenv.core.vec import dot
 
 _EPS = np.finfo(float).eps
 # A rotation matrix must satisfy |RᵀR − E| <= this entrywise (and det R > 0). Matrices built in
@@ -71,7 +70,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors by unit quaternions: ``q ⊗ (0, v) ⊗ q*``. q: (..., 4), v: (..., 3).
 
     With body→world ``q`` this maps ``v_B`` to ``v_W``; ``rotate(conjugate(q), v_W)`` gives ``v_B``.
-    A non-unit ``q`` (|q| off 1 by more than ``core.validation.UNIT_TOL``), which would scale
+    A non-unit ``q`` (|q| off 1 by more than ``rbenv.core.validation.UNIT_TOL``), which would scale
     the vectors by |q|², raises :class:`InvalidParameterError`.
     """
     q = check.unit_quaternion("q", q)

@@ -1,9 +1,9 @@
 """Exact reference solutions of rigid-body rotation, for tests and benchmarks.
 
 The torque-free motions here are exact (closed forms plus one smooth quadrature), so they measure
-the *global* error of every integrator in :mod:`core.integrators` without a numerical reference
-of unknown quality. :func:`solve_ivp_reference` covers torque-driven cases with a tight DOP853
-solution instead.
+the *global* error of every integrator in :mod:`rbenv.core.integrators` without a numerical
+reference of unknown quality. :func:`solve_ivp_reference` covers torque-driven cases with a tight
+DOP853 solution instead.
 
 Conventions (docs/design.md): quaternions are scalar-first ``(w, x, y, z)``, Hamilton, unit, and map
 body to world (``v_W = q ⊗ v_B ⊗ q*``). Inertia is given as **principal moments** ``(3,)`` in
@@ -26,13 +26,12 @@ from collections.abc import Callable, Sequence
 from itertools import pairwise
 
 import numpy as np
+from rbenv.core import quaternion as quat
+from rbenv.core.errors import InvalidParameterError, describe, require_finite
+from rbenv.core.inertia import validate as _validate_inertia
+from rbenv.core.vec import cross
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj, ellipkinc, ellipkm1, elliprf
-
-from core import quaternion as quat
-from core.errors import InvalidParameterError, describe, require_finite
-from core.inertia import validate as _validate_inertia
-from core.vec import cross
 
 __all__ = [
     "TorqueFreeSolution",

@@ -21,8 +21,8 @@ six plain three-axis splits and six sphere splits), on every scene of ``benchmar
 A symmetric body (two equal moments) makes C vanish and the step exact.
 
 Bodies with a full inertia tensor step in a working frame of principal axes computed once per
-:class:`~core.body.RigidBody` (``principal_frame``); for a diagonal tensor the working frame is
-a relabelling of the body axes, exact in floating point.
+:class:`~rbenv.core.body.RigidBody` (``principal_frame``); for a diagonal tensor the working
+frame is a relabelling of the body axes, exact in floating point.
 """
 
 from __future__ import annotations
@@ -31,10 +31,9 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
-
-from core import kernels as k
-from core import quaternion
-from core.backend import namespace
+from rbenv.core import kernels as k
+from rbenv.core import quaternion
+from rbenv.core.backend import namespace
 
 __all__ = ["PrincipalFrame", "free_flow", "principal_frame"]
 

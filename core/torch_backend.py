@@ -1,8 +1,8 @@
-"""The torch namespace: the names of :class:`core.backend.NumpyNamespace` over torch tensors.
+"""The torch namespace: the names of :class:`rbenv.core.backend.NumpyNamespace` over torch tensors.
 
 Optional (torch comes with the ``train`` extra); nothing else in ``core`` or ``rbenv`` imports
-this module. Importing it registers ``torch.Tensor`` with :func:`core.backend.register`, so
-:func:`core.backend.namespace` of a tensor component is :data:`TORCH`, and the same kernels,
+this module. Importing it registers ``torch.Tensor`` with :func:`rbenv.core.backend.register`, so
+:func:`rbenv.core.backend.namespace` of a tensor component is :data:`TORCH`, and the same kernels,
 plant, actuators and tasks run on (N,) tensors on any device. No formula is restated here:
 these are the array primitives the step calls by name.
 
@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-
-from core import backend
+from rbenv.core import backend
 
 __all__ = ["TORCH", "TorchNamespace"]
 

@@ -3,7 +3,7 @@
 Each check takes the field's ``name`` (a path such as ``"physics.substeps"`` or
 ``"reset options['angular_velocity']"``) and the raw ``value``, and either returns the value
 in a canonical form (float, int, str, bool or a finite float array) or raises a
-:class:`core.errors.RbenvValueError` subclass whose message names the field, the value and the
+:class:`rbenv.core.errors.RbenvValueError` subclass whose message names the field, the value and the
 rule. The rules, in one place:
 
 * a *number* is a real Python or NumPy int or float (``np.int64``, ``np.float32`` ...); bools,
@@ -30,8 +30,7 @@ import stat
 from pathlib import Path
 
 import numpy as np
-
-from core.errors import InvalidParameterError, NonFiniteError
+from rbenv.core.errors import InvalidParameterError, NonFiniteError
 
 __all__ = [
     "UNIT_TOL",
@@ -277,7 +276,7 @@ def unit_quaternion(name: str, value, *, normalize: bool = False,
     """Quaternion(s) (..., 4), scalar first, checked to be unit (``single``: exactly (4,)).
 
     ``normalize=False``: |q| must be 1 within :data:`UNIT_TOL` (normalise first with
-    ``core.quaternion.normalize``). ``normalize=True``: any non-zero length is accepted and
+    ``rbenv.core.quaternion.normalize``). ``normalize=True``: any non-zero length is accepted and
     scaled to 1 (computed without overflow, so 1e200 entries are fine).
     """
     q = array(name, value, (4,)) if single else vectors(name, value, 4)

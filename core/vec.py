@@ -1,7 +1,7 @@
-"""Array front-end, shape (..., 3), for the component kernels of :mod:`core.kernels`.
+"""Array front-end, shape (..., 3), for the component kernels of :mod:`rbenv.core.kernels`.
 
-The formulas live once, in :mod:`core.kernels`; these wrappers split arrays into components and
-stack the result, for code that holds vectors as (..., 3) arrays (quaternion helpers, force
+The formulas live once, in :mod:`rbenv.core.kernels`; these wrappers split arrays into components
+and stack the result, for code that holds vectors as (..., 3) arrays (quaternion helpers, force
 generators, reference solutions). ``np.cross`` is avoided: it costs microseconds per call on
 small arrays.
 """
@@ -9,8 +9,7 @@ small arrays.
 from __future__ import annotations
 
 import numpy as np
-
-from core import kernels
+from rbenv.core import kernels
 
 
 def _parts(a) -> tuple:

@@ -17,7 +17,16 @@ Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :
 
 from __future__ import annotations
 
+import os as _os
 from importlib.metadata import PackageNotFoundError, version
+
+# The layers core/ and agents/ are subpackages, rbenv.core and rbenv.agents. A wheel holds them
+# inside rbenv/ (pyproject's package-dir); a source checkout keeps them beside it. In a checkout,
+# resolve them from this same checkout, whatever an editable install elsewhere points at.
+_checkout = _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
+if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
+        _os.path.join(_checkout, "core", "__init__.py")):
+    __path__.append(_checkout)
 
 from rbenv import registry
 from rbenv.randomization import Randomization
@@ -29,12 +38,12 @@ from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC):
     registry.register(_spec)
 
-from rbenv.env import (  # noqa: E402 (made by the registrations above)
+from rbenv.env import (  # made by the registrations above
     SatelliteDetumbleEnv,
     SatelliteReorientEnv,
     SatelliteTrackEnv,
 )
-from rbenv.vector_env import (  # noqa: E402
+from rbenv.vector_env import (
     SatelliteDetumbleVectorEnv,
     SatelliteReorientVectorEnv,
     SatelliteTrackVectorEnv,

@@ -12,9 +12,9 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
-from core import validation
-from core.errors import InvalidParameterError
 from rbenv import transition
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
 from rbenv.tasks import build
 
 ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "reward_weights",

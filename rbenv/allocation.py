@@ -2,7 +2,7 @@
 
 A layout of n thrusters is described by its torque matrix ``B`` (3, n), N·m: column ``i`` is the
 body torque ``r_i × F_i`` of thruster ``i`` about the centre of mass at full throttle
-(:attr:`core.ThrusterLayout.torque_matrix_B`). Translation is ignored here. For a demand
+(:attr:`rbenv.core.ThrusterLayout.torque_matrix_B`). Translation is ignored here. For a demand
 ``tau_B`` (..., 3) N·m an allocator returns throttles ``u`` (..., n) in [0, 1] with
 ``B @ u == tau_B`` whenever that is achievable. The three allocators differ in which solution
 they pick and in what they do when the demand exceeds the layout's authority (saturation):
@@ -48,8 +48,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import linprog, lsq_linear, nnls
 
-from core import validation as check
-from core.errors import InvalidParameterError, describe
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, describe
 
 __all__ = [
     "ALLOCATORS",

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from core.errors import InvalidParameterError
+from rbenv.core.errors import InvalidParameterError
 from rbenv.scene import G0, Scene, load_scene
 
 __all__ = [

@@ -28,7 +28,7 @@ import hashlib
 
 import numpy as np
 
-from core.backend import FLOAT, NUMPY
+from rbenv.core.backend import FLOAT, NUMPY
 
 __all__ = ["STREAMS", "EpisodeDraws"]
 
@@ -109,7 +109,7 @@ class EpisodeDraws:
 
     seeds, episodes: (N,) integer arrays, or one int each with ``single=True`` (the single
     env), which hands out numbers as Python floats instead of (N,) arrays; ``xp`` is the
-    matching :mod:`core.backend` namespace, so task code written on components serves both.
+    matching :mod:`rbenv.core.backend` namespace, so task code written on components serves both.
     Both cases run the same NumPy arithmetic on the same bits (one env is a batch of one), so a
     single env and a sub-env draw the same numbers. Slot ``j`` of a stream is always the same
     number for the same (seed, episode), whatever else was drawn.

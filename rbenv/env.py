@@ -13,9 +13,9 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
-from core.backend import FLOAT
 from rbenv import transition
 from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
+from rbenv.core.backend import FLOAT
 from rbenv.draws import EpisodeDraws
 from rbenv.plant import NO_NOISE
 from rbenv.state import from_start

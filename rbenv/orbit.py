@@ -25,9 +25,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from core import kernels as k
-from core import validation
-from core.errors import InvalidParameterError
+from rbenv.core import kernels as k
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["IGRF14_2025_NT", "MU_EARTH", "OMEGA_EARTH", "R_EQ", "R_REF", "Orbit", "OrbitTable"]
 
@@ -147,7 +147,7 @@ class OrbitTable:
     def __init__(self, orbit: Orbit, h: float, substeps_per_episode: int):
         import numpy as np
 
-        from core.backend import NUMPY
+        from rbenv.core.backend import NUMPY
 
         self.orbit, self.h = orbit, h
         self.gravity_gradient = orbit.gravity_gradient

@@ -12,8 +12,8 @@ A step that leaves the state non-finite is not an exception here: :meth:`Plant.a
 returns a per-satellite flag, and the adapters turn it into :class:`NonFiniteError`
 (:func:`rbenv.transition.raise_diverged`).
 
-States are component tuples as in :mod:`core.kernels`: Python floats for the single env, (N,)
-arrays for the vector env; ``xp`` is the matching :mod:`core.backend` namespace.
+States are component tuples as in :mod:`rbenv.core.kernels`: Python floats for the single env, (N,)
+arrays for the vector env; ``xp`` is the matching :mod:`rbenv.core.backend` namespace.
 """
 
 from __future__ import annotations
@@ -24,12 +24,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core import INTEGRATORS, validation
-from core import kernels as k
-from core.dynamics import check_finite_state, translate
-from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
 from rbenv.actuators.thrusters import ACTION_MODES, ALLOCATORS, action_matrix, nan_action_error
+from rbenv.core import INTEGRATORS, validation
+from rbenv.core import kernels as k
+from rbenv.core.dynamics import check_finite_state, translate
+from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.orbit import OrbitTable
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import Scene
@@ -406,7 +406,7 @@ def _integrated_body(scene: Scene, actuators: tuple):
     spin = [a.spin_inertia_B for a in actuators if getattr(a, "spin_inertia_B", None) is not None]
     if not spin:
         return scene.body
-    from core import RigidBody
+    from rbenv.core import RigidBody
 
     try:
         return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
@@ -441,7 +441,7 @@ def _check_integrator_supports(sc: Scene, rnd: Randomization | None) -> None:
 
 def _compiled_advance(sc: Scene, rnd: Randomization | None):
     """The numba-compiled kernel of the scene's integrator (the extra ``rbenv[fast]``)."""
-    from core import compiled
+    from rbenv.core import compiled
 
     if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg):
         raise InvalidParameterError(

@@ -29,10 +29,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import quaternion, validation
-from core.body import RigidBody
-from core.errors import InvalidParameterError
-from core.vec import cross
+from rbenv.core import quaternion, validation
+from rbenv.core.body import RigidBody
+from rbenv.core.errors import InvalidParameterError
+from rbenv.core.vec import cross
 
 __all__ = ["BatchBody", "EpisodeModel", "Randomization", "draw_episode_model"]
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 
-from core.errors import InvalidParameterError
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["TaskSpec", "by_name", "get", "register", "specs", "unregister", "zoo_hyperparams"]
 

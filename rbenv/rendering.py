@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from core import inertia as _inertia
-from core import quaternion as _quaternion
-from core import validation as check
-from core.errors import InvalidParameterError, describe
+from rbenv.core import inertia as _inertia
+from rbenv.core import quaternion as _quaternion
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, describe
 
 __all__ = ["VIEW_DIRECTION_W", "Renderer", "equivalent_box", "save_video"]
 

@@ -60,13 +60,13 @@ defaults as in the dataclasses below; unknown keys are errors, so typos do not p
     max_initial_angle_deg = 180.0  # initial error ≤ this (180: attitude and target uniform)
     max_initial_rate = 0.02        # rad/s, initial tumble |ω| uniform in [0, this]
 
-Every bad field raises :class:`core.InvalidParameterError` (a ``ValueError``) naming the field,
-the value and the rule; a thruster layout that cannot torque the body both ways about every axis
-names the missing direction. Numbers are real ints or floats (``true`` is not 1, ``"1"`` is not
+Every bad field raises :class:`rbenv.core.InvalidParameterError` (a ``ValueError``) naming the
+field, the value and the rule; a thruster layout that cannot torque the body both ways about every
+axis names the missing direction. Numbers are real ints or floats (``true`` is not 1, ``"1"`` is not
 a number); flags are ``true``/``false``.
 
 Documented bounds, so that every accepted scene steps to finite observations and rewards (the
-checks live in :mod:`core.validation`; the numbers are the module constants below):
+checks live in :mod:`rbenv.core.validation`; the numbers are the module constants below):
 
 ===============================  ===================================================
 field                            rule
@@ -97,12 +97,12 @@ from pathlib import Path
 
 import numpy as np
 
-from core import INTEGRATORS, RigidBody, ThrusterLayout
-from core import inertia as inertia_lib
-from core import validation as check
-from core.errors import InvalidParameterError, RbenvValueError, describe
-from core.forces import MAX_THRUSTERS
 from rbenv.allocation import validate_torque_matrix
+from rbenv.core import INTEGRATORS, RigidBody, ThrusterLayout
+from rbenv.core import inertia as inertia_lib
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
+from rbenv.core.forces import MAX_THRUSTERS
 from rbenv.orbit import Orbit
 from rbenv.randomization import Randomization
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.errors import InvalidParameterError
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["KINDS", "Layout", "State", "assign", "from_start"]
 

@@ -1,7 +1,7 @@
 """The one transition of every rbenv env: (plant, task, state, action, draws) → outcome.
 
 Both Gymnasium adapters call these functions, the single env with Python floats and the vector
-env with (N,) arrays (``xp`` is the :mod:`core.backend` namespace of the state):
+env with (N,) arrays (``xp`` is the :mod:`rbenv.core.backend` namespace of the state):
 
 * :func:`start` builds episode starts for the envs being reset from their counter-based draws
   (:mod:`rbenv.draws`) and the reset options;
@@ -18,8 +18,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core import validation
-from core.errors import InvalidParameterError
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
 from rbenv.plant import Plant, StepNoise, nan_action_error
 from rbenv.state import Layout
 

@@ -14,11 +14,11 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from core import validation
-from core.backend import NUMPY
-from core.errors import InvalidParameterError
 from rbenv import transition
 from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
+from rbenv.core import validation
+from rbenv.core.backend import NUMPY
+from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws
 from rbenv.env import unknown_options
 from rbenv.state import State, assign, from_start
@@ -41,7 +41,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
     ``max_episode_steps`` (``make_vec`` passes the registered value; the scene's duration also
     applies, whichever is shorter), ``autoreset_mode``, and ``compiled`` (True: step with the
-    numba-compiled kernels of :mod:`core.compiled`, from the extra ``rbenv[fast]``; the first
+    numba-compiled kernels of :mod:`rbenv.core.compiled`, from the extra ``rbenv[fast]``; the first
     step pays a few seconds of compilation).
 
     **Autoreset** (``self.autoreset_mode``, also in ``metadata``). NEXT_STEP (default): a

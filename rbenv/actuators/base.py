@@ -10,8 +10,8 @@ Thrusters (:mod:`rbenv.actuators.thrusters`) are the first implementation; they 
 momentum (h = ḣ = None). A new actuator is one module with a class that satisfies
 :class:`Actuator`, its scene table parser, and one entry in :data:`rbenv.actuators.ACTUATORS`.
 
-Values are components as in :mod:`core.kernels`: Python floats for one satellite, (N,) arrays
-for N; ``xp`` is the :mod:`core.backend` namespace that matches them.
+Values are components as in :mod:`rbenv.core.kernels`: Python floats for one satellite, (N,) arrays
+for N; ``xp`` is the :mod:`rbenv.core.backend` namespace that matches them.
 """
 
 from __future__ import annotations
@@ -70,7 +70,8 @@ class Actuator(Protocol):
 
     def command(self, action, in_place: bool = False, xp=None):
         """The physical command from its (clipped) action slice; NaN raises a named error.
-        xp: the state's namespace (the action is an array: :func:`core.backend.rows` of it)."""
+        xp: the state's namespace (the action is an array: :func:`rbenv.core.backend.rows` of
+        it)."""
 
     def actuate(self, st, command, noise, xp) -> Contribution:
         """Its contribution under ``command`` from state ``st``; sets its own fields on ``st``

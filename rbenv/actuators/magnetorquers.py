@@ -19,11 +19,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import kernels as k
-from core.backend import NUMPY
-from core.errors import InvalidParameterError
 from rbenv.actuators import tables
 from rbenv.actuators.base import Contribution
+from rbenv.core import kernels as k
+from rbenv.core.backend import NUMPY
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["Magnetorquers", "make_magnetorquers", "parse_magnetorquers"]
 

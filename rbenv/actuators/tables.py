@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core import validation
-from core.errors import InvalidParameterError
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["axes", "keys", "per_element"]
 

@@ -20,10 +20,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import validation
-from core.backend import FLOAT, NUMPY, rows
-from core.errors import InvalidParameterError
 from rbenv.actuators.base import Contribution
+from rbenv.core import validation
+from rbenv.core.backend import FLOAT, NUMPY, rows
+from rbenv.core.errors import InvalidParameterError
 from rbenv.scene import G0
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
@@ -38,7 +38,7 @@ _new = tuple.__new__
 class Thrusters:
     """The scene's thrusters with their action mode, precomputed for the per-step path.
 
-    layout: :class:`core.forces.ThrusterLayout` (body axes). isp: s. ``action_matrix`` (n, 4
+    layout: :class:`rbenv.core.forces.ThrusterLayout` (body axes). isp: s. ``action_matrix`` (n, 4
     or 7) maps throttles to ``[τ_B (3, N·m), Σu_iF_i (N), F_B (3, N, translation only)]``.
     """
 
@@ -112,7 +112,7 @@ class Thrusters:
         rejected; in throttle mode by the adapters from the propagated NaN thrust, which the
         state's finiteness flag catches (no extra check on the hot path). ``in_place``: the
         caller owns ``a`` and lets throttle mode clip it in place (the vector env's batch).
-        xp: the state's namespace (the action's rows are :func:`core.backend.rows` of it). The
+        xp: the state's namespace (the action's rows are :func:`rbenv.core.backend.rows` of it). The
         allocators of torque mode are NumPy (SciPy for nnls and lp).
         """
         rx = rows(xp)

@@ -34,12 +34,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import kernels as k
-from core import validation
-from core.backend import FLOAT, NUMPY
-from core.errors import InvalidParameterError
 from rbenv.actuators import tables
 from rbenv.actuators.base import Contribution
+from rbenv.core import kernels as k
+from rbenv.core import validation
+from rbenv.core.backend import FLOAT, NUMPY
+from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["Wheels", "make_wheels", "parse_wheels"]
 

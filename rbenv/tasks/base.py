@@ -30,9 +30,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from core import kernels as k
-from core import validation
-from core.errors import InvalidParameterError
+from rbenv.core import kernels as k
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
 
 _DEG = 180.0 / math.pi
 MAX_WEIGHT = 1e6  # a reward weight above this only risks overflow in the return
@@ -213,7 +213,7 @@ def restricted_haar_angle(u, max_angle: float, xp=None):
     after the first step (clipped to [0, θm]).
     """
     if xp is None:
-        from core.backend import namespace
+        from rbenv.core.backend import namespace
 
         xp = namespace(u)
     t = u * (max_angle - math.sin(max_angle))

@@ -25,10 +25,10 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
-from core import kernels as k
-from core import validation
-from core.backend import FLOAT
-from core.errors import InvalidParameterError
+from rbenv.core import kernels as k
+from rbenv.core import validation
+from rbenv.core.backend import FLOAT
+from rbenv.core.errors import InvalidParameterError
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
@@ -244,8 +244,8 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
 # than the other tasks' 160 steps: magnetic unloading takes a good part of an orbit.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate,
                 make=make_desaturate,
-                baselines={"unload": "agents.controllers:Unload",
-                           "pd": "agents.controllers:WheelHoldPD"},
+                baselines={"unload": "rbenv.agents.controllers:Unload",
+                           "pd": "rbenv.agents.controllers:WheelHoldPD"},
                 budget={"ppo": 2_000_000, "sac": 200_000},
                 max_episode_steps=300, hyperparams=tuned.ALL, env_doc=ENV_DOC,
                 default_scene="cubesat-6u-rw", needs=("wheels",))

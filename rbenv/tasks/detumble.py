@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
-from core import kernels as k
-from core import validation
+from rbenv.core import kernels as k
+from rbenv.core import validation
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
@@ -158,7 +158,7 @@ ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propel
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
-                baselines={"pd": "agents.controllers:RateDamping",
-                           "bdot": "agents.controllers:BDot"},
+                baselines={"pd": "rbenv.agents.controllers:RateDamping",
+                           "bdot": "rbenv.agents.controllers:BDot"},
                 budget={"ppo": 300_000, "sac": 100_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)

@@ -13,8 +13,8 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, NamedTuple
 
-from core import kernels as k
-from core import validation
+from rbenv.core import kernels as k
+from rbenv.core import validation
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
@@ -197,7 +197,7 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
     argument                 default              meaning
     =======================  ===================  ==============================================
     ``scene``                ``"cubesat-12u"``    shipped name, TOML path or :class:`rbenv.Scene`
-    ``integrator``           scene's              a name in ``core.INTEGRATORS``
+    ``integrator``           scene's              a name in ``rbenv.core.INTEGRATORS``
     ``control_dt``           scene's              s, one env step
     ``substeps``             scene's              integrator steps per control step
     ``action_mode``          ``"throttle"``       ``"throttle"``, ``"on_off"`` or ``"torque"``
@@ -254,8 +254,8 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
-                baselines={"pd": "agents.controllers:QuaternionPD",
-                           "bangbang": "agents.controllers:EigenaxisBangBang"},
+                baselines={"pd": "rbenv.agents.controllers:QuaternionPD",
+                           "bangbang": "rbenv.agents.controllers:EigenaxisBangBang"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},

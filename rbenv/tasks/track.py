@@ -28,10 +28,10 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
-from core import kernels as k
-from core import validation
-from core.errors import InvalidParameterError
-from core.quaternion import from_matrix
+from rbenv.core import kernels as k
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
+from rbenv.core.quaternion import from_matrix
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
@@ -295,6 +295,6 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
-                baselines={"pd": "agents.controllers:TrackingPD"},
+                baselines={"pd": "rbenv.agents.controllers:TrackingPD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)

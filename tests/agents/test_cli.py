@@ -2,13 +2,12 @@
 
 import json
 import os
+import shutil
 import subprocess
 import sys
-import types
 
 import pytest
-
-from agents import cli
+from rbenv.agents import cli
 
 
 def test_evaluate_writes_nothing_unless_asked(tmp_path, monkeypatch, capsys):
@@ -27,7 +26,7 @@ def test_evaluate_out_folder_gets_the_summary_and_the_plot(tmp_path):
 
 
 def test_evaluating_a_baseline_imports_no_torch_sb3_or_matplotlib():
-    code = ("import sys; from agents.cli import main; "
+    code = ("import sys; from rbenv.agents.cli import main; "
             "main(['evaluate', '--policy', 'pd', '--episodes', '4']); "
             "print(sorted(m for m in ('torch', 'stable_baselines3', 'matplotlib') "
             "if m in sys.modules))")
@@ -38,7 +37,7 @@ def test_evaluating_a_baseline_imports_no_torch_sb3_or_matplotlib():
 
 
 def test_a_documented_error_is_printed_without_a_traceback(tmp_path):
-    done = subprocess.run([sys.executable, "-m", "agents.cli", "train", "--resume", "--out",
+    done = subprocess.run([sys.executable, "-m", "rbenv.agents.cli", "train", "--resume", "--out",
                            str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2
     assert done.stderr.startswith("rbenv: error: ") and "is not a training run" in done.stderr
@@ -57,13 +56,18 @@ def test_bench_lists_every_benchmark_module():
 
 
 def test_bench_writes_under_out(tmp_path, monkeypatch):
-    import benchmarks.common as common
-
-    monkeypatch.setattr(common, "RESULTS", common.RESULTS)  # restored after the test
-    fake = types.ModuleType("benchmarks.fake_bench")
-    fake.main = lambda: common.write_json("fake_bench", {"value": 1})
-    monkeypatch.setitem(sys.modules, "benchmarks.fake_bench", fake)
-    monkeypatch.setattr(cli, "benchmarks", lambda: ["fake_bench"])
+    """`rbenv bench NAME --out DIR` runs the checkout's benchmark module in a child process,
+    which writes through benchmarks.common into DIR, without importing benchmarks here."""
+    checkout = tmp_path / "checkout"
+    (checkout / "benchmarks").mkdir(parents=True)
+    (checkout / "benchmarks" / "__init__.py").write_text("")
+    shutil.copy(cli.CHECKOUT / "benchmarks" / "common.py", checkout / "benchmarks" / "common.py")
+    (checkout / "benchmarks" / "fake_bench.py").write_text(
+        "from benchmarks import common\n"
+        "if __name__ == '__main__':\n"
+        "    common.write_json('fake_bench', {'value': 1})\n")
+    monkeypatch.setattr(cli, "CHECKOUT", checkout)
+    assert cli.benchmarks() == ["fake_bench"]
     assert cli.main(["bench", "fake_bench", "--out", str(tmp_path / "res")]) == 0
     assert json.loads((tmp_path / "res" / "fake_bench.json").read_text())["value"] == 1
 
@@ -80,7 +84,7 @@ def test_bench_finds_rbenv_benchmarks_when_another_benchmarks_folder_shadows_it(
     # torchrl's wheel installs a top-level `benchmarks` folder (a namespace package).
     (tmp_path / "benchmarks").mkdir()
     (tmp_path / "benchmarks" / "foreign_bench.py").write_text("def main(): pass\n")
-    code = "from agents.cli import benchmarks; print(benchmarks())"
+    code = "from rbenv.agents.cli import benchmarks; print(benchmarks())"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=tmp_path, timeout=60, env={**os.environ, "PYTHONPATH": str(tmp_path)})
     assert done.returncode == 0, done.stderr

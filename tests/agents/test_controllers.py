@@ -3,11 +3,11 @@
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
+from rbenv.agents.evaluate import evaluate
+from rbenv.core import quaternion
 
 import rbenv
-from agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
-from agents.evaluate import evaluate
-from core import quaternion
 
 
 @pytest.fixture(scope="module")

@@ -16,10 +16,10 @@ from typing import ClassVar, NamedTuple
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core import kernels as k
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from core import kernels as k
-from core.errors import InvalidParameterError
 from rbenv import registry, transition
 from rbenv.hyperparams import tuned
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
@@ -153,7 +153,7 @@ def test_both_checkers_pass_on_the_new_task():
 def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")
-    from agents.cli import main
+    from rbenv.agents.cli import main
 
     out = tmp_path / "sun"
     main(["train", "--env-id", SUN_ID, "--timesteps", "4096", "--n-envs", "16",

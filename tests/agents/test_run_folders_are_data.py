@@ -16,12 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-
-from agents import runs, weights
-from agents.cli import main as cli_main
-from agents.evaluate import SB3Policy
-from agents.runs import RunFolderError, UntrustedPickleError, load_policy
-from agents.train import TrainConfig, train
+from rbenv.agents import runs, weights
+from rbenv.agents.cli import main as cli_main
+from rbenv.agents.evaluate import SB3Policy
+from rbenv.agents.runs import RunFolderError, UntrustedPickleError, load_policy
+from rbenv.agents.train import TrainConfig, train
 
 SMALL = {"n_steps": 32, "batch_size": 64, "n_epochs": 1}
 SHORT = {"max_episode_steps": 30}
@@ -97,7 +96,7 @@ def test_a_run_folder_holds_no_pickle(ppo_run, sac_run):
 def test_weights_round_trip_restores_every_state_a_resume_needs(algo, ppo_run, sac_run,
                                                                 tmp_path):
     """policy + optimizers (+ SAC's entropy coefficient), counters, statistics, buffer."""
-    from agents.train import make_vec_env
+    from rbenv.agents.train import make_vec_env
 
     out = ppo_run if algo == "ppo" else sac_run
     cfg = runs.read_config(out)
@@ -253,7 +252,7 @@ def test_a_resume_over_only_pickled_checkpoints_names_the_flag(copy, tmp_path):
 def _as_old_format(out):
     """Rewrite a run folder as rbenv wrote it before issue 19: SB3 .zip files and pickled
     VecNormalize statistics, by SB3's own save functions, as the old code called them."""
-    from agents.train import make_vec_env
+    from rbenv.agents.train import make_vec_env
 
     venv = make_vec_env(tiny(out), 4, 0)
     ckpt = out / "checkpoints"
@@ -324,7 +323,7 @@ def test_a_checkpoint_whose_name_disagrees_with_its_model_is_skipped(copy, capsy
 
 def test_rllib_folders_are_refused_without_the_flag_before_ray_is_imported(tmp_path):
     """Runs without Ray installed: the refusal comes before any import of ray."""
-    from agents import rllib
+    from rbenv.agents import rllib
 
     out = tmp_path / "rllib-run"
     (out / rllib.POLICY_DIR).mkdir(parents=True)

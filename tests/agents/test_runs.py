@@ -16,12 +16,12 @@ import threading
 import numpy as np
 import pytest
 import torch
+from rbenv.agents import runs
+from rbenv.agents.runs import RunFolderError, RunLock, RunLockedError, load_policy
+from rbenv.agents.train import TrainConfig, train
+from rbenv.core.errors import InvalidParameterError, RbenvValueError
 
 import rbenv
-from agents import runs
-from agents.runs import RunFolderError, RunLock, RunLockedError, load_policy
-from agents.train import TrainConfig, train
-from core.errors import InvalidParameterError, RbenvValueError
 
 SMALL = {"n_steps": 32, "batch_size": 64, "n_epochs": 1}
 SHORT = {"max_episode_steps": 30}  # short episodes keep evaluations cheap
@@ -57,7 +57,7 @@ def summary(out):
 
 
 def params(out):
-    from agents import weights
+    from rbenv.agents import weights
 
     return weights.read_tensors(out / "policy.pt")["params"]["policy"]
 
@@ -234,7 +234,7 @@ def test_a_new_run_into_a_non_empty_folder_needs_force(copy):
 
 HOLD_LOCK = textwrap.dedent("""
     import sys, time
-    from agents.runs import RunLock
+    from rbenv.agents.runs import RunLock
     lock = RunLock(sys.argv[1]).acquire()
     print("locked", flush=True)
     time.sleep(120)
@@ -263,7 +263,8 @@ def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_loc
 
 def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     out = tmp_path / "shared"
-    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "2048", "--n-envs", "4",
+    cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "2048",
+           "--n-envs", "4",
            "--out", str(out), "--checkpoint-every", "256", "--eval-every", "100000",
            "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
            "--no-report", "--no-progress"]
@@ -334,7 +335,7 @@ def test_bad_counts_are_named(tmp_path, field, value):
 # --- loading for deployment -------------------------------------------------------------------
 
 def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
-    from agents import weights
+    from rbenv.agents import weights
 
     policy = load_policy(base_run, action="mode")  # SB3's own deterministic action
     env = policy.make_env()
@@ -365,7 +366,7 @@ def test_a_checkpoint_without_its_statistics_is_refused(copy):
 
 
 def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
-    from agents.cli import main as cli_main
+    from rbenv.agents.cli import main as cli_main
 
     out = tmp_path / "torque"
     run(tiny(out, timesteps=256, env_kwargs={**SHORT, "action_mode": "torque"}))
@@ -414,7 +415,7 @@ def test_tensorboard_logs_through_sb3(tmp_path):
 
 
 def test_progress_bar_counts_this_sessions_steps_at_the_average_rate(copy, monkeypatch):
-    import agents.train as train_module
+    import rbenv.agents.train as train_module
 
     bars = []
     original = train_module.RateProgress._on_training_start
@@ -447,7 +448,8 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
     import time
 
     out = tmp_path / "run"
-    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "1536", "--n-envs", "4",
+    cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "1536",
+           "--n-envs", "4",
            "--out", str(out), "--checkpoint-every", "128", "--eval-every", "256",
            "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
            "--no-report", "--no-progress"]
@@ -506,10 +508,9 @@ def test_a_corrupt_training_summary_is_named_and_the_run_rewrites_it(copy, capsy
 
 
 def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path):
+    from rbenv.agents.sb3 import SB3VecEnv
+    from rbenv.agents.train import make_vec_env
     from stable_baselines3 import PPO
-
-    from agents.sb3 import SB3VecEnv
-    from agents.train import make_vec_env
 
     env = make_vec_env(TrainConfig().resolve(), 2, 0)
     assert isinstance(env.venv, SB3VecEnv)
@@ -525,8 +526,8 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
 
 def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
     """RL Zoo keeps vecnormalize.pkl in a folder named like the model; without any, a warning."""
-    from agents.runs import LEGACY_STATS as FINAL_STATS
-    from agents.runs import locate
+    from rbenv.agents.runs import LEGACY_STATS as FINAL_STATS
+    from rbenv.agents.runs import locate
 
     model = tmp_path / "rbenv-SatelliteReorient-v0.zip"
     model.write_bytes(b"zip")
@@ -539,10 +540,9 @@ def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
 
 def test_policy_action_auto_is_mean_throttle_only_for_a_gaussian_policy_in_throttle_mode():
     import gymnasium as gym
+    from rbenv.agents.runs import RunPolicy
+    from rbenv.core.errors import InvalidParameterError
     from stable_baselines3 import PPO, SAC
-
-    from agents.runs import RunPolicy
-    from core.errors import InvalidParameterError
 
     env = gym.make(rbenv.ENV_ID)
     ppo = PPO("MlpPolicy", env, n_steps=64, device="cpu")

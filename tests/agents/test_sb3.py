@@ -4,12 +4,12 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
+from rbenv.agents.sb3 import SB3VecEnv
 from stable_baselines3 import PPO, SAC
 from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor, VecNormalize
 
 import rbenv
-from agents.sb3 import SB3VecEnv
 
 
 def native(n=4, **kwargs):

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rbenv.agents import suite
+from rbenv.agents.suite import Cell, aggregate, grid, run_cell
+from rbenv.agents.train import TrainConfig
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from agents import suite
-from agents.suite import Cell, aggregate, grid, run_cell
-from agents.train import TrainConfig
-from core.errors import InvalidParameterError
 
 
 def test_grid_is_seed_major_with_stable_names():
@@ -124,7 +124,7 @@ def test_a_larger_budget_resumes_the_cell_and_trains_on(quick_suite):
 
 
 def test_cli_suite_aggregate_only_lists_every_cell_as_missing(tmp_path, capsys):
-    from agents.cli import main
+    from rbenv.agents.cli import main
 
     main(["suite", "--out", str(tmp_path), "--tasks", "track", "--scenes", "boom-sat",
           "--seeds", "2", "--aggregate-only"])
@@ -135,7 +135,7 @@ def test_cli_suite_aggregate_only_lists_every_cell_as_missing(tmp_path, capsys):
 
 @pytest.mark.slow  # trains
 def test_cli_train_and_evaluate_take_the_task(tmp_path, capsys):
-    from agents.cli import main
+    from rbenv.agents.cli import main
 
     run = tmp_path / "run"
     main(["train", "--env-id", rbenv.DETUMBLE_ID, "--timesteps", "512", "--n-envs", "4",
@@ -166,8 +166,7 @@ def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path):
 @pytest.mark.slow  # trains
 def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite):
     import torch
-
-    from agents.runs import load_policy
+    from rbenv.agents.runs import load_policy
 
     out, data = quick_suite
     policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run",

@@ -9,11 +9,10 @@ import time
 import numpy as np
 import pytest
 import torch
-
-from agents import weights
-from agents.cli import main as cli_main
-from agents.evaluate import SB3Policy
-from agents.train import TrainConfig, latest_checkpoint, make_vec_env, train
+from rbenv.agents import weights
+from rbenv.agents.cli import main as cli_main
+from rbenv.agents.evaluate import SB3Policy
+from rbenv.agents.train import TrainConfig, latest_checkpoint, make_vec_env, train
 
 SMALL = {"n_steps": 32, "batch_size": 128, "n_epochs": 2}
 
@@ -63,7 +62,7 @@ def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
 
 
 def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
-    from agents.runs import expected_throttle
+    from rbenv.agents.runs import expected_throttle
 
     policy = SB3Policy(run_dir / "policy.pt")
     assert policy.action == "mean_throttle"
@@ -88,7 +87,7 @@ def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
 
 def test_resume_after_a_real_kill(tmp_path, capsys):
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "agents.cli", "train", "--timesteps", "10000000",
+    cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "10000000",
            "--n-envs", "8", "--out", str(out), "--checkpoint-every", "1024",
            "--eval-every", "100000000", "--hyperparams", json.dumps(SMALL), "--no-report",
            "--no-progress"]
@@ -155,7 +154,7 @@ def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
 
 
 def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
-    from agents.train import PeriodicEval
+    from rbenv.agents.train import PeriodicEval
 
     model = weights.load_model(run_dir / "policy.pt")
     for env_kwargs, action in (({}, "mean_throttle"), ({"action_mode": "torque"}, "mode")):

@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from core import INTEGRATORS, RigidBody, quaternion
-from core.integrators import BATCH_CHUNK
+from rbenv.core import INTEGRATORS, RigidBody, quaternion
+from rbenv.core.integrators import BATCH_CHUNK
 
 
 @pytest.mark.parametrize("name", [n for n, it in INTEGRATORS.items() if it.element_wise])

@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from core import INTEGRATORS, RigidBody, compiled, quaternion
-from core.errors import InvalidParameterError
+from rbenv.core import INTEGRATORS, RigidBody, compiled, quaternion
+from rbenv.core.errors import InvalidParameterError
 
 N = 32
 

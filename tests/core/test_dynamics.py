@@ -2,9 +2,7 @@
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
-
-from core import (
+from rbenv.core import (
     INTEGRATORS,
     BodyState,
     InvalidInertiaError,
@@ -21,7 +19,8 @@ from core import (
     step,
     wrench_at_points,
 )
-from core import integrators as integ
+from rbenv.core import integrators as integ
+from scipy.spatial.transform import Rotation
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
 Q0 = quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2]))

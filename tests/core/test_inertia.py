@@ -11,10 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from core import inertia, mesh
-from core.errors import InvalidInertiaError, InvalidParameterError, NonFiniteError
-from core.inertia import MeshError
+from rbenv.core import inertia, mesh
+from rbenv.core.errors import InvalidInertiaError, InvalidParameterError, NonFiniteError
+from rbenv.core.inertia import MeshError
 
 DATA = Path(__file__).parent / "data"
 

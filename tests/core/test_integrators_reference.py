@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-
-from core import BodyState, RigidBody, angular_momentum_W, quaternion, reference, simulate
+from rbenv.core import BodyState, RigidBody, angular_momentum_W, quaternion, reference, simulate
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
 Q0 = quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2]))

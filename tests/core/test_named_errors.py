@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from core import inertia, quaternion
-from core.errors import InvalidInertiaError, InvalidParameterError
+from rbenv.core import inertia, quaternion
+from rbenv.core.errors import InvalidInertiaError, InvalidParameterError
 
 
 def test_to_matrix_on_a_3_vector_names_the_shape():

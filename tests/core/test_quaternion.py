@@ -1,11 +1,10 @@
-"""core.quaternion against SciPy's Rotation (scalar-first) on random and edge-case inputs."""
+"""rbenv.core.quaternion against SciPy's Rotation (scalar-first) on random and edge-case inputs."""
 
 import numpy as np
 import pytest
+from rbenv.core import quaternion as Q
+from rbenv.core.errors import InvalidParameterError
 from scipy.spatial.transform import Rotation
-
-from core import quaternion as Q
-from core.errors import InvalidParameterError
 
 
 def scipy_rot(q):

@@ -11,17 +11,16 @@ import functools
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-
-from core import quaternion as quat
-from core.errors import InvalidInertiaError, InvalidParameterError
-from core.reference import (
+from rbenv.core import quaternion as quat
+from rbenv.core.errors import InvalidInertiaError, InvalidParameterError
+from rbenv.core.reference import (
     TorqueFreeSolution,
     constant_torque_about_axis,
     solve_ivp_reference,
     symmetric_top,
     torque_free,
 )
+from scipy.integrate import solve_ivp
 
 I_REF = (5.0, 10.0, 13.0)
 Q0 = tuple(np.array([0.9, 0.1, -0.3, 0.2]) / np.linalg.norm([0.9, 0.1, -0.3, 0.2]))

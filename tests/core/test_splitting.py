@@ -2,10 +2,9 @@
 
 import numpy as np
 import pytest
-
-from core import INTEGRATORS, BodyState, RigidBody, quaternion, reference, simulate
-from core.body import invariants
-from core.splitting import principal_frame
+from rbenv.core import INTEGRATORS, BodyState, RigidBody, quaternion, reference, simulate
+from rbenv.core.body import invariants
+from rbenv.core.splitting import principal_frame
 
 MOMENTS = np.array([5.0, 10.0, 13.0])
 Q0 = quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2]))

@@ -1,4 +1,4 @@
-"""core.validation and the core API under hostile input.
+"""rbenv.core.validation and the core API under hostile input.
 
 Unit tests pin each rule of the shared field checks; property-based tests (hypothesis) throw
 arbitrary values at the core constructors, ``step``/``simulate`` and the inertia functions and
@@ -15,10 +15,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-
-from core import INTEGRATORS, BodyState, RigidBody, ThrusterLayout, inertia, simulate, step
-from core import validation as check
-from core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
+from rbenv.core import INTEGRATORS, BodyState, RigidBody, ThrusterLayout, inertia, simulate, step
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 
 # --------------------------------------------------------------------------- unit rules
 

@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 import pytest
-
-from core import (
+from rbenv.core import (
     BodyState,
     InvalidInertiaError,
     InvalidParameterError,

@@ -5,9 +5,9 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from core.errors import InvalidParameterError
 
 pytest.importorskip("numba", reason="the compiled path needs the extra rbenv[fast] (numba)")
 

@@ -11,10 +11,9 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-
-from agents.controllers import Unload, WheelHoldPD, baseline
-from core import kernels as k
-from core.errors import InvalidParameterError
+from rbenv.agents.controllers import Unload, WheelHoldPD, baseline
+from rbenv.core import kernels as k
+from rbenv.core.errors import InvalidParameterError
 
 DESAT = "rbenv/SatelliteDesaturate-v0"
 SCENE = "cubesat-6u-rw"
@@ -142,7 +141,7 @@ def test_desaturate_errors_name_the_field():
 
 
 def test_baselines_without_their_actuators_are_not_applicable():
-    from agents.controllers import applicable_baselines
+    from rbenv.agents.controllers import applicable_baselines
 
     assert applicable_baselines(DESAT, SCENE) == ["unload", "pd"]
     assert {WheelHoldPD, Unload} <= set(type(baseline(gym.make(DESAT, scene=SCENE), n))

@@ -10,10 +10,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from rbenv.core import quaternion
+from rbenv.core.errors import InvalidParameterError, NonFiniteError
 
 import rbenv
-from core import quaternion
-from core.errors import InvalidParameterError, NonFiniteError
 from rbenv.scene import load_scene
 from rbenv.tasks.base import restricted_haar_angle
 from rbenv.tasks.reorient import ReorientTerms

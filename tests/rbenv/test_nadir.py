@@ -9,10 +9,10 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core import kernels as k
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from core import kernels as k
-from core.errors import InvalidParameterError
 from rbenv.scene import Scene
 
 SCENE = "cubesat-6u-rw"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core import inertia as inertia_lib
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from core import inertia as inertia_lib
-from core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws
 from rbenv.plant import make_plant
 from rbenv.randomization import draw_episode_model
@@ -143,7 +143,7 @@ def test_randomization_off_is_the_nominal_plant_and_bad_sizes_are_named():
 
 
 def test_scripted_baselines_use_the_nominal_model_under_randomization():
-    from agents.evaluate import evaluate
+    from rbenv.agents.evaluate import evaluate
 
     pd = evaluate("pd", episodes=200, seed=1_000_000, scene="cubesat-12u-dr").summary()
     bang = evaluate("bangbang", episodes=200, seed=1_000_000, scene="cubesat-12u-dr").summary()

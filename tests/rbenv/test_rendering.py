@@ -9,7 +9,8 @@ import pytest
 
 pytest.importorskip("pygame")
 
-from core import inertia, quaternion
+from rbenv.core import inertia, quaternion
+
 from rbenv.rendering import Renderer, equivalent_box, save_video
 
 MASS = 24.0

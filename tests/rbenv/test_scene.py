@@ -9,10 +9,10 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core import inertia
+from rbenv.core.errors import InvalidInertiaError, InvalidParameterError
 
 import rbenv
-from core import inertia
-from core.errors import InvalidInertiaError, InvalidParameterError
 from rbenv.scene import Scene, list_scenes, load_scene, mass_properties
 
 COUPLES = {  # a minimal valid layout: one couple each way about each axis (lever arm 0.1 m)

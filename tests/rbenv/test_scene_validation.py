@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from rbenv.core.errors import InvalidParameterError, RbenvValueError
 
 import rbenv
-from core.errors import InvalidParameterError, RbenvValueError
 from rbenv.scene import MAX_SCENE_BYTES, MAX_SUBSTEPS, Scene, load_scene
 
 try:

@@ -3,7 +3,7 @@
 ``StrictArray`` is a NumPy array that refuses every direct ``np.`` call: any ufunc that is not
 a Python operator (``+``, ``*``, ``<``, ``&``, ``@``, ...) and every NumPy function called on it
 raise :class:`DirectNumpyCall`, unless the strict namespace itself makes the call. ``STRICT``
-has the names of :class:`core.backend.NumpyNamespace`, each unwrapping, calling NumPy and
+has the names of :class:`rbenv.core.backend.NumpyNamespace`, each unwrapping, calling NumPy and
 wrapping the result. ``transition.step`` (actuation, physics, target motion, evaluation,
 observation and info) then runs on strict arrays for every task and scene, and must give the
 NumPy backend's numbers bit for bit. An array that comes back plain was made by a direct
@@ -20,10 +20,10 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core import backend
+from rbenv.core.backend import NUMPY
 
 import rbenv
-from core import backend
-from core.backend import NUMPY
 from rbenv import transition
 from rbenv.plant import StepNoise
 
@@ -83,7 +83,7 @@ def _strict(fn):
 
 
 class StrictNamespace:
-    """:class:`core.backend.NumpyNamespace`'s names over strict arrays."""
+    """:class:`rbenv.core.backend.NumpyNamespace`'s names over strict arrays."""
 
     name = "strict"
 

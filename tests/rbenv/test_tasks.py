@@ -9,12 +9,12 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from rbenv.agents.controllers import RateDamping, TrackingPD, WheelHoldPD, baseline
+from rbenv.agents.evaluate import evaluate
+from rbenv.core import quaternion
+from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from agents.controllers import RateDamping, TrackingPD, WheelHoldPD, baseline
-from agents.evaluate import evaluate
-from core import quaternion
-from core.errors import InvalidParameterError
 
 IDS = tuple(rbenv.ENV_IDS)
 NEW_IDS = (rbenv.DETUMBLE_ID, rbenv.TRACK_ID)

@@ -1,5 +1,5 @@
 """The step on torch tensors (CPU, float64) equals the NumPy step: the same kernels, plant,
-actuators and tasks through the torch namespace (:mod:`core.torch_backend`), no formula
+actuators and tasks through the torch namespace (:mod:`rbenv.core.torch_backend`), no formula
 restated. Issue 20's first item; its vector env, compilation and training are not built yet.
 
 Out of reach today (named, not faked): the torque mode's allocators, the implicit integrators,
@@ -12,14 +12,14 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core.backend import NUMPY, namespace
 
 import rbenv
-from core.backend import NUMPY, namespace
 from rbenv import transition
 from rbenv.plant import StepNoise
 
 torch = pytest.importorskip("torch", reason="torch is not installed (train extra)")
-from core.torch_backend import TORCH  # noqa: E402
+from rbenv.core.torch_backend import TORCH  # noqa: E402
 
 IMPLICIT = ("midpoint", "splitting")
 
@@ -107,7 +107,7 @@ def test_the_step_on_torch_equals_the_numpy_step(env_id, scene, mode):
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device on this machine")
 def test_the_namespace_keeps_tensors_on_their_device():  # pragma: no cover (needs a GPU)
-    from core.torch_backend import TorchNamespace
+    from rbenv.core.torch_backend import TorchNamespace
 
     gpu = TorchNamespace(device="cuda")
     x = torch.ones(4, dtype=torch.float64, device="cuda")

@@ -8,10 +8,10 @@ import copy
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.core.backend import FLOAT, NUMPY
+from rbenv.core.errors import NonFiniteError
 
 import rbenv
-from core.backend import FLOAT, NUMPY
-from core.errors import NonFiniteError
 from rbenv import transition
 from rbenv.plant import NO_NOISE
 

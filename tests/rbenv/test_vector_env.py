@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
+from rbenv.core import quaternion
 
 import rbenv
-from core import quaternion
 from rbenv.tasks.reorient import ReorientTerms
 
 ID = rbenv.ENV_ID
