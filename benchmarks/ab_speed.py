@@ -1,6 +1,6 @@
 """A/B env speed of two source trees, measured in one run (alternating subprocesses).
 
-    python -m benchmarks.ab_speed --baseline /path/to/old/checkout [--rounds 5]
+    python -m benchmarks.ab_speed --baseline /path/to/old/checkout [--rounds 5] [--instructions]
 
 A redesign must not lose speed, and on a shared machine only figures taken side by side mean
 anything. This runs the same probe in a fresh interpreter for each tree (``PYTHONPATH`` set to
@@ -12,7 +12,11 @@ Times are process CPU time, so other programs on a shared machine inflate them l
 * ``vec_random``: env-steps/s of the native vector env at N = 4096, random throttles;
 * ``vec_zero``: the same with all thrusters off (no episode ends);
 * ``vec_reset_heavy``: one fixed random throttle for every sub-env and step (a few percent of
-  the sub-envs lose control and autoreset each step).
+  the sub-envs lose control and autoreset each step);
+* ``mem_bytes_per_env`` / ``mem_peak_bytes_per_env``: what the vector env at N = 4096 holds
+  after 10 steps, and its peak, per sub-env (tracemalloc);
+* ``single_instructions`` (``--instructions``, needs valgrind): instructions per single-env
+  step, counted by callgrind. Unlike times it does not move with the machine's load.
 
 Writes ``<out>/ab_speed.json`` (default ``benchmarks/results``) with both trees' figures and
 the ratios new/old.
@@ -69,11 +73,65 @@ def vec(kind, n=4096):
             env.step(acts[i % 16])
     return n / best(run, 20)
 
+def memory(n=4096):  # bytes per sub-env held after 10 steps, and the peak (tracemalloc)
+    import gc, tracemalloc
+    gc.collect()
+    tracemalloc.start()
+    env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n)
+    env.reset(seed=0)
+    acts = np.random.default_rng(1).uniform(-1, 1, env.action_space.shape).astype(np.float32)
+    for _ in range(10):
+        env.step(acts)
+    current, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return current / n, peak / n
+
+mem, mem_peak = memory()
 print(json.dumps({"single_us": 1e6 * single("rbenv/SatelliteReorient-v0"),
                   "pendulum_us": 1e6 * single("Pendulum-v1"),
                   "vec_random": vec("random"), "vec_zero": vec("zero"),
-                  "vec_reset_heavy": vec("reset_heavy")}))
+                  "vec_reset_heavy": vec("reset_heavy"),
+                  "mem_bytes_per_env": mem, "mem_peak_bytes_per_env": mem_peak}))
 """
+
+# Instructions per single-env step, counted by valgrind's callgrind: deterministic, so a load on
+# a shared machine cannot blur it. The step count comes as the first argument; the difference
+# between N steps and 0 steps is the stepping alone.
+COUNT = r"""
+import sys
+import gymnasium as gym
+import numpy as np
+import rbenv
+
+env = gym.make("rbenv/SatelliteReorient-v0").unwrapped
+env.reset(seed=0)
+acts = np.random.default_rng(0).random((1000, *env.action_space.shape)).astype(np.float32)
+for i in range(int(sys.argv[1])):
+    _, _, te, tr, _ = env.step(0.3 * acts[i % 1000])
+    if te or tr:
+        env.reset()
+"""
+
+
+def instructions_per_step(tree: Path, steps: int = 3000) -> float:
+    """Instructions per step of the default single env on ``tree`` (callgrind; hash seed and
+    BLAS threads fixed, so the count repeats exactly)."""
+    import os
+    import re
+    import subprocess
+    import tempfile
+
+    def count(n: int) -> int:
+        with tempfile.TemporaryDirectory() as tmp:
+            env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONHASHSEED": "0",
+                   "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+            done = subprocess.run(["valgrind", "--tool=callgrind",
+                                   f"--callgrind-out-file={tmp}/cg.out", sys.executable, "-c",
+                                   COUNT, str(n)], env=env, cwd=tree, check=True,
+                                  capture_output=True, text=True)
+        return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
+
+    return (count(steps) - count(0)) / steps
 
 
 def _probe(tree: Path) -> dict:
@@ -86,6 +144,8 @@ def main(argv=()) -> dict:
     p.add_argument("--new", default=str(Path(__file__).resolve().parents[1]),
                    help="source tree of the new revision (default: this one)")
     p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--instructions", action="store_true",
+                   help="also count instructions per single-env step with valgrind (minutes)")
     p.add_argument("--out", default=None,
                    help="folder for ab_speed.json (default: the benchmark results folder)")
     args = p.parse_args(argv)
@@ -94,9 +154,13 @@ def main(argv=()) -> dict:
     for r in range(args.rounds):
         for name, tree in trees.items():
             for key, value in _probe(tree).items():
-                keep = min if key.endswith("_us") else max
+                keep = min if key.endswith(("_us", "_per_env")) else max
                 best[name][key] = keep(best[name].get(key, value), value)
         print(f"round {r + 1}/{args.rounds}: {best}", flush=True)
+    if args.instructions:
+        for name, tree in trees.items():
+            best[name]["single_instructions"] = instructions_per_step(tree)
+            print(f"{name}: {best[name]['single_instructions']:.0f} instructions per step")
     for name in trees:
         b = best[name]
         b["single_vs_pendulum"] = b["single_us"] / b["pendulum_us"]
@@ -104,7 +168,8 @@ def main(argv=()) -> dict:
     ratios = {key: best["new"][key] / best["old"][key] for key in best["new"]}
     data = {"trees": {k: str(v) for k, v in trees.items()}, "rounds": args.rounds,
             "best": best, "new_over_old": ratios,
-            "notes": "µs figures: lower is better; steps/s figures: higher is better"}
+            "notes": "µs, bytes and instruction figures: lower is better; steps/s figures: "
+                     "higher is better"}
     out = Path(args.out) if args.out else common.RESULTS
     out.mkdir(parents=True, exist_ok=True)
     (out / "ab_speed.json").write_text(json.dumps(data, indent=2) + "\n")

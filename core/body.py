@@ -72,6 +72,9 @@ class RigidBody:
     wheels: Wheels | None = None  # reaction wheels (their rotors are inside ``inertia``)
     inertia_inv: np.ndarray = field(init=False, repr=False)
     kind: str = field(init=False)
+    # True when I = s·E: the change of basis and the gyroscopic term vanish. A field, not a
+    # property: the integrators read it several times per step.
+    is_isotropic: bool = field(init=False, repr=False)
     _diag: tuple = field(init=False, repr=False)
     _diag_inv: tuple = field(init=False, repr=False)
     _rows: tuple = field(init=False, repr=False)
@@ -121,6 +124,7 @@ class RigidBody:
         object.__setattr__(self, "inertia", inertia)
         object.__setattr__(self, "inertia_inv", inv)
         object.__setattr__(self, "kind", kind)
+        object.__setattr__(self, "is_isotropic", kind == "isotropic")
         # Plain-float copies: the component kernels run at Python-float speed for one body.
         object.__setattr__(self, "_diag", tuple(d.tolist()))
         object.__setattr__(self, "_diag_inv", tuple((1.0 / d).tolist()))
@@ -128,11 +132,6 @@ class RigidBody:
         object.__setattr__(self, "_inv_rows", tuple(tuple(r) for r in inv.tolist()))
         # Columns of I⁻¹ as float triples: the implicit midpoint's Jacobian uses them.
         object.__setattr__(self, "inverse_columns", tuple(tuple(c) for c in inv.T.tolist()))
-
-    @property
-    def is_isotropic(self) -> bool:
-        """True when ``I = s·E``: the change of basis and the gyroscopic term vanish."""
-        return self.kind == "isotropic"
 
     def inertia_times(self, v: tuple) -> tuple:
         """``I v`` on components (floats or (N,) arrays), body axes."""

@@ -120,7 +120,8 @@ class _FrozenBody:
         self.fields = tuple(getattr(body, f) for f in _BODY_FIELDS)
 
 
-_BODY_FIELDS = ("kind", "_diag", "_diag_inv", "_rows", "_inv_rows", "inverse_columns")
+_BODY_FIELDS = ("kind", "is_isotropic", "_diag", "_diag_inv", "_rows", "_inv_rows",
+                "inverse_columns")
 
 
 def _register_body():
@@ -155,7 +156,6 @@ def _register_body():
 
     for i, name in enumerate(_BODY_FIELDS):
         overload_attribute(BodyType, name)(constant(i))
-    overload_attribute(BodyType, "is_isotropic")(lambda self: RigidBody.is_isotropic.fget)
     for name in ("inertia_times", "inverse_times"):
         fn = getattr(RigidBody, name)
         overload_method(BodyType, name)(functools.wraps(fn)(lambda *a, fn=fn: fn))

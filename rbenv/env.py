@@ -50,6 +50,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._seed_key: int | None = None
         self._episode = 0
         self._st = None
+        self._diverged = False
         self._renderer = None
 
     # ------------------------------------------------------------------- Gymnasium API
@@ -66,6 +67,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._episode += 1
         start = transition.start(self.plant, self.task, draws, options)
         self._st = st = from_start(self._layout, start, single=True)
+        self._diverged = False
         noise = self.plant.draw_sensor_noise(self._np_random, None)
         obs = np.array(transition.observe(self.plant, self.task, st, noise, FLOAT), np.float32)
         info = transition.info(self.plant, self.task, st, transition.zero_terms(self.task),
@@ -78,7 +80,9 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         """One control step: (obs, reward: float, terminated: bool, truncated: bool, info)."""
         st = self._st
         if st is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+            raise gym.error.ResetNeeded(
+                "the last step diverged (or raised for a NaN action): call reset() before step()"
+                if self._diverged else "call reset() before step()")
         plant = self.plant
         if type(action) is np.ndarray and action.dtype in _FLOATS \
                 and action.shape == plant.action_shape:  # the common case, one lookup
@@ -86,8 +90,10 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
             a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
-        st, out = transition.step(plant, self.task, st, a, noise, FLOAT)
-        if out.diverged:
+        st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True)
+        if out.diverged:  # the step updated the state it was given: the episode is over
+            self._st = None
+            self._diverged = True
             transition.raise_diverged(plant, st, a)
         self._st = st
         if self.render_mode == "human":

@@ -368,14 +368,6 @@ class Plant:
                 out = out + act.observe(st, xp)
         return out
 
-    def info(self, st, xp, out: dict) -> None:
-        """Add the actuators' info values to ``out``."""
-        act = self.sole_actuator
-        if act is not None:
-            act.info(st, xp, out)
-            return
-        for act in self.actuators:
-            act.info(st, xp, out)
 
 
 NO_NOISE = StepNoise(None, None, None)
@@ -475,4 +467,3 @@ def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
     if randomize is not None:
         sc = sc.with_randomization(randomize)
     return Plant(scene=sc, action_mode=action_mode, allocator_name=allocator, compiled=compiled)
-

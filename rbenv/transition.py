@@ -48,13 +48,15 @@ def layout(plant: Plant, task) -> Layout:
 
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
-         own_action: bool = False) -> tuple:
+         own_action: bool = False, donate: bool = False) -> tuple:
     """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64,
-    validated shape). ``st`` is not changed.
+    validated shape). ``st`` is not changed, unless donated.
 
     own_action: the caller made ``action`` for this call, so it may be clipped in place.
+    donate: the caller gives ``st`` up (it keeps only the new state), so the step updates it
+    and returns it instead of a copy (JAX's buffer donation; the single env does this).
     """
-    new = st.copy()
+    new = st if donate else st.copy()
     contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
     if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises
@@ -64,9 +66,7 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
     obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
         not plant.observed else observe(plant, task, new, noise.sensor, xp)
-    reward = terms[0]  # the terms added left to right: one order for floats and arrays
-    for term in terms[1:]:
-        reward = reward + term
+    reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
     return new, tuple.__new__(Outcome, (obs, reward, terms, success, failure,
                                         info(plant, task, new, terms, success, xp), diverged))
 
@@ -93,7 +93,8 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     """The info dict: the task's values, the actuators' bookkeeping, the time, success and the
     reward terms (and the speed with translation)."""
     out = task.info(st, xp)
-    plant.info(st, xp, out)
+    for act in plant.actuators:
+        act.info(st, xp, out)
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)

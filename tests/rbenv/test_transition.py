@@ -72,6 +72,11 @@ def test_divergence_is_a_flag_of_the_step_and_an_error_of_the_adapters():
     with pytest.raises(NonFiniteError, match="integrator='euler'"):
         for _ in range(300):
             env.step(-np.ones(12, np.float32))
+    # The single env donates its state to the step: after a divergence it wants a reset.
+    with pytest.raises(gym.error.ResetNeeded, match="the last step diverged"):
+        env.step(np.zeros(12, np.float32))
+    env.reset(seed=1)
+    assert np.isfinite(env.step(np.zeros(12, np.float32))[0]).all()
 
     venv = gym.make_vec(rbenv.ENV_ID, num_envs=3, **opts).unwrapped
     venv.reset(seed=0, options={"omega_B": np.array([[0.0, 0.0, 0.0], fast, [0.0, 0.0, 0.0]])})
