@@ -15,8 +15,9 @@ Times are process CPU time, so other programs on a shared machine inflate them l
   the sub-envs lose control and autoreset each step);
 * ``mem_bytes_per_env`` / ``mem_peak_bytes_per_env``: what the vector env at N = 4096 holds
   after 10 steps, and its peak, per sub-env (tracemalloc);
-* ``single_instructions`` (``--instructions``, needs valgrind): instructions per single-env
-  step, counted by callgrind. Unlike times it does not move with the machine's load.
+* ``single_instructions``, ``vec_zero_instructions``, ``vec_random_instructions``
+  (``--instructions``, needs valgrind): instructions per step of the single env and of the
+  vector env (N = 4096), counted by callgrind. Unlike times they do not move with the load.
 
 Writes ``<out>/ab_speed.json`` (default ``benchmarks/results``) with both trees' figures and
 the ratios new/old.
@@ -94,28 +95,39 @@ print(json.dumps({"single_us": 1e6 * single("rbenv/SatelliteReorient-v0"),
                   "mem_bytes_per_env": mem, "mem_peak_bytes_per_env": mem_peak}))
 """
 
-# Instructions per single-env step, counted by valgrind's callgrind: deterministic, so a load on
-# a shared machine cannot blur it. The step count comes as the first argument; the difference
-# between N steps and 0 steps is the stepping alone.
+# Instructions per step, counted by valgrind's callgrind: deterministic, so a load on a shared
+# machine cannot blur them. Arguments: the probe ("single", "vec_zero" or "vec_random") and the
+# step count; the difference between two counts is the stepping alone.
 COUNT = r"""
 import sys
 import gymnasium as gym
 import numpy as np
 import rbenv
 
-env = gym.make("rbenv/SatelliteReorient-v0").unwrapped
-env.reset(seed=0)
-acts = np.random.default_rng(0).random((1000, *env.action_space.shape)).astype(np.float32)
-for i in range(int(sys.argv[1])):
-    _, _, te, tr, _ = env.step(0.3 * acts[i % 1000])
-    if te or tr:
-        env.reset()
+probe, steps = sys.argv[1], int(sys.argv[2])
+if probe == "single":
+    env = gym.make("rbenv/SatelliteReorient-v0").unwrapped
+    env.reset(seed=0)
+    acts = 0.3 * np.random.default_rng(0).random((1000, *env.action_space.shape))
+    for i in range(steps):
+        _, _, te, tr, _ = env.step(acts[i % 1000].astype(np.float32))
+        if te or tr:
+            env.reset()
+else:
+    env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=4096)
+    env.reset(seed=0)
+    shape = (16, *env.action_space.shape)
+    acts = (-np.ones(shape) if probe == "vec_zero"
+            else np.random.default_rng(1).uniform(-1, 1, shape)).astype(np.float32)
+    for i in range(steps):
+        env.step(acts[i % 16])
 """
+STEPS = {"single": (0, 3000), "vec_zero": (2, 32), "vec_random": (2, 32)}
 
 
-def instructions_per_step(tree: Path, steps: int = 3000) -> float:
-    """Instructions per step of the default single env on ``tree`` (callgrind; hash seed and
-    BLAS threads fixed, so the count repeats exactly)."""
+def instructions_per_step(tree: Path, probe: str) -> float:
+    """Instructions per step of ``probe`` on ``tree`` (callgrind; hash seed and BLAS threads
+    fixed, so the count repeats exactly)."""
     import os
     import re
     import subprocess
@@ -127,11 +139,12 @@ def instructions_per_step(tree: Path, steps: int = 3000) -> float:
                    "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
             done = subprocess.run(["valgrind", "--tool=callgrind",
                                    f"--callgrind-out-file={tmp}/cg.out", sys.executable, "-c",
-                                   COUNT, str(n)], env=env, cwd=tree, check=True,
+                                   COUNT, probe, str(n)], env=env, cwd=tree, check=True,
                                   capture_output=True, text=True)
         return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
 
-    return (count(steps) - count(0)) / steps
+    low, high = STEPS[probe]
+    return (count(high) - count(low)) / (high - low)
 
 
 def _probe(tree: Path) -> dict:
@@ -144,27 +157,31 @@ def main(argv=()) -> dict:
     p.add_argument("--new", default=str(Path(__file__).resolve().parents[1]),
                    help="source tree of the new revision (default: this one)")
     p.add_argument("--rounds", type=int, default=5)
+    p.add_argument("--instructions-only", action="store_true",
+                   help="only the instruction counts (no timed rounds)")
     p.add_argument("--instructions", action="store_true",
-                   help="also count instructions per single-env step with valgrind (minutes)")
+                   help="also count instructions per step with valgrind (minutes)")
     p.add_argument("--out", default=None,
                    help="folder for ab_speed.json (default: the benchmark results folder)")
     args = p.parse_args(argv)
     trees = {"old": Path(args.baseline).resolve(), "new": Path(args.new).resolve()}
     best: dict = {name: {} for name in trees}
-    for r in range(args.rounds):
+    for r in range(0 if args.instructions_only else args.rounds):
         for name, tree in trees.items():
             for key, value in _probe(tree).items():
                 keep = min if key.endswith(("_us", "_per_env")) else max
                 best[name][key] = keep(best[name].get(key, value), value)
         print(f"round {r + 1}/{args.rounds}: {best}", flush=True)
-    if args.instructions:
+    if args.instructions or args.instructions_only:
         for name, tree in trees.items():
-            best[name]["single_instructions"] = instructions_per_step(tree)
-            print(f"{name}: {best[name]['single_instructions']:.0f} instructions per step")
+            for probe in STEPS:
+                count = best[name][f"{probe}_instructions"] = instructions_per_step(tree, probe)
+                print(f"{name}: {probe} {count:.0f} instructions per step", flush=True)
     for name in trees:
         b = best[name]
-        b["single_vs_pendulum"] = b["single_us"] / b["pendulum_us"]
-        b["reset_heavy_vs_zero"] = b["vec_reset_heavy"] / b["vec_zero"]
+        if "single_us" in b:
+            b["single_vs_pendulum"] = b["single_us"] / b["pendulum_us"]
+            b["reset_heavy_vs_zero"] = b["vec_reset_heavy"] / b["vec_zero"]
     ratios = {key: best["new"][key] / best["old"][key] for key in best["new"]}
     data = {"trees": {k: str(v) for k, v in trees.items()}, "rounds": args.rounds,
             "best": best, "new_over_old": ratios,

@@ -277,13 +277,13 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         self._info_rows = None
         values = transition.info(self.plant, self.task, self._st, terms, success, NUMPY)
         out, mask = {}, self._mask if rows is None else rows
+        owned = _array_ids(self._st)
         for key, value in values.items():
             if np.ndim(value) == 0:
-                value = np.broadcast_to(value, mask.shape)
-            # A copy or a fresh array: some values are the state's own arrays, which a later
-            # reset overwrites in place (SyncVectorEnv's info never changes after return).
-            out[key] = np.array(value) if rows is None else \
-                np.where(rows, value, np.zeros_like(value))
+                value = np.array(np.broadcast_to(value, mask.shape))
+            elif id(value) in owned:  # the state's own array, which a later autoreset
+                value = value.copy()  # overwrites in place (SyncVectorEnv's info never changes)
+            out[key] = value if rows is None else np.where(rows, value, np.zeros_like(value))
             out["_" + key] = mask
         return out
 
@@ -315,3 +315,14 @@ def vector_env_class(spec) -> type:
                                                 "__module__": __name__, "__qualname__": name})
         globals()[name] = cls
     return cls
+
+
+def _array_ids(st) -> set:
+    """The ids of the arrays that ``st`` holds (fields, and the components of vector fields)."""
+    ids = set()
+    for value in vars(st).values():
+        if isinstance(value, tuple):
+            ids.update(map(id, value))
+        else:
+            ids.add(id(value))
+    return ids

@@ -5,6 +5,7 @@ gravity-gradient libration frequencies and equilibria, and B-dot's monotone ener
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -252,3 +253,14 @@ def test_wheel_scene_observes_wheel_speeds_and_the_magnetometer():
     b = obs[10:13] * 5e-5  # T
     assert 20e-6 < np.linalg.norm(b) < 50e-6  # LEO field strength, in body axes
     np.testing.assert_allclose(b, np.array(env._st.field_B_T), rtol=1e-6)
+
+
+@pytest.mark.parametrize("value", ["true", "[0.1]", '"0.1"', "inf", "1.5"])
+def test_a_bad_option_of_another_task_fails_on_any_env_of_the_scene(tmp_path, value):
+    """[tasks.detumble] of a wheel scene is checked when a reorientation env is made on it too
+    (the fuzz found such values accepted until a detumble env was made)."""
+    text = (Path(rbenv.__file__).parent / "scenes" / "cubesat-6u-rw.toml").read_text()
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace("min_rate_fraction = 0.1", f"min_rate_fraction = {value}"))
+    with pytest.raises(InvalidParameterError, match=r"tasks\.detumble\.min_rate_fraction"):
+        gym.make(rbenv.ENV_ID, scene=str(path))
