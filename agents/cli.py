@@ -24,6 +24,21 @@ import subprocess
 import sys
 from pathlib import Path
 
+from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.evaluate import (
+    SCRIPTED,
+    evaluate,
+    format_table,
+    plot_episodes,
+    record_video,
+    write_json,
+)
+from rbenv.agents.training import rllib, suite, tune
+from rbenv.agents.training.config import ALGOS, TrainConfig
+from rbenv.core.errors import RbenvValueError
+
+import rbenv
+
 BENCH_OUT = "bench-results"
 
 
@@ -65,7 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train", help="train PPO, SAC, TD3, TQC or CrossQ, then report against "
                                      "the baselines")
-    t.add_argument("--algo", choices=("ppo", "sac", "td3", "tqc", "crossq"), default="ppo",
+    t.add_argument("--algo", choices=ALGOS, default="ppo",
                    help="settings (hyperparameters, envs, budget, env options) come from "
                         "rbenv/hyperparams/ALGO.py, the file rl_zoo3 reads")
     t.add_argument("--timesteps", type=_positive, default=None,
@@ -106,9 +121,7 @@ def _parser() -> argparse.ArgumentParser:
     t.add_argument("--no-progress", action="store_true", help="no progress bar")
     t.add_argument("--engine", choices=("sb3", "rllib"), default="sb3",
                    help="sb3 (default) or rllib: PPO on Ray RLlib (needs the ray extra)")
-    from rbenv.agents.rllib import add_arguments as add_rllib_arguments
-
-    add_rllib_arguments(t)
+    rllib.add_arguments(t)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
@@ -142,10 +155,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
                    help=f"results folder (default ./{BENCH_OUT} in the current directory; "
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
-    from rbenv.agents.suite import add_arguments
-    from rbenv.agents.tune import add_arguments as add_ray_arguments
-
-    add_ray_arguments(add_arguments(sub.add_parser(
+    tune.add_arguments(suite.add_arguments(sub.add_parser(
         "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
     return p
 
@@ -155,12 +165,8 @@ FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "env_id", "checkpoint_every",
 
 
 def _train(args) -> int:
-    from rbenv.agents.train import TrainConfig, train
-
     if args.engine == "rllib":
-        from rbenv.agents.rllib import train_from_args
-
-        train_from_args(args)
+        rllib.train_from_args(args)
         return 0
     if args.address or args.env_runners:
         raise SystemExit("rbenv train: --address and --env-runners need --engine rllib")
@@ -171,6 +177,8 @@ def _train(args) -> int:
         if ignored:
             print(f"--resume continues the run with its saved config.json; ignoring "
                   f"{', '.join(ignored)}")
+
+    from rbenv.agents.training.sb3 import train  # the train extra (SB3, torch)
 
     cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
                       seed=args.seed, scene=args.scene, out=args.out,
@@ -185,8 +193,6 @@ def _train(args) -> int:
 
 
 def _evaluate(args) -> int:
-    from rbenv.agents.evaluate import evaluate, format_table, record_video, write_json
-
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
                       env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action,
                       trust_pickle=args.trust_pickle)
@@ -199,8 +205,6 @@ def _evaluate(args) -> int:
     if json_path:
         print(f"summary: {write_json([result], json_path)}")
     if plot_path:
-        from rbenv.agents.evaluate import plot_episodes
-
         print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
         video = record_video(args.policy, args.video, seed=args.seed, scene=args.scene,
@@ -211,31 +215,23 @@ def _evaluate(args) -> int:
 
 def _env_id(args) -> str:
     """--env-id, else the task a run folder was trained on, else reorientation."""
-    import rbenv
-
     if args.env_id:
         return args.env_id
     path = Path(args.policy)
-    if args.policy not in ("pd", "bangbang", "zero", "random") and path.exists():
-        from rbenv.agents import runs
-
-        if path.is_dir() and (path / runs.CONFIG).is_file():  # a run folder, SB3 or RLlib
-            config = runs.read_config(path)
+    if args.policy not in SCRIPTED and path.exists():
+        if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
+            config = runfolder.read_config(path)
         else:
-            config = runs.locate(path).config or {}
+            config = runfolder.locate(path).config or {}
         return config.get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
 
 def _suite(args) -> int:
-    from rbenv.agents.suite import main as suite_main
-
     if args.ray or args.address:
-        from rbenv.agents.tune import main as tune_main
-
-        tune_main(args)
+        tune.main(args)
         return 0
-    suite_main(args)
+    suite.main(args)
     return 0
 
 
@@ -263,8 +259,6 @@ def main(argv: list[str] | None = None) -> int:
                "suite": _suite}[args.command]
     if argv is not None:
         return command(args)
-    from rbenv.core.errors import RbenvValueError
-
     try:
         return command(args)
     except RbenvValueError as e:

@@ -16,8 +16,8 @@ import sys
 import time
 from pathlib import Path
 
-from rbenv.agents.controllers import applicable_baselines
-from rbenv.agents.evaluate import evaluate
+from rbenv.agents.baselines.controllers import applicable_baselines
+from rbenv.agents.policies.evaluate import evaluate
 
 import rbenv
 from benchmarks import common

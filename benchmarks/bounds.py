@@ -11,7 +11,8 @@ ppo-reorient-cubesat-12u-seed{0,1,2}``, each as the suite evaluates it: the chec
 suite selected, acting with its mean throttle) and reports achieved / bound per episode:
 median and quartiles over successful episodes. A ratio below 1 would disprove a bound; the
 minimum is reported. ``--optimal K`` also optimises open-loop trajectories (SciPy SLSQP,
-:mod:`rbenv.agents.optimal`) for K episodes, replays them in the env, and compares them with the
+:mod:`rbenv.agents.baselines.optimal`) for K episodes, replays them in the env, and compares them
+with the
 bounds. Writes ``bounds.json``, ``bounds.md`` and ``bounds.png`` to ``--out`` (default
 ``benchmarks/results/bounds``). ``--quick``: 20 episodes, PPO seed 0 only, one short
 optimisation: a smoke test for CI.
@@ -40,9 +41,9 @@ QUICK = {"episodes": 20, "ppo_seeds": (0,), "optimal": 1, "maxiter": 40}
 def ppo_policy(seed: int, suite: Path = SUITE):
     """The suite's PPO policy for reorient/cubesat-12u ``seed``, as the suite evaluates it: the
     checkpoint it selected on validation episodes, acting with its mean throttle."""
-    from rbenv.agents.evaluate import SB3Policy
-    from rbenv.agents.runs import read_json
-    from rbenv.agents.suite import select_checkpoint
+    from rbenv.agents.policies.runfolder import read_json
+    from rbenv.agents.policies.sb3 import SB3Policy
+    from rbenv.agents.training.suite import select_checkpoint
 
     folder = Path(suite) / "cells" / CELL.format(seed)
     result = read_json(folder / "result.json", "suite cell result")
@@ -109,7 +110,7 @@ def spot_checks(seed: int, count: int, maxiter: int, quick: bool,
     propellant settling by the last admissible step, throttles held 2 s, warm-started from the
     PD's throttles (skipped with --quick).
     """
-    from rbenv.agents import optimal
+    from rbenv.agents.baselines import optimal
 
     from rbenv import bounds as rb
 
@@ -253,8 +254,8 @@ def plot(data: dict, per_episode: dict, path: Path) -> Path:
 
 def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
         quick: bool = False) -> tuple[dict, dict]:
-    from rbenv.agents.evaluate import evaluate
-    from rbenv.agents.train import set_threads
+    from rbenv.agents.policies.evaluate import evaluate
+    from rbenv.agents.training.sb3 import set_threads
 
     from rbenv import bounds as rb
 

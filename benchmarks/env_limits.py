@@ -11,7 +11,7 @@ import dataclasses
 
 import gymnasium as gym
 import numpy as np
-from rbenv.agents.controllers import QuaternionPD
+from rbenv.agents.baselines.controllers import QuaternionPD
 
 import rbenv
 from rbenv.scene import Faults

@@ -2,10 +2,12 @@
 
 Run ``python -m benchmarks.fidelity`` (``--quick`` for a smoke form). For each physics setting a
 user might pick for speed (integrator × substeps per 0.5 s control step), PPO is trained with
-the shipped defaults (:func:`rbenv.agents.suite.train_config`, :func:`rbenv.agents.train.train`) on
+the shipped defaults (:func:`rbenv.agents.training.suite.train_config`,
+:func:`rbenv.agents.training.sb3.train`) on
 the default reorientation task, scene cubesat-12u, with only ``integrator`` and ``substeps``
 changed. Every policy is then evaluated, with the learning suite's mean-throttle action
-(``action="mean_throttle"`` of :class:`rbenv.agents.runs.RunPolicy`), on the suite's 500 held-out
+(``action="mean_throttle"`` of :class:`rbenv.agents.policies.sb3.RunPolicy`), on the suite's 500
+held-out
 episodes (seed 1,000,000 + i):
 
 - on **reference physics** (:data:`REFERENCE`, RK4 with 16 substeps), checked to be converged by
@@ -34,14 +36,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from rbenv.agents import suite
-from rbenv.agents.runs import RunFolderError, read_json, write_json
+from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
+from rbenv.agents.training import suite
 
 import rbenv
 
 RESULT_VERSION = 1
 SCENE = "cubesat-12u"
-N_ENVS = 64  # PPO's default (agents.train.DEFAULT_N_ENVS), also used for the speed figure
+N_ENVS = 64  # PPO's default (its shipped n_envs), also used for the speed figure
 LARGE_N_ENVS = 4096  # a second speed figure where the physics, not per-call overhead, dominates
 
 
@@ -86,7 +88,7 @@ def parse_setting(text: str) -> Setting:
 # --- one run: train on a setting, evaluate on the reference and on the setting ----------------
 
 def _evaluate(policy, setting: Setting, episodes: int, seed: int) -> dict:
-    from rbenv.agents.evaluate import evaluate
+    from rbenv.agents.policies.evaluate import evaluate
 
     name = policy if isinstance(policy, str) else "ppo"
     return evaluate(policy, name=name, episodes=episodes, seed=seed, scene=SCENE, record=0,
@@ -97,11 +99,12 @@ def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, thread
                   ) -> dict:
     """Train PPO (shipped defaults) on ``setting``; training.json plus this process's CPU time.
 
-    ``cpu_time_s`` is the CPU time of this process during :func:`rbenv.agents.train.train` (one
+    ``cpu_time_s`` is the CPU time of this process during :func:`rbenv.agents.training.sb3.train`
+    (one
     torch thread), None when the run was resumed from a checkpoint written by another process.
     """
-    from rbenv.agents import runs
-    from rbenv.agents.train import train
+    from rbenv.agents.policies import runfolder as runs
+    from rbenv.agents.training.sb3 import train
 
     cell = suite.Cell("ppo", rbenv.ENV_ID, SCENE, seed, timesteps)
     cfg = suite.train_config(cell, run, threads)
@@ -147,8 +150,8 @@ def collect(out: Path, settings: list[Setting], timesteps: int, episodes: int) -
 def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, timesteps: int,
                 episodes: int, threads: int = 1) -> dict:
     """Train on ``setting`` and evaluate on reference, check and own physics; cached as JSON."""
-    from rbenv.agents.evaluate import SB3Policy
-    from rbenv.agents.train import set_threads
+    from rbenv.agents.policies.sb3 import SB3Policy
+    from rbenv.agents.training.sb3 import set_threads
 
     path = result_path(out, setting, seed)
     expect = {"setting": asdict(setting), "seed": seed, "timesteps": timesteps,
@@ -243,7 +246,7 @@ def open_loop_divergence(settings: list[Setting], *, episodes: int = 100,
     the model error a policy trained on the setting meets on the reference, before feedback.
     """
     import gymnasium as gym
-    from rbenv.agents.controllers import baseline
+    from rbenv.agents.baselines.controllers import baseline
 
     def make(setting):
         env = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, scene=SCENE,

@@ -29,7 +29,8 @@ RUNNERS = (0, 1, 2)
 
 def _sb3():
     """A function that collects STEPS env steps with SB3 PPO; returns steps collected."""
-    from rbenv.agents.train import TrainConfig, make_vec_env
+    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.sb3 import make_vec_env
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -53,7 +54,7 @@ def _sb3():
 def _rllib(runners: int):
     """A function that samples at least STEPS env steps on ``runners`` env runners."""
     from ray.rllib.execution.rollout_ops import synchronous_parallel_sample
-    from rbenv.agents.rllib import RLlibConfig, algorithm_config, register_env
+    from rbenv.agents.training.rllib import RLlibConfig, algorithm_config, register_env
 
     register_env()
     cfg = RLlibConfig(env_runners=runners, envs_per_runner=ENVS).resolve()
@@ -70,7 +71,7 @@ def _rllib(runners: int):
 
 def measure(rounds: int = ROUNDS) -> list[dict]:
     import torch
-    from rbenv.agents.ray_cluster import connect, shutdown
+    from rbenv.agents.training.ray_cluster import connect, shutdown
 
     torch.set_num_threads(1)
     started = connect(None, num_cpus=max(RUNNERS) + 1)

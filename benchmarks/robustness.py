@@ -35,8 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from rbenv.agents import suite
-from rbenv.agents.runs import RunFolderError, read_json, write_json
+from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
+from rbenv.agents.training import suite
 
 import rbenv
 from benchmarks.common import RESULTS
@@ -116,7 +116,8 @@ CONDITIONS = conditions()
 class PolicySpec:
     """One evaluated policy: ``group`` (a table column), a seed for learned ones, and where its
     model is (``None`` for a scripted baseline: ``law``, default the group, a name in
-    ``rbenv.agents.controllers.BASELINES["reorient"]``, built with ``options`` on the nominal
+    ``rbenv.agents.baselines.controllers.BASELINES["reorient"]``, built with ``options`` on the
+    nominal
     scene).
     """
 
@@ -152,7 +153,7 @@ def scripted_policies() -> list[PolicySpec]:
 def scripted_controller(spec: PolicySpec):
     """``spec``'s scripted law with its options, from the nominal scene (its model)."""
     import gymnasium as gym
-    from rbenv.agents.controllers import BASELINES
+    from rbenv.agents.baselines.controllers import BASELINES
 
     env = gym.make(ENV_ID, scene=SCENE)
     return BASELINES["reorient"][spec.law or spec.group].from_env(env, **dict(spec.options))
@@ -184,7 +185,7 @@ def suite_policies(suite_out: Path, scene: str, group: str, seeds) -> tuple[list
     result.json records; the final model when no checkpoint was saved at that step). Only the
     result.json is needed to name it; the run folder is read when an evaluation is not cached.
     """
-    from rbenv.agents import runs
+    from rbenv.agents.policies import runfolder as runs
 
     specs, missing = [], []
     for seed in seeds:
@@ -219,7 +220,7 @@ def run_dir(out: Path, seed: int, timesteps: int) -> Path:
 def start_from_shorter_run(out: Path, seed: int, timesteps: int, shorter) -> Path | None:
     """Copy the longest finished run of ``seed`` among the ``shorter`` budgets into this
     budget's (absent) folder, so training continues it; returns the copied run or None."""
-    from rbenv.agents import runs
+    from rbenv.agents.policies import runfolder as runs
 
     run = run_dir(out, seed, timesteps)
     if run.exists():
@@ -240,8 +241,9 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     finished run of the largest of the ``shorter`` budgets. The record names the checkpoint
     with the best validation success (the latest among equals), as the suite selects.
     """
-    from rbenv.agents import runs
-    from rbenv.agents.train import set_threads, shipped_settings, train
+    from rbenv.agents.policies import runfolder as runs
+    from rbenv.agents.training.config import shipped_settings
+    from rbenv.agents.training.sb3 import set_threads, train
 
     path = train_record(out, seed, timesteps)
     try:
@@ -285,8 +287,10 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
 
 def evaluate_policy(spec: PolicySpec, condition: Condition, episodes: int, seed: int,
                     randomize=None):
-    """:class:`rbenv.agents.evaluate.EvalResult` of ``spec`` on ``condition``'s episodes."""
-    from rbenv.agents.evaluate import SB3Policy, evaluate
+    """:class:`rbenv.agents.policies.evaluate.EvalResult` of ``spec`` on ``condition``'s
+    episodes."""
+    from rbenv.agents.policies.evaluate import evaluate
+    from rbenv.agents.policies.sb3 import SB3Policy
 
     if spec.model is not None:
         policy = SB3Policy(spec.model, action="mean_throttle")
@@ -463,7 +467,7 @@ def run(out: Path, *, seeds: int, timesteps, episodes: int, suite_out: Path,
 
     timesteps: the PPO budgets to train at TRAIN_SIZE (one group each).
     """
-    from rbenv.agents.train import set_threads
+    from rbenv.agents.training.sb3 import set_threads
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

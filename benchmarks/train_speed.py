@@ -37,7 +37,8 @@ THREADS = (1, 2)
 
 
 def _model():
-    from rbenv.agents.train import TrainConfig, make_vec_env
+    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.sb3 import make_vec_env
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -144,7 +145,8 @@ def off_policy_configs(quick: bool = False) -> list[dict]:
 
 
 def _off_policy_model(spec: dict):
-    from rbenv.agents.train import TrainConfig, _algo_class, make_vec_env, model_kwargs
+    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
     from stable_baselines3.common.vec_env import VecNormalize
 
     hp = {**copy.deepcopy(spec["changes"]), "buffer_size": 200_000}
@@ -154,7 +156,7 @@ def _off_policy_model(spec: dict):
     cfg.hyperparams["learning_starts"] = max(2 * batch, 16 * cfg.n_envs)
     env = VecNormalize(make_vec_env(cfg, cfg.n_envs, 0), gamma=cfg.hyperparams["gamma"],
                        **cfg.normalize)
-    model = _algo_class(cfg.algo)("MlpPolicy", env, seed=0, device="cpu",
+    model = algo_class(cfg.algo)("MlpPolicy", env, seed=0, device="cpu",
                                   **model_kwargs(cfg, env))
     return model, cfg
 

@@ -1,7 +1,8 @@
 """Why SAC/TD3 fail on cubesat-12u and what fixes them; PPO's propellant against the PD's.
 
 Each variant trains one SB3 model on the native rbenv vector env (same-step autoreset, through
-:class:`rbenv.agents.sb3.SB3VecEnv`), then evaluates the deterministic policy on the held-out seeded
+:class:`rbenv.agents.training.sb3_vec_env.SB3VecEnv`), then evaluates the deterministic policy on
+the held-out seeded
 episodes ``1_000_000 + i`` (i < 500), as ``rbenv evaluate`` does. Env-side changes under study
 are prototyped here as SB3 ``VecEnv`` wrappers, so the env package itself is untouched:
 
@@ -31,8 +32,8 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from rbenv.agents.runs import expected_throttle
-from rbenv.agents.sb3 import SB3VecEnv
+from rbenv.agents.policies.sb3 import expected_throttle
+from rbenv.agents.training.sb3_vec_env import SB3VecEnv
 
 import rbenv
 from rbenv.hyperparams.ppo import hyperparams as _ppo_settings
@@ -205,7 +206,7 @@ def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int,
 
 def baseline(policy: str, env_kwargs=None, episodes: int = EVAL_EPISODES) -> dict:
     """The scripted baseline on the held-out episodes (same summary keys as :func:`evaluate`)."""
-    from rbenv.agents.evaluate import evaluate as run
+    from rbenv.agents.policies.evaluate import evaluate as run
 
     r = run(policy, episodes=episodes, seed=EVAL_SEED, env_kwargs=env_kwargs, record=0)
     s = r.summary()

@@ -244,8 +244,8 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
 # than the other tasks' 160 steps: magnetic unloading takes a good part of an orbit.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate,
                 make=make_desaturate,
-                baselines={"unload": "rbenv.agents.controllers:Unload",
-                           "pd": "rbenv.agents.controllers:WheelHoldPD"},
+                baselines={"unload": "rbenv.agents.baselines.controllers:Unload",
+                           "pd": "rbenv.agents.baselines.controllers:WheelHoldPD"},
                 budget={"ppo": 2_000_000, "sac": 200_000},
                 max_episode_steps=300, hyperparams=tuned.ALL, env_doc=ENV_DOC,
                 default_scene="cubesat-6u-rw", needs=("wheels",))

@@ -158,7 +158,7 @@ ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propel
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
-                baselines={"pd": "rbenv.agents.controllers:RateDamping",
-                           "bdot": "rbenv.agents.controllers:BDot"},
+                baselines={"pd": "rbenv.agents.baselines.controllers:RateDamping",
+                           "bdot": "rbenv.agents.baselines.controllers:BDot"},
                 budget={"ppo": 300_000, "sac": 100_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)

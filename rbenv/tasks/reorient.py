@@ -254,8 +254,8 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
-                baselines={"pd": "rbenv.agents.controllers:QuaternionPD",
-                           "bangbang": "rbenv.agents.controllers:EigenaxisBangBang"},
+                baselines={"pd": "rbenv.agents.baselines.controllers:QuaternionPD",
+                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},

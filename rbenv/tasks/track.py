@@ -295,6 +295,6 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
-                baselines={"pd": "rbenv.agents.controllers:TrackingPD"},
+                baselines={"pd": "rbenv.agents.baselines.controllers:TrackingPD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)

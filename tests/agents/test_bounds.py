@@ -171,7 +171,7 @@ def test_unbounded_disturbance_is_refused():
 # --- against what controllers achieve -----------------------------------------------------------
 
 def test_bounds_lie_below_pd_and_bang_bang_on_200_episodes(limits):
-    from rbenv.agents.evaluate import evaluate
+    from rbenv.agents.policies.evaluate import evaluate
 
     n = 200
     st = rb.episode_starts(n, SEED)
@@ -201,7 +201,7 @@ def test_optimised_trajectory_is_above_the_bounds():
     """A time-optimised open-loop sequence (SLSQP), replayed in the env on a 21° episode,
     succeeds no sooner than the settle bound and spends no less than the propellant bound
     at its own settle time; it is faster than the bang-bang controller."""
-    from rbenv.agents import optimal
+    from rbenv.agents.baselines import optimal
 
     seed = SEED + 343  # the smallest initial angle among the first 500 held-out episodes
     lim = rb.scene_limits("cubesat-12u")
@@ -224,7 +224,7 @@ def test_optimised_trajectory_is_above_the_bounds():
 def test_fuel_optimised_trajectory_is_above_the_propellant_bound():
     """A propellant-optimised sequence (SLSQP, settling at 78.5 s), replayed in the env,
     succeeds, spends less than the PD and no less than the bound for any policy."""
-    from rbenv.agents import optimal
+    from rbenv.agents.baselines import optimal
 
     seed = SEED + 3  # 118°: a positive propellant bound
     lim = rb.scene_limits("cubesat-12u")
@@ -240,7 +240,7 @@ def test_fuel_optimised_trajectory_is_above_the_propellant_bound():
 
 def test_own_rollout_matches_the_env():
     """The optimiser's RK4 reproduces the env's trajectory under the bang-bang throttles."""
-    from rbenv.agents import optimal
+    from rbenv.agents.baselines import optimal
 
     seed = SEED + 3
     bang = optimal.replay("bangbang", seed)

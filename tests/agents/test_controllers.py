@@ -3,8 +3,13 @@
 import gymnasium as gym
 import numpy as np
 import pytest
-from rbenv.agents.controllers import EigenaxisBangBang, QuaternionPD, RandomPolicy, ZeroPolicy
-from rbenv.agents.evaluate import evaluate
+from rbenv.agents.baselines.controllers import (
+    EigenaxisBangBang,
+    QuaternionPD,
+    RandomPolicy,
+    ZeroPolicy,
+)
+from rbenv.agents.policies.evaluate import evaluate
 from rbenv.core import quaternion
 
 import rbenv

@@ -11,8 +11,9 @@ import json
 import numpy as np
 import pytest
 from rbenv.agents.cli import main as cli_main
-from rbenv.agents.runs import load_policy
-from rbenv.agents.train import ZOO_KEYS, TrainConfig, train
+from rbenv.agents.policies import load_policy
+from rbenv.agents.training.config import ZOO_KEYS, TrainConfig
+from rbenv.agents.training.sb3 import train
 
 pytest.importorskip("sb3_contrib", reason="sb3-contrib is not installed (train extra)")
 
@@ -54,7 +55,7 @@ def test_short_run_uses_the_shipped_settings_and_reports(tmp_path, algo):
     assert type(policy.model).__name__.lower() == algo
     assert policy.model.action_space.shape == (3,)  # torque actions, from the shipped env_kwargs
     if algo == "td3":  # the zoo's noise_type/noise_std become the same NormalActionNoise
-        from rbenv.agents.train import model_kwargs
+        from rbenv.agents.training.sb3 import model_kwargs
 
         noise = model_kwargs(TrainConfig(algo="td3").resolve(), policy.model)["action_noise"]
         assert np.allclose(noise._sigma, settings["noise_std"])

@@ -56,7 +56,7 @@ def _arrays(result):
 
 @pytest.mark.parametrize("name", ["pd", "bangbang"])
 def test_size_zero_is_the_nominal_env_episode_for_episode(name):
-    from rbenv.agents.evaluate import evaluate
+    from rbenv.agents.policies.evaluate import evaluate
 
     zero = next(c for c in rb.CONDITIONS if c.name == "all-0")
     ours = rb.evaluate_policy(rb.PolicySpec(name), zero, EPISODES, rb.EVAL_SEED)
@@ -66,7 +66,7 @@ def test_size_zero_is_the_nominal_env_episode_for_episode(name):
 
 
 def test_perturbation_changes_the_physics_of_the_same_episodes():
-    from rbenv.agents.evaluate import evaluate
+    from rbenv.agents.policies.evaluate import evaluate
 
     big = next(c for c in rb.CONDITIONS if c.name == "all-0.3")
     perturbed = rb.evaluate_policy(rb.PolicySpec("bangbang"), big, EPISODES, rb.EVAL_SEED)
@@ -120,7 +120,7 @@ def test_quick_run_resumes_from_its_json_without_training_or_evaluating(quick, m
     def refuse(*_a, **_k):
         raise AssertionError("recomputed a cached result")
 
-    monkeypatch.setattr("rbenv.agents.train.train", refuse)
+    monkeypatch.setattr("rbenv.agents.training.sb3.train", refuse)
     monkeypatch.setattr(rb, "evaluate_policy", refuse)
     again = rb.main(args)
     assert again["conditions"] == data["conditions"]

@@ -16,11 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from rbenv.agents import runs, weights
 from rbenv.agents.cli import main as cli_main
-from rbenv.agents.evaluate import SB3Policy
-from rbenv.agents.runs import RunFolderError, UntrustedPickleError, load_policy
-from rbenv.agents.train import TrainConfig, train
+from rbenv.agents.policies import load_policy, weights
+from rbenv.agents.policies import runfolder as runs
+from rbenv.agents.policies import sb3 as sb3_policies
+from rbenv.agents.policies.runfolder import RunFolderError, UntrustedPickleError
+from rbenv.agents.policies.sb3 import SB3Policy
+from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.sb3 import train
 
 SMALL = {"n_steps": 32, "batch_size": 64, "n_epochs": 1}
 SHORT = {"max_episode_steps": 30}
@@ -96,14 +99,14 @@ def test_a_run_folder_holds_no_pickle(ppo_run, sac_run):
 def test_weights_round_trip_restores_every_state_a_resume_needs(algo, ppo_run, sac_run,
                                                                 tmp_path):
     """policy + optimizers (+ SAC's entropy coefficient), counters, statistics, buffer."""
-    from rbenv.agents.train import make_vec_env
+    from rbenv.agents.training.sb3 import make_vec_env
 
     out = ppo_run if algo == "ppo" else sac_run
     cfg = runs.read_config(out)
     ckpt = out / "checkpoints" / "policy_256.pt"
-    env = runs.load_stats(out / "checkpoints" / "obs_stats_256.npz",
+    env = sb3_policies.load_stats(out / "checkpoints" / "obs_stats_256.npz",
                           make_vec_env(tiny(out, algo=algo, env_kwargs=cfg["env_kwargs"]), 4, 0))
-    model = runs.load_model(ckpt, env=env, hyperparams=cfg["hyperparams"], seed=0)
+    model = sb3_policies.load_model(ckpt, env=env, hyperparams=cfg["hyperparams"], seed=0)
     saved = weights.read_tensors(ckpt)
     assert model.num_timesteps == 256
     got = model.get_parameters()
@@ -121,7 +124,7 @@ def test_weights_round_trip_restores_every_state_a_resume_needs(algo, ppo_run, s
         assert torch.equal(model.log_ent_coef.detach(), saved["variables"]["log_ent_coef"])
         size = weights.load_replay_buffer(model, out / "checkpoints" / "replay_buffer_256.npz")
         assert size > 0 and model.replay_buffer.observations[:size].any()
-    stats = runs.load_stats(out / "checkpoints" / "obs_stats_256.npz")
+    stats = sb3_policies.load_stats(out / "checkpoints" / "obs_stats_256.npz")
     assert np.array_equal(env.obs_rms.mean, stats.obs_rms.mean) and stats.obs_rms.count > 1
 
 
@@ -197,8 +200,8 @@ def _loaders(out):
         "load_policy(model.zip)": lambda: load_policy(out / runs.LEGACY_MODEL),
         "load_policy(model_128.zip)": lambda: load_policy(ckpt / "model_128.zip"),
         "SB3Policy(model.zip)": lambda: SB3Policy(out / runs.LEGACY_MODEL),
-        "load_stats(vecnormalize.pkl)": lambda: runs.load_stats(out / runs.LEGACY_STATS),
-        "load_model(model_256.zip)": lambda: runs.load_model(ckpt / "model_256.zip"),
+        "load_stats(vecnormalize.pkl)": lambda: sb3_policies.load_stats(out / runs.LEGACY_STATS),
+        "load_model(model_256.zip)": lambda: sb3_policies.load_model(ckpt / "model_256.zip"),
         "rbenv evaluate": lambda: cli_main(["evaluate", "--policy", str(out),
                                             "--episodes", "1"]),
         "rbenv evaluate model.zip": lambda: cli_main(
@@ -227,7 +230,7 @@ def test_refusals_name_the_trust_flag(copy, tmp_path):
     with pytest.raises(UntrustedPickleError, match=r"trust_pickle=True.*--trust-pickle"):
         load_policy(copy)
     with pytest.raises(UntrustedPickleError, match=r"vecnormalize.pkl.*trust_pickle=True"):
-        runs.load_stats(copy / runs.LEGACY_STATS)
+        sb3_policies.load_stats(copy / runs.LEGACY_STATS)
     with pytest.raises(UntrustedPickleError, match="--trust-pickle"):
         cli_main(["evaluate", "--policy", str(copy), "--episodes", "1"])
     assert not marker.exists()
@@ -252,7 +255,7 @@ def test_a_resume_over_only_pickled_checkpoints_names_the_flag(copy, tmp_path):
 def _as_old_format(out):
     """Rewrite a run folder as rbenv wrote it before issue 19: SB3 .zip files and pickled
     VecNormalize statistics, by SB3's own save functions, as the old code called them."""
-    from rbenv.agents.train import make_vec_env
+    from rbenv.agents.training.sb3 import make_vec_env
 
     venv = make_vec_env(tiny(out), 4, 0)
     ckpt = out / "checkpoints"
@@ -323,15 +326,16 @@ def test_a_checkpoint_whose_name_disagrees_with_its_model_is_skipped(copy, capsy
 
 def test_rllib_folders_are_refused_without_the_flag_before_ray_is_imported(tmp_path):
     """Runs without Ray installed: the refusal comes before any import of ray."""
-    from rbenv.agents import rllib
+    from rbenv.agents.policies.rllib import RLlibPolicy
+    from rbenv.agents.training import rllib
 
     out = tmp_path / "rllib-run"
-    (out / rllib.POLICY_DIR).mkdir(parents=True)
-    (out / rllib.POLICY_DIR / "class_and_ctor_args.pkl").write_bytes(
+    (out / runs.POLICY_DIR).mkdir(parents=True)
+    (out / runs.POLICY_DIR / "class_and_ctor_args.pkl").write_bytes(
         _pickle_bytes(tmp_path / "marker"))
     runs.write_json(out / runs.CONFIG, {"engine": "rllib", "algo": "ppo"})
     with pytest.raises(UntrustedPickleError, match=r"RLlib.*trust_pickle=True"):
-        rllib.RLlibPolicy(out)
+        RLlibPolicy(out)
     with pytest.raises(UntrustedPickleError, match="--trust-pickle"):
         cli_main(["evaluate", "--policy", str(out), "--episodes", "1"])
     with pytest.raises(UntrustedPickleError, match="--trust-pickle"):

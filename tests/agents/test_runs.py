@@ -16,9 +16,13 @@ import threading
 import numpy as np
 import pytest
 import torch
-from rbenv.agents import runs
-from rbenv.agents.runs import RunFolderError, RunLock, RunLockedError, load_policy
-from rbenv.agents.train import TrainConfig, train
+from rbenv.agents.policies import load_policy
+from rbenv.agents.policies import runfolder as runs
+from rbenv.agents.policies import sb3 as sb3_policies
+from rbenv.agents.policies.runfolder import RunFolderError, RunLockedError
+from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.engine import RunLock
+from rbenv.agents.training.sb3 import train
 from rbenv.core.errors import InvalidParameterError, RbenvValueError
 
 import rbenv
@@ -57,7 +61,7 @@ def summary(out):
 
 
 def params(out):
-    from rbenv.agents import weights
+    from rbenv.agents.policies import weights
 
     return weights.read_tensors(out / "policy.pt")["params"]["policy"]
 
@@ -234,7 +238,7 @@ def test_a_new_run_into_a_non_empty_folder_needs_force(copy):
 
 HOLD_LOCK = textwrap.dedent("""
     import sys, time
-    from rbenv.agents.runs import RunLock
+    from rbenv.agents.training.engine import RunLock
     lock = RunLock(sys.argv[1]).acquire()
     print("locked", flush=True)
     time.sleep(120)
@@ -335,14 +339,14 @@ def test_bad_counts_are_named(tmp_path, field, value):
 # --- loading for deployment -------------------------------------------------------------------
 
 def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
-    from rbenv.agents import weights
+    from rbenv.agents.policies import weights
 
     policy = load_policy(base_run, action="mode")  # SB3's own deterministic action
     env = policy.make_env()
     assert env.spec.max_episode_steps == SHORT["max_episode_steps"]  # the run's env options
     obs, _ = env.reset(seed=3)
     action, _ = policy.predict(obs)
-    stats = runs.load_stats(base_run / "obs_stats.npz")
+    stats = sb3_policies.load_stats(base_run / "obs_stats.npz")
     expected, _ = weights.load_model(base_run / "policy.pt").predict(
         stats.normalize_obs(obs), deterministic=True)
     assert action.shape == (12,) and np.array_equal(action, expected)
@@ -352,8 +356,8 @@ def test_load_policy_gives_a_ready_policy_for_plain_gym_make(base_run):
 
 def test_a_checkpoint_is_paired_with_its_own_statistics(base_run):
     ckpt = load_policy(base_run / "checkpoints" / "policy_128.pt")
-    own = runs.load_stats(base_run / "checkpoints" / "obs_stats_128.npz")
-    final = runs.load_stats(base_run / "obs_stats.npz")
+    own = sb3_policies.load_stats(base_run / "checkpoints" / "obs_stats_128.npz")
+    final = sb3_policies.load_stats(base_run / "obs_stats.npz")
     assert np.array_equal(ckpt.vecnormalize.obs_rms.mean, own.obs_rms.mean)
     assert not np.allclose(ckpt.vecnormalize.obs_rms.mean, final.obs_rms.mean)
     assert ckpt.config["n_envs"] == 4 and ckpt.env_kwargs["scene"] == "cubesat-12u"
@@ -415,7 +419,7 @@ def test_tensorboard_logs_through_sb3(tmp_path):
 
 
 def test_progress_bar_counts_this_sessions_steps_at_the_average_rate(copy, monkeypatch):
-    import rbenv.agents.train as train_module
+    import rbenv.agents.training.sb3 as train_module
 
     bars = []
     original = train_module.RateProgress._on_training_start
@@ -508,8 +512,8 @@ def test_a_corrupt_training_summary_is_named_and_the_run_rewrites_it(copy, capsy
 
 
 def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path):
-    from rbenv.agents.sb3 import SB3VecEnv
-    from rbenv.agents.train import make_vec_env
+    from rbenv.agents.training.sb3 import make_vec_env
+    from rbenv.agents.training.sb3_vec_env import SB3VecEnv
     from stable_baselines3 import PPO
 
     env = make_vec_env(TrainConfig().resolve(), 2, 0)
@@ -526,8 +530,8 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
 
 def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
     """RL Zoo keeps vecnormalize.pkl in a folder named like the model; without any, a warning."""
-    from rbenv.agents.runs import LEGACY_STATS as FINAL_STATS
-    from rbenv.agents.runs import locate
+    from rbenv.agents.policies.runfolder import LEGACY_STATS as FINAL_STATS
+    from rbenv.agents.policies.runfolder import locate
 
     model = tmp_path / "rbenv-SatelliteReorient-v0.zip"
     model.write_bytes(b"zip")
@@ -540,7 +544,7 @@ def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
 
 def test_policy_action_auto_is_mean_throttle_only_for_a_gaussian_policy_in_throttle_mode():
     import gymnasium as gym
-    from rbenv.agents.runs import RunPolicy
+    from rbenv.agents.policies.sb3 import RunPolicy
     from rbenv.core.errors import InvalidParameterError
     from stable_baselines3 import PPO, SAC
 

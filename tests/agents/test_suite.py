@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rbenv.agents import suite
-from rbenv.agents.suite import Cell, aggregate, grid, run_cell
-from rbenv.agents.train import TrainConfig
+from rbenv.agents.training import suite
+from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.suite import Cell, aggregate, grid, run_cell
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
@@ -166,7 +166,7 @@ def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path):
 @pytest.mark.slow  # trains
 def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite):
     import torch
-    from rbenv.agents.runs import load_policy
+    from rbenv.agents.policies import load_policy
 
     out, data = quick_suite
     policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run",

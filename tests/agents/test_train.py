@@ -9,10 +9,12 @@ import time
 import numpy as np
 import pytest
 import torch
-from rbenv.agents import weights
 from rbenv.agents.cli import main as cli_main
-from rbenv.agents.evaluate import SB3Policy
-from rbenv.agents.train import TrainConfig, latest_checkpoint, make_vec_env, train
+from rbenv.agents.policies import weights
+from rbenv.agents.policies.runfolder import latest_checkpoint
+from rbenv.agents.policies.sb3 import SB3Policy
+from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.sb3 import make_vec_env, train
 
 SMALL = {"n_steps": 32, "batch_size": 128, "n_epochs": 2}
 
@@ -62,7 +64,7 @@ def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
 
 
 def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
-    from rbenv.agents.runs import expected_throttle
+    from rbenv.agents.policies.sb3 import expected_throttle
 
     policy = SB3Policy(run_dir / "policy.pt")
     assert policy.action == "mean_throttle"
@@ -154,7 +156,7 @@ def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
 
 
 def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
-    from rbenv.agents.train import PeriodicEval
+    from rbenv.agents.training.sb3 import PeriodicEval
 
     model = weights.load_model(run_dir / "policy.pt")
     for env_kwargs, action in (({}, "mean_throttle"), ({"action_mode": "torque"}, "mode")):

@@ -41,7 +41,7 @@ def test_zoo_settings_are_rbenv_trains_defaults(algo):
     """One set of settings: the zoo file says what ``rbenv train --algo ALGO`` does."""
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")
-    from rbenv.agents.train import ZOO_KEYS, TrainConfig, normalize_kwargs
+    from rbenv.agents.training.config import ZOO_KEYS, TrainConfig, normalize_kwargs
 
     table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
     for env_id, settings in table.items():

@@ -1,6 +1,7 @@
 """Stable-Baselines3 on its own terms: ``make_vec_env`` over the plain id, each algorithm learns.
 
-``rbenv train`` goes through :class:`rbenv.agents.sb3.SB3VecEnv`; this checks the path a new user
+``rbenv train`` goes through :class:`rbenv.agents.training.sb3_vec_env.SB3VecEnv`; this checks the
+path a new user
 takes without it (SB3's ``DummyVecEnv`` of single envs), for a few hundred steps per algorithm.
 """
 

@@ -99,7 +99,8 @@ def test_sweep_on_two_node_cluster(raytools, two_hosts, tmp_path):
         raytools.wait_for_nodes(address, 2, env, netns=ns1)
         _refuses_another_token(address, env, ns1)
         out = tmp_path / "suite"
-        cmd = ["ip", "netns", "exec", ns1, sys.executable, "-m", "rbenv.agents.tune", "--ray",
+        cmd = ["ip", "netns", "exec", ns1, sys.executable, "-m", "rbenv.agents.training.tune",
+               "--ray",
                "--address", address, "--quick", "--timesteps", "2048", "--episodes", "4",
                "--out", str(out)]
         r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900,

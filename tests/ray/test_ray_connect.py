@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import pytest
-from rbenv.agents.ray_cluster import (
+from rbenv.agents.training.ray_cluster import (
     MissingExtraError,
     RayAddressError,
     check_reachable,
@@ -32,7 +32,8 @@ def test_malformed_address_is_named(bad):
 
 def test_unreachable_address_fails_fast_and_names_it(raytools):
     address = f"127.0.0.1:{raytools.free_port()}"  # bound and released: nothing listens there
-    cmd = [sys.executable, "-m", "rbenv.agents.tune", "--ray", "--address", address, "--quick",
+    cmd = [sys.executable, "-m", "rbenv.agents.training.tune", "--ray", "--address", address,
+           "--quick",
            "--out", "unused"]
     r = subprocess.run(cmd, env=raytools.ray_env(loopback=True), capture_output=True,
                        text=True, timeout=60, cwd=raytools.REPO)
@@ -51,7 +52,7 @@ def test_rllib_on_single_node_cluster_via_address(raytools, tmp_path):
     try:
         raytools.wait_for_nodes(address, 1, env)
         out = tmp_path / "run"
-        cmd = [sys.executable, "-m", "rbenv.agents.rllib", "--address", address,
+        cmd = [sys.executable, "-m", "rbenv.agents.training.rllib", "--address", address,
                "--env-runners", "1",
                "--envs-per-runner", "16", "--timesteps", "4096", "--checkpoint-every", "4096",
                "--eval-every", "4096", "--hyperparams",

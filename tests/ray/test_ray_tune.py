@@ -15,7 +15,8 @@ import pytest
 
 def test_killed_trial_resumes_from_its_checkpoint(raytools, tmp_path):
     out = tmp_path / "suite"
-    cmd = [sys.executable, "-m", "rbenv.agents.tune", "--ray", "--tasks", "detumble", "--scenes",
+    cmd = [sys.executable, "-m", "rbenv.agents.training.tune", "--ray", "--tasks", "detumble",
+           "--scenes",
            "cubesat-12u", "--seeds", "1", "--timesteps", "80000", "--episodes", "4",
            "--max-failures", "2", "--out", str(out)]
     log = open(tmp_path / "tune.log", "w")
@@ -54,12 +55,12 @@ def test_killed_trial_resumes_from_its_checkpoint(raytools, tmp_path):
 
 def test_ray_suite_writes_the_serial_tables(raytools, tmp_path):
     """Same cells, serial and on Tune: the same result files and rows (training is seeded)."""
-    pytest.importorskip("rbenv.agents.suite")
+    pytest.importorskip("rbenv.agents.training.suite")
     base = ["--tasks", "detumble", "--scenes", "cubesat-12u", "--seeds", "1", "--timesteps",
             "2048", "--episodes", "4"]
     env = raytools.ray_env(loopback=True)
     for extra, name in (([], "serial"), (["--ray"], "ray")):
-        module = "rbenv.agents.tune" if extra else "rbenv.agents.suite"
+        module = "rbenv.agents.training.tune" if extra else "rbenv.agents.training.suite"
         r = subprocess.run([sys.executable, "-m", module, *base, *extra, "--out",
                             str(tmp_path / name)], env=env, capture_output=True, text=True,
                            timeout=600, cwd=raytools.REPO)

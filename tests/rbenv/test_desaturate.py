@@ -11,7 +11,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
-from rbenv.agents.controllers import Unload, WheelHoldPD, baseline
+from rbenv.agents.baselines.controllers import Unload, WheelHoldPD, baseline
 from rbenv.core import kernels as k
 from rbenv.core.errors import InvalidParameterError
 
@@ -141,7 +141,7 @@ def test_desaturate_errors_name_the_field():
 
 
 def test_baselines_without_their_actuators_are_not_applicable():
-    from rbenv.agents.controllers import applicable_baselines
+    from rbenv.agents.baselines.controllers import applicable_baselines
 
     assert applicable_baselines(DESAT, SCENE) == ["unload", "pd"]
     assert {WheelHoldPD, Unload} <= set(type(baseline(gym.make(DESAT, scene=SCENE), n))

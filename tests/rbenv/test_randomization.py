@@ -143,7 +143,7 @@ def test_randomization_off_is_the_nominal_plant_and_bad_sizes_are_named():
 
 
 def test_scripted_baselines_use_the_nominal_model_under_randomization():
-    from rbenv.agents.evaluate import evaluate
+    from rbenv.agents.policies.evaluate import evaluate
 
     pd = evaluate("pd", episodes=200, seed=1_000_000, scene="cubesat-12u-dr").summary()
     bang = evaluate("bangbang", episodes=200, seed=1_000_000, scene="cubesat-12u-dr").summary()

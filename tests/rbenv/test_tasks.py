@@ -9,8 +9,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
-from rbenv.agents.controllers import RateDamping, TrackingPD, WheelHoldPD, baseline
-from rbenv.agents.evaluate import evaluate
+from rbenv.agents.baselines.controllers import RateDamping, TrackingPD, WheelHoldPD, baseline
+from rbenv.agents.policies.evaluate import evaluate
 from rbenv.core import quaternion
 from rbenv.core.errors import InvalidParameterError
 

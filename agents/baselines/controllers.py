@@ -16,10 +16,13 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import gymnasium as gym
 import numpy as np
 from rbenv.core.vec import cross
 
 from rbenv import registry
+from rbenv.actuators import Magnetorquers
+from rbenv.actuators.magnetorquers import FIELD_SCALE_T
 from rbenv.allocation import axis_authority, make_allocator
 from rbenv.plant import Plant
 from rbenv.tasks import Task
@@ -292,8 +295,6 @@ class NotApplicable(ValueError):
 
 def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:
     """The names of ``env_id``'s registered baselines that run on ``scene``."""
-    import gymnasium as gym
-
     if scene is not None and not registry.get(env_id).runs_on(scene):
         return []  # the task itself cannot run there (desaturation without wheels)
     env = gym.make(env_id, scene=scene, **(env_kwargs or {}))
@@ -330,8 +331,6 @@ class BDot:
     slices: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
-        from rbenv.actuators import Magnetorquers
-
         rods = next((a for a in self.plant.actuators if isinstance(a, Magnetorquers)), None)
         if rods is None:
             raise NotApplicable(f"bdot needs magnetorquers; scene {self.plant.scene.name!r} "
@@ -359,8 +358,6 @@ class BDot:
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         """SB3-style ``(actions, state)`` for observations (size,) or (N, size)."""
-        from rbenv.actuators.magnetorquers import FIELD_SCALE_T
-
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         obs = obs.reshape(-1, obs.shape[-1])
@@ -459,8 +456,6 @@ class Unload(WheelHoldPD):
 
     def __post_init__(self):
         super().__post_init__()
-        from rbenv.actuators import Magnetorquers
-
         rods = next((a for a in self.plant.actuators if isinstance(a, Magnetorquers)), None)
         if rods is None and self.plant.thrusters is None:
             raise NotApplicable(f"unload needs magnetorquers or thrusters; scene "
@@ -470,8 +465,6 @@ class Unload(WheelHoldPD):
                            None if rods is None else np.linalg.pinv(rods.dipole_matrix))
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        from rbenv.actuators.magnetorquers import FIELD_SCALE_T
-
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         obs = obs.reshape(-1, obs.shape[-1])

@@ -29,11 +29,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
-from rbenv.agents.runs import RunFolderError
+from rbenv.agents.policies.runfolder import RunFolderError, atomic_write, write_json
 
 FORMAT = 1
-ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")  # every rbenv train --algo (agents.train.ALGOS)
+ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")  # every algorithm of rbenv train (--algo)
 POLICY = "MlpPolicy"
 _STATS_FIELDS = ("obs_mean", "obs_var", "obs_count", "ret_mean", "ret_var", "ret_count",
                  "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs", "norm_reward")
@@ -49,8 +50,6 @@ class ModelFileError(RunFolderError):
 
 def space_to_json(space) -> dict:
     """A ``gymnasium.spaces.Box`` as JSON (the only space rbenv's policies see)."""
-    import gymnasium as gym
-
     if not isinstance(space, gym.spaces.Box):
         raise ModelFileError(f"only Box spaces can be saved, got {space!r}")
     return {"type": "Box", "low": space.low.tolist(), "high": space.high.tolist(),
@@ -58,8 +57,6 @@ def space_to_json(space) -> dict:
 
 
 def space_from_json(data, what: str):
-    import gymnasium as gym
-
     try:
         if data["type"] != "Box":
             raise ValueError(f"type must be 'Box', got {data['type']!r}")
@@ -102,7 +99,7 @@ def model_config(model) -> dict:
 
 def model_tensors(model) -> dict:
     """The state dicts and torch variables of ``model``: tensors and plain containers only."""
-    from stable_baselines3.common.save_util import recursive_getattr
+    from stable_baselines3.common.save_util import recursive_getattr  # the train extra
 
     variables = {name: recursive_getattr(model, name).detach().cpu()
                  for name in model._get_torch_save_params()[1]}
@@ -110,7 +107,7 @@ def model_tensors(model) -> dict:
 
 
 def save_tensors(tensors: dict, path: Path) -> None:
-    import torch
+    import torch  # the train extra
 
     with open(path, "wb") as f:
         torch.save(tensors, f)
@@ -139,7 +136,7 @@ def read_config(path: Path) -> dict:
 
 def read_tensors(path: Path) -> dict:
     """The tensors of a ``.pt`` model file, loaded with ``weights_only=True`` (no code runs)."""
-    import torch
+    import torch  # the train extra
 
     path = Path(path)
     if not path.is_file():
@@ -160,9 +157,7 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
                 seed: int | None = None, verbose: int = 0):
     """A new SB3 model from ``config`` (:func:`model_config`): for training on ``env`` with
     ``hyperparams``, or, with no env, for inference with the saved spaces."""
-    from rbenv.agents.runs import _model_classes
-
-    cls = _model_classes()[config["algo"]]
+    cls = model_classes()[config["algo"]]
     kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
     kwargs["policy_kwargs"] = config["policy_kwargs"]
     if env is not None:
@@ -183,7 +178,7 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
 def restore(model, config: dict, tensors: dict, path: Path, *, full: bool = True) -> None:
     """Load ``tensors`` (``full``: every state dict and variable; else the policy's alone, for
     inference) and the counters of ``config`` into ``model``; errors name ``path``."""
-    from stable_baselines3.common.save_util import recursive_setattr
+    from stable_baselines3.common.save_util import recursive_setattr  # the train extra
 
     try:
         if full:
@@ -238,7 +233,7 @@ class ObsStats:
     """Saved observation statistics, normalising as ``VecNormalize.normalize_obs`` does."""
 
     def __init__(self, fields: dict):
-        from stable_baselines3.common.running_mean_std import RunningMeanStd
+        from stable_baselines3.common.running_mean_std import RunningMeanStd  # the train extra
 
         self.obs_rms = RunningMeanStd(shape=fields["obs_mean"].shape)
         self.obs_rms.mean, self.obs_rms.var = fields["obs_mean"], fields["obs_var"]
@@ -258,7 +253,7 @@ class ObsStats:
 
     def vecnormalize(self, venv, training: bool = True):
         """A ``VecNormalize`` over ``venv`` holding these statistics."""
-        from stable_baselines3.common.vec_env import VecNormalize
+        from stable_baselines3.common.vec_env import VecNormalize  # the train extra
 
         v = VecNormalize(venv, training=training, norm_obs=self.norm_obs,
                          norm_reward=self.norm_reward, clip_obs=self.clip_obs,
@@ -312,8 +307,18 @@ def load_replay_buffer(model, path: Path) -> int:
 
 def save_model(model, path: Path) -> None:
     """Write ``<name>.pt`` and ``<name>.json`` for ``model``, each atomically (json last)."""
-    from rbenv.agents.runs import atomic_write, write_json
-
     config = model_config(model)
     atomic_write(Path(path), lambda p: save_tensors(model_tensors(model), p))
     write_json(config_path(path), config)
+
+
+def model_classes() -> dict:
+    """``rbenv train``'s algorithms by name (TQC and CrossQ only if sb3-contrib is installed)."""
+    from stable_baselines3 import PPO, SAC, TD3  # the train extra
+
+    classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
+    try:
+        from sb3_contrib import TQC, CrossQ  # also in the train extra
+    except ImportError:
+        return classes
+    return {**classes, "tqc": TQC, "crossq": CrossQ}

@@ -1,6 +1,6 @@
 """``rbenv suite``: the learning suite, algorithm × task × scene × seed, with reference results.
 
-Each cell of the grid is one training run (:mod:`rbenv.agents.train`, resumable) in
+Each cell of the grid is one training run (:mod:`rbenv.agents.training.sb3`, resumable) in
 ``OUT/cells/<cell.name>/run``, then one held-out evaluation: the trained policy and every
 scripted baseline of the task on the same seeded episodes (episode i seeded ``eval_seed + i``).
 The cell's outcome is written atomically to ``OUT/cells/<cell.name>/result.json``; a cell whose
@@ -23,7 +23,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from rbenv.agents.runs import RunFolderError, read_json, write_json
+from rbenv.agents.baselines.controllers import applicable_baselines
+from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.evaluate import evaluate
+from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
+from rbenv.agents.policies.sb3 import SB3Policy
+from rbenv.agents.training.config import TrainConfig
 
 import rbenv
 
@@ -113,8 +118,6 @@ def read_result(path: Path, cell: Cell | None = None) -> dict | None:
 
 def train_config(cell: Cell, run: Path, threads: int):
     """The TrainConfig of ``cell``: the algorithm's shipped defaults, periodic evaluations."""
-    from rbenv.agents.train import TrainConfig
-
     every = max(cell.timesteps // CURVE_POINTS, 1)
     return TrainConfig(algo=cell.algo, env_id=cell.env_id, scene=cell.scene, seed=cell.seed,
                        timesteps=cell.timesteps, out=str(run), threads=threads,
@@ -124,28 +127,23 @@ def train_config(cell: Cell, run: Path, threads: int):
 
 def train_cell(cell: Cell, run: Path, threads: int) -> dict:
     """Train ``cell`` in ``run`` (resuming what is there); returns training.json."""
-    from rbenv.agents import runs
-    from rbenv.agents.train import train
+    from rbenv.agents.training.sb3 import train  # the train extra (SB3, torch)
 
     cfg = train_config(cell, run, threads)
-    resume = (run / runs.CONFIG).is_file()
+    resume = (run / runfolder.CONFIG).is_file()
     train(cfg, resume=resume, force=not resume, progress_bar=False, report=False)
-    return read_json(run / runs.SUMMARY, "training summary")
+    return read_json(run / runfolder.SUMMARY, "training summary")
 
 
 def _settings(run: Path) -> dict:
     """What the run was trained with (from its config.json): n_envs and hyperparameters."""
-    from rbenv.agents import runs
-
-    config = runs.read_config(run)
+    config = runfolder.read_config(run)
     return {"n_envs": config.get("n_envs"), "hyperparams": config.get("hyperparams")}
 
 
 def learning_curve(run: Path) -> dict:
     """Periodic evaluations of the run: timesteps and success rate at each."""
-    from rbenv.agents import runs
-
-    log = run / runs.EVAL_LOG
+    log = run / runfolder.EVAL_LOG
     if not log.is_file():
         return {"timesteps": [], "success_rate": []}
     with np.load(log) as data:
@@ -160,16 +158,15 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     The validation episodes (:func:`validation_curve`) are never the held-out ones, so this is
     model selection on a validation set. Without a checkpoint at that step, the final model.
     """
-    from rbenv.agents import runs
-
     if curve["success_rate"]:
         best = max(curve["success_rate"])
         steps = max(t for t, x in zip(curve["timesteps"], curve["success_rate"], strict=True)
                     if x == best)
-        model = run / runs.CHECKPOINTS / f"model_{steps}.zip"
+        model = run / runfolder.CHECKPOINTS / f"model_{steps}.zip"
         if model.is_file():
             return model, steps
-    return run / runs.FINAL_MODEL, int(read_json(run / runs.SUMMARY, "summary")["timesteps"])
+    summary = read_json(run / runfolder.SUMMARY, "summary")
+    return run / runfolder.FINAL_MODEL, int(summary["timesteps"])
 
 
 def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED,
@@ -177,10 +174,7 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
     """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes
     of the cell's task and scene; ``env_kwargs``: further gym.make options of the env the run
     trained in (physics setting, randomization)."""
-    from rbenv.agents import runs
-    from rbenv.agents.evaluate import SB3Policy, evaluate
-
-    ckpts = sorted(runs.checkpoints(run / runs.CHECKPOINTS, report=lambda _: None),
+    ckpts = sorted(runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None),
                    key=lambda c: c.steps)
     curve = {"timesteps": [], "success_rate": []}
     for ckpt in ckpts:
@@ -196,9 +190,6 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     """On the same held-out episodes: the checkpoint selected on validation episodes and the
     final model (both with the mean-throttle action), the final model with SB3's deterministic
     action clip(μ, 0, 1), and every scripted baseline of the task."""
-    from rbenv.agents.controllers import applicable_baselines
-    from rbenv.agents.evaluate import SB3Policy, evaluate
-
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
     curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES))
@@ -222,11 +213,8 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     The evidence for a cell that misses its target: whether the policy was still improving
     when its budget ran out, and how far from the success thresholds it ends.
     """
-    from rbenv.agents import runs
-    from rbenv.agents.evaluate import SB3Policy, evaluate
-
     rows = []
-    ckpts = sorted(runs.checkpoints(cell_dir(cell, out) / "run" / runs.CHECKPOINTS,
+    ckpts = sorted(runfolder.checkpoints(cell_dir(cell, out) / "run" / runfolder.CHECKPOINTS,
                                     report=lambda _: None), key=lambda c: c.steps)
     for ckpt in ckpts:
         s = evaluate(SB3Policy(ckpt.model, action="mean_throttle"), episodes=episodes,
@@ -243,7 +231,7 @@ def run_cell(cell: Cell, out: Path, *, eval_episodes: int, eval_seed: int,
 
     A complete result.json for the same cell is returned as is (nothing is retrained).
     """
-    from rbenv.agents.train import set_threads
+    from rbenv.agents.training.sb3 import set_threads  # the train extra (torch)
 
     folder = cell_dir(cell, out)
     path = folder / "result.json"
@@ -375,7 +363,7 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
 def plot_curves(results: list[dict], rows: list[dict], path: Path) -> Path | None:
     """Success rate of the periodic (validation) evaluations against timesteps, one panel per
     task × scene; a star marks the selected checkpoint's held-out success."""
-    import matplotlib
+    import matplotlib  # the train extra
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -521,5 +509,5 @@ def main(args) -> dict:
 
 
 if __name__ == "__main__":
-    main(add_arguments(argparse.ArgumentParser(prog="python -m rbenv.agents.suite",
+    main(add_arguments(argparse.ArgumentParser(prog="python -m rbenv.agents.training.suite",
                                                description=__doc__.split("\n")[0])).parse_args())

@@ -32,7 +32,7 @@ class RayAddressError(RbenvValueError):
 def require_ray(feature: str = "this command"):
     """The ``ray`` module, or :class:`MissingExtraError` naming the install command."""
     try:
-        import ray
+        import ray  # the ray extra
         from ray import tune  # noqa: F401  (the extra installs rllib and tune together)
     except ImportError as e:
         raise MissingExtraError(f"{feature} needs Ray RLlib and Tune, which are not installed "
@@ -106,6 +106,6 @@ def _match_token_auth() -> None:
 def shutdown(started: bool) -> None:
     """Shut Ray down if :func:`connect` started it in this process."""
     if started:
-        import ray
+        import ray  # the ray extra
 
         ray.shutdown()

@@ -19,10 +19,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import gymnasium as gym
 import numpy as np
+from rbenv.agents.baselines.controllers import baseline
 from scipy.optimize import minimize
 
-from rbenv.scene import Scene
+import rbenv
+from rbenv.bounds import episode_starts
+from rbenv.scene import Scene, load_scene
 
 __all__ = ["Problem", "Solution", "fuel_optimal", "replay", "solve", "time_optimal"]
 
@@ -46,9 +50,6 @@ class Problem:
     @classmethod
     def from_seed(cls, seed: int, scene=None) -> Problem:
         """The reorientation episode the env starts at ``reset(seed=seed)``."""
-        from rbenv.bounds import episode_starts
-        from rbenv.scene import load_scene
-
         sc = scene if isinstance(scene, Scene) else load_scene(
             *(() if scene is None else (scene,)))
         st = episode_starts(1, seed, sc)
@@ -238,18 +239,12 @@ def replay(throttles, seed: int, scene=None) -> dict:
     Returns the env's ``success``, ``settle_time_s`` (NaN unless successful), ``fuel_kg`` and
     the ``throttles`` (steps, n) applied.
     """
-    import gymnasium as gym
-
-    import rbenv
-
     env = gym.make(rbenv.ENV_ID, **({} if scene is None else {"scene": scene}))
     try:
         plant = env.unwrapped.plant
         zero = np.zeros(plant.n, dtype=np.float32)
         policy = None if isinstance(throttles, np.ndarray) else throttles
         if isinstance(policy, str):
-            from rbenv.agents.controllers import baseline
-
             policy = baseline(env, policy)
         obs, state = env.reset(seed=seed)[0], None
         k, info, applied = 0, {}, []

@@ -14,10 +14,17 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from rbenv.agents.controllers import BASELINES, RandomPolicy, ZeroPolicy, baseline, env_parts
-from rbenv.agents.runs import RunPolicy
+from rbenv.agents.baselines.controllers import (
+    BASELINES,
+    RandomPolicy,
+    ZeroPolicy,
+    baseline,
+    env_parts,
+)
+from rbenv.agents.policies.load import load_policy
 
 import rbenv
+from rbenv.rendering import save_video
 
 SCRIPTED = ("pd", "bangbang", "zero", "random")
 
@@ -60,48 +67,6 @@ class EvalResult:
         }
 
 
-class SB3Policy(RunPolicy):
-    """A saved SB3 model with its observation statistics, behind the ``predict`` interface.
-
-    ``model_path`` is a run folder, a final ``policy.pt`` (statistics: ``obs_stats.npz``
-    beside it) or a checkpoint ``policy_<N>.pt`` (statistics: its own ``obs_stats_<N>.npz``);
-    ``vecnormalize_path`` overrides the statistics; ``action`` as
-    :class:`rbenv.agents.runs.RunPolicy` (default: the mean throttle for PPO/A2C in throttle mode).
-    Pickle-based files (an older run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``)
-    load only with ``trust_pickle=True``. Same as :func:`rbenv.agents.runs.load_policy`.
-    """
-
-    def __init__(self, model_path, vecnormalize_path=None, action: str = "auto",
-                 trust_pickle: bool = False):
-        from rbenv.agents import runs
-
-        files = runs.locate(model_path)
-        algo = (files.config or {}).get("algo")
-        stats = vecnormalize_path or files.stats
-        model = runs.load_model(files.model, algo,
-                                trust_pickle=trust_pickle)
-        super().__init__(model, runs.load_stats(stats, trust_pickle=trust_pickle)
-                         if stats else None, files.config, source=str(files.model),
-                         action=action)
-
-
-def _load_model_policy(name: str, action: str = "auto", trust_pickle: bool = False) -> tuple:
-    """(policy, the run's gym.make options) for a model path or run folder (SB3 or RLlib);
-    ``action`` as :class:`rbenv.agents.runs.RunPolicy` (SB3 models); ``trust_pickle``: allow
-    pickle-based files (older SB3 runs, foreign .zip files, RLlib checkpoints)."""
-    from rbenv.agents import runs
-
-    path = Path(name)
-    if path.is_dir() and (path / runs.CONFIG).is_file():
-        config = runs.read_config(path)
-        if config.get("engine") == "rllib":  # needs the ray extra (agents.rllib says so)
-            from rbenv.agents.rllib import RLlibPolicy
-
-            return RLlibPolicy(path, trust_pickle=trust_pickle), runs.env_kwargs_of(config)
-    policy = SB3Policy(name, action=action, trust_pickle=trust_pickle)
-    return policy, policy.env_kwargs
-
-
 def make_policy(name: str, env, seed: int = 0):
     """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``; env single or vector."""
     if name in BASELINES[env_parts(env)[1].name]:
@@ -112,7 +77,7 @@ def make_policy(name: str, env, seed: int = 0):
     if name == "random":
         return RandomPolicy(n_act, seed)
     if Path(name).exists():
-        return _load_model_policy(name)[0]
+        return load_policy(name)
     raise ValueError(f"policy must be one of {list(SCRIPTED)} or a path to a saved model "
                      f"(a run folder or policy.pt), got {name!r}")
 
@@ -125,14 +90,15 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
 
     env_id: any registered rbenv id (reorient, detumble, track); episode i is seeded
     ``seed + i``, so every policy evaluated with the same seed meets the same episodes.
-    action: for a model given by path, how it acts (:class:`rbenv.agents.runs.RunPolicy`).
-    trust_pickle: a model given by path may be a pickle-based file (see :class:`SB3Policy`).
+    action: for a model given by path, how it acts (:class:`rbenv.agents.policies.sb3.RunPolicy`).
+    trust_pickle: a model given by path may be a pickle-based file (see
+    :func:`rbenv.agents.policies.load_policy`).
     """
     env_kwargs = dict(env_kwargs or {})
     label = name or (policy if isinstance(policy, str) else type(policy).__name__)
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
-        policy, run_kwargs = _load_model_policy(policy, action, trust_pickle)  # + env options
-        env_kwargs = {**run_kwargs, **env_kwargs}
+        policy = load_policy(policy, action, trust_pickle=trust_pickle)
+        env_kwargs = {**policy.env_kwargs, **env_kwargs}  # the run's env options first
     if scene is not None:
         env_kwargs["scene"] = scene
     parts = []
@@ -214,7 +180,7 @@ def format_table(results: list[EvalResult]) -> str:
 
 def plot_episodes(results: list[EvalResult], path, episode: int = 0):
     """PNG: attitude error, body rate and thruster activity against time, one row per policy."""
-    import matplotlib
+    import matplotlib  # the train (or test) extra
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -258,12 +224,10 @@ def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: 
                  env_kwargs: dict | None = None, env_id: str = rbenv.ENV_ID,
                  trust_pickle: bool = False) -> Path:
     """Render one seeded episode of ``policy`` to a GIF or MP4 (needs the render extra)."""
-    from rbenv.rendering import save_video
-
     kwargs = dict(env_kwargs or {})
     if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
-        policy, run_kwargs = _load_model_policy(policy, trust_pickle=trust_pickle)
-        kwargs = {**run_kwargs, **kwargs}
+        policy = load_policy(policy, trust_pickle=trust_pickle)
+        kwargs = {**policy.env_kwargs, **kwargs}
     if scene is not None:
         kwargs["scene"] = scene
     env = gym.make(env_id, render_mode="rgb_array", **kwargs)

@@ -1,10 +1,10 @@
 """``rbenv suite --ray``: the learning suite's grid on Ray Tune, one trial per cell.
 
-Each trial calls :func:`rbenv.agents.suite.run_cell` for its cell, so a trial writes exactly what
-the serial suite writes (``OUT/cells/<name>/run`` and ``result.json``), and the driver then calls
-:func:`rbenv.agents.suite.aggregate` on every trial's result: the same ``suite.json``, ``suite.md``
-and curves as ``run_serial``. Trials are spread over every core of this machine, or of a
-cluster (``address``); each asks for ``cpus_per_trial`` CPUs.
+Each trial calls :func:`rbenv.agents.training.suite.run_cell` for its cell, so a trial writes
+exactly what the serial suite writes (``OUT/cells/<name>/run`` and ``result.json``), and the
+driver then calls :func:`rbenv.agents.training.suite.aggregate` on every trial's result: the same
+``suite.json``, ``suite.md`` and curves as ``run_serial``. Trials are spread over every core of
+this machine, or of a cluster (``address``); each asks for ``cpus_per_trial`` CPUs.
 
 A trial whose process dies is retried up to ``max_failures`` times (Tune's
 ``FailureConfig``); the retry resumes the cell's training run from its last checkpoint, which
@@ -15,23 +15,24 @@ which writes any ``result.json`` missing on its side before aggregating.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import time
 from dataclasses import asdict
 from pathlib import Path
 
-from rbenv.agents.ray_cluster import connect, shutdown
+from rbenv.agents.policies.runfolder import write_json
+from rbenv.agents.training import suite
+from rbenv.agents.training.ray_cluster import connect, shutdown
 
 TRIAL_RECORD = "tune_trial.json"  # in the cell's folder: pid, node and attempt of its trial
 
 
 def _trial(config: dict) -> None:
     """One Tune trial: run (or resume) one cell, report its whole result to the driver."""
-    import ray
+    import ray  # the ray extra
     from ray import tune
-    from rbenv.agents import suite
-    from rbenv.agents.runs import write_json
 
     cell = suite.Cell(**config["cell"])
     out = Path(config["out"])
@@ -61,14 +62,11 @@ def run_tune(cells: list, out: Path, *, eval_episodes: int, eval_seed: int, thre
     ``address``: None for a private Ray instance on this machine (``num_cpus`` caps it),
     ``"auto"`` or ``HOST:PORT`` for a running cluster.
     """
-    from rbenv.agents import suite
-    from rbenv.agents.runs import write_json
-
     out = Path(out).resolve()
     started = connect(address, num_cpus=num_cpus, feature="--ray")  # before ray is imported
     out.mkdir(parents=True, exist_ok=True)
     try:
-        from ray import tune
+        from ray import tune  # the ray extra, imported once connect() has set Ray up
 
         trainable = tune.with_resources(_trial, {"cpu": cpus_per_trial})
         space = {"cell": tune.grid_search([asdict(c) for c in cells]), "out": str(out),
@@ -98,8 +96,6 @@ def run_tune(cells: list, out: Path, *, eval_episodes: int, eval_seed: int, thre
 
 def main(args) -> dict:
     """``rbenv suite --ray``: the suite's arguments plus ``--address``, ``--cpus-per-trial``."""
-    from rbenv.agents import suite
-
     out = Path(args.out or ("runs/suite-quick" if args.quick else "runs/suite"))
     episodes = args.episodes or (suite.QUICK["episodes"] if args.quick else suite.EVAL_EPISODES)
     cells = suite.cells_from_args(args)
@@ -130,10 +126,6 @@ def add_arguments(p):
 
 
 if __name__ == "__main__":
-    import argparse
-
-    from rbenv.agents import suite
-
     parser = add_arguments(suite.add_arguments(argparse.ArgumentParser(
-        prog="python -m rbenv.agents.tune", description=__doc__.split("\n")[0])))
+        prog="python -m rbenv.agents.training.tune", description=__doc__.split("\n")[0])))
     main(parser.parse_args())

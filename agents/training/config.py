@@ -1,0 +1,166 @@
+"""What a training run is defined by: :class:`RunConfig`, every back end's fields, and
+:class:`TrainConfig`, the Stable-Baselines3 back end's (``rbenv train``).
+
+:class:`rbenv.agents.training.rllib.RLlibConfig` extends :class:`RunConfig` likewise. The
+resolved config is saved as the run folder's ``config.json`` and read back by
+:func:`resumed_config`. Nothing here imports SB3, torch or Ray.
+"""
+
+from __future__ import annotations
+
+import copy
+import numbers
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TypeVar
+
+from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.runfolder import RunFolderError
+from rbenv.agents.policies.weights import ALGOS
+from rbenv.core.errors import InvalidParameterError
+
+import rbenv
+
+C = TypeVar("C", bound="RunConfig")
+
+
+@dataclass
+class RunConfig:
+    """The fields every back end shares; saved in ``config.json`` with the back end's own."""
+
+    engine: str = "sb3"
+    algo: str = "ppo"
+    timesteps: int | None = None
+    seed: int = 0
+    scene: str = "cubesat-12u"
+    env_id: str = rbenv.ENV_ID  # the task: any id of the task registry (rbenv.registry)
+    out: str | None = None
+    env_kwargs: dict = field(default_factory=dict)
+    hyperparams: dict = field(default_factory=dict)
+    checkpoint_every: int = 200_000  # timesteps
+    eval_every: int = 200_000  # timesteps
+    eval_episodes: int = 100
+    report_episodes: int = 500
+    report_seed: int = 1_000_000
+    threads: int = 1  # torch intra-op threads; part of what makes a run reproducible
+
+    def default_out(self) -> str:
+        """The run folder when ``out`` is not given."""
+        return f"runs/{self.algo}-{self.scene}-seed{self.seed}"
+
+    def check_counts(self, names, minimum: int = 1) -> None:
+        """Each named field an integer >= ``minimum`` (stored as int); else a named error."""
+        for name in names:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
+                    or value < minimum:
+                raise InvalidParameterError(f"{name} must be an integer >= {minimum}, got "
+                                            f"{value!r}")
+            setattr(self, name, int(value))
+
+    def check_dicts(self, names) -> None:
+        """Each named field a dict (a JSON object); else a named error."""
+        for name in names:
+            if not isinstance(getattr(self, name), dict):
+                raise InvalidParameterError(f"{name} must be a dict (a JSON object), got "
+                                            f"{getattr(self, name)!r}")
+
+    def resolve(self: C) -> C:
+        """Fill the defaults that depend on other fields and validate; back ends extend it."""
+        rbenv.registry.get(self.env_id)  # a named error for an id it does not hold
+        self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
+                           "report_episodes", "threads"))
+        self.check_dicts(("env_kwargs", "hyperparams"))
+        self.out = self.out or self.default_out()
+        return self
+
+
+def resumed_config(cls: type[C], out: Path, timesteps: int | None = None,
+                   threads: int | None = None) -> C:
+    """The saved configuration of the run in ``out``, for that folder; new total and threads.
+
+    Raises :class:`RunFolderError` if the folder was trained by another back end or its
+    config.json does not make a valid ``cls``.
+    """
+    out = Path(out)
+    saved = runfolder.read_config(out)
+    engine = cls.__dataclass_fields__["engine"].default
+    if saved.get("engine", "sb3") != engine:
+        raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
+                             f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
+    known = cls.__dataclass_fields__
+    try:
+        cfg = cls(**{k: v for k, v in saved.items() if k in known})
+    except TypeError as e:
+        raise RunFolderError(f"run configuration {str(out / runfolder.CONFIG)!r} is invalid: "
+                             f"{e}") from None
+    cfg.out = str(out)  # the folder given, not the one recorded when the run started
+    cfg.timesteps = timesteps or cfg.timesteps
+    cfg.threads = threads or cfg.threads
+    try:
+        return cfg.resolve()
+    except (TypeError, ValueError) as e:
+        raise RunFolderError(f"run configuration {str(out / runfolder.CONFIG)!r}: {e}") from None
+
+
+OFF_POLICY = ("sac", "td3", "tqc", "crossq")
+# Keys of a zoo settings dict that are not model keyword arguments: rbenv train reads them into
+# TrainConfig's own fields (rl_zoo3's ExpManager does the same).
+ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
+
+
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
+    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its task registry
+    entry's (rbenv.registry; the dicts live in rbenv.hyperparams.tuned).
+
+    This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
+    rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
+    """
+    if algo not in ALGOS:
+        raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
+    table = rbenv.registry.get(env_id).hyperparams  # the task registry: one source
+    if algo not in table:
+        raise InvalidParameterError(f"the task entry of {env_id!r} has no {algo} settings; "
+                                    f"it has {sorted(table)}")
+    return copy.deepcopy(dict(table[algo]))
+
+
+def normalize_kwargs(setting) -> dict | None:
+    """VecNormalize keyword arguments from the zoo's ``normalize`` (bool or dict)."""
+    if setting is True:
+        return {"norm_obs": True, "norm_reward": True}
+    if not setting:
+        return None
+    return dict(setting)
+
+
+@dataclass
+class TrainConfig(RunConfig):
+    """A run of the SB3 back end; saved as ``config.json`` in the run folder."""
+
+    n_envs: int | None = None  # default: the shipped settings'
+    # VecNormalize's keyword arguments (None: no normalisation); default: the shipped settings
+    normalize: dict | None = None
+
+    def resolve(self) -> TrainConfig:
+        """Fill defaults that depend on the algorithm; validate names and counts."""
+        shipped = shipped_settings(self.algo, self.env_id)
+        if self.timesteps is None:
+            self.timesteps = shipped["n_timesteps"]
+        if self.n_envs is None:
+            self.n_envs = shipped["n_envs"]
+        if self.normalize is None:
+            self.normalize = normalize_kwargs(shipped.get("normalize", False))
+        self.check_counts(("n_envs",))
+        super().resolve()
+        # Shipped settings first, then the caller's overrides (a resumed run's are complete).
+        self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
+                            **self.hyperparams}
+        self.env_kwargs = {**shipped.get("env_kwargs", {}), **self.env_kwargs}
+        starts = self.hyperparams.get("learning_starts", 0)
+        if self.algo in OFF_POLICY and self.timesteps <= starts:
+            raise InvalidParameterError(
+                f"timesteps must exceed {self.algo}'s learning_starts ({starts}) or no gradient "
+                f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
+                "--hyperparams '{\"learning_starts\": N}'")
+        return self

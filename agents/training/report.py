@@ -1,0 +1,94 @@
+"""report.md of a training run, whatever its back end: the trained policy beside the task's
+scripted baselines on the same seeded episodes, the periodic evaluations as a curve."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from rbenv.agents.baselines.controllers import applicable_baselines
+from rbenv.agents.policies.evaluate import evaluate, format_table, plot_episodes
+from rbenv.agents.policies.runfolder import EVAL_LOG, atomic_write, write_json
+from rbenv.agents.training.config import RunConfig
+
+
+@dataclass(frozen=True)
+class Trained:
+    """What a back end tells the report about its trained policy."""
+
+    policy: object  # anything with predict() (rbenv.agents.policies.Policy)
+    name: str  # its row in the results table
+    title: str  # the report's heading after "Training report: "
+    setup: str  # how it was sampled, e.g. "64 envs"
+    load: str  # how to load it, in Markdown
+
+
+def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Path:
+    """Evaluate the trained policy and the task's scripted baselines on the same seeded
+    episodes; write evaluation.json, episode.png, training_curve.png and report.md."""
+    run_dir = Path(run_dir)
+    kwargs = {"episodes": cfg.report_episodes, "seed": cfg.report_seed, "scene": cfg.scene,
+              "env_kwargs": cfg.env_kwargs, "env_id": cfg.env_id}
+    results = [evaluate(trained.policy, name=trained.name, **kwargs),
+               *(evaluate(name, **kwargs) for name in applicable_baselines(
+                   cfg.env_id, cfg.scene, cfg.env_kwargs))]
+    table = format_table(results)
+    plot_episodes(results, run_dir / "episode.png")
+    curve = plot_training_curve(run_dir, run_dir / "training_curve.png")
+    write_json(run_dir / "evaluation.json", [r.summary() for r in results])
+    lines = [
+        f"# Training report: {trained.title}",
+        "",
+        f"- timesteps: {summary['timesteps']:,}; wall time: {summary['wall_time_s'] / 60:.1f} "
+        f"min ({trained.setup}, seed {cfg.seed})"
+        + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else ""),
+        f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
+        "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
+        "for the scene's hold time",
+        f"- load the policy with {trained.load}",
+        "",
+        table,
+        "",
+        "![episode](episode.png)",
+    ]
+    if curve:
+        lines += ["", "![training curve](training_curve.png)"]
+    path = run_dir / "report.md"
+    atomic_write(path, lambda p: p.write_text("\n".join(lines) + "\n"))
+    print(table)
+    print(f"report: {path}")
+    return path
+
+
+def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
+    """Success rate and mean reward of the periodic evaluations against timesteps."""
+    log = run_dir / EVAL_LOG
+    if not log.exists():
+        return None
+    try:
+        data = dict(np.load(log))
+    except Exception as e:  # a torn file must not lose the report
+        print(f"skipping the training curve: {str(log)!r} is unreadable ({e})")
+        return None
+    import matplotlib  # the train extra
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = data["timesteps"]
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    if "successes" in data and data["successes"].size:
+        ax.plot(steps, 100 * data["successes"].mean(axis=1), "o-", label="success rate (%)")
+    ax.set_xlabel("timesteps")
+    ax.set_ylabel("success rate (%)")
+    ax.set_ylim(-2, 102)
+    ax.grid(alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(steps, data["results"].mean(axis=1), "s--", color="C1", label="mean return")
+    ax2.set_ylabel("mean return", color="C1")
+    ax.set_title("Periodic evaluation during training (deterministic policy)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,380 @@
+"""The Stable-Baselines3 back end of the training engine: PPO, SAC, TD3, TQC or CrossQ on the
+native vector env (``rbenv train``). Settings come from the task registry (``rbenv/hyperparams``,
+RL Zoo's format; :class:`rbenv.agents.training.config.TrainConfig`).
+
+The run folder, its lock, resume, summary and report are the engine's
+(:mod:`rbenv.agents.training.engine`); this module builds the model, trains it with SB3's
+callbacks, and writes and reads its checkpoints (pickle-free, :mod:`rbenv.agents.policies.weights`).
+Importing it needs the train extra (SB3, torch, tqdm).
+
+Training is reproducible given the seed, the torch thread count (``threads``, default 1, which
+is also the fastest for these small MLPs) and the CPU kind.
+"""
+
+from __future__ import annotations
+
+import copy
+import warnings
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import gymnasium as gym
+import numpy as np
+import torch
+from gymnasium.vector import AutoresetMode
+from rbenv.agents.policies import runfolder, weights
+from rbenv.agents.policies.runfolder import RunFolderError, atomic_write
+from rbenv.agents.policies.sb3 import (
+    RunPolicy,
+    SB3Policy,
+    check_model_file,
+    load_model,
+    load_stats,
+)
+from rbenv.agents.training import engine
+from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.report import Trained, write_report
+from rbenv.agents.training.sb3_vec_env import SB3VecEnv
+from rbenv.core.errors import InvalidParameterError
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
+from stable_baselines3.common.evaluation import evaluate_policy
+from stable_baselines3.common.logger import configure
+from stable_baselines3.common.noise import NormalActionNoise
+from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
+from tqdm import tqdm
+
+
+@dataclass(frozen=True)
+class SB3Session:
+    """The SB3 back end (:class:`rbenv.agents.training.engine.Backend`) with the options of one
+    training session. ``trust_pickle``: a resume may unpickle the checkpoints of a run folder
+    written before issue 19 (never needed for runs written now, which hold no pickle)."""
+
+    packages: ClassVar[tuple[str, ...]] = ("stable_baselines3", "torch")
+    tensorboard: str | None = None
+    progress_bar: bool = True
+    verbose: int = 0
+    trust_pickle: bool = False
+
+    def fit(self, cfg: TrainConfig, out: Path, resume: bool) -> dict:
+        return fit(cfg, out, resume, self)
+
+    def report(self, out: Path, cfg: TrainConfig, summary: dict) -> Path:
+        trained = summary.get("trained", True)
+        if not trained:
+            print(f"WARNING: {cfg.algo} took no gradient step; the report shows an untrained "
+                  "policy")
+        label = "trained" if trained else "UNTRAINED: no gradient step"
+        return write_report(out, cfg, summary, Trained(
+            SB3Policy(out), name=f"{cfg.algo} ({label})",
+            title=f"{cfg.algo.upper()} on `{cfg.scene}`", setup=f"{cfg.n_envs} envs",
+            load=f"`rbenv.agents.policies.load_policy({str(out)!r})`: it applies the "
+                 "observation normalisation (`obs_stats.npz`) that the bare weights lack"))
+
+    def load_hint(self, out: Path) -> str:
+        return runfolder.LOAD_HINT.replace("PATH", repr(str(out)))
+
+
+def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
+          tensorboard: str | None = None, progress_bar: bool = True, report: bool = True,
+          verbose: int = 0, trust_pickle: bool = False) -> Path:
+    """Train (or resume) and save the run; returns the run directory (:func:`engine.run`)."""
+    session = SB3Session(tensorboard=tensorboard, progress_bar=progress_bar, verbose=verbose,
+                         trust_pickle=trust_pickle)
+    return engine.run(cfg, session, resume=resume, force=force, report=report)
+
+
+def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
+    """Train under the engine's lock; save the final model; return the summary."""
+    set_threads(cfg.threads)
+    ckpt_dir = out / runfolder.CHECKPOINTS
+    model, env, done, clock = _start(cfg, out, resume, session)
+    if session.tensorboard:
+        model.set_logger(configure(str(Path(session.tensorboard) / out.name),
+                                   ["stdout", "tensorboard"] if session.verbose
+                                   else ["tensorboard"]))
+    eval_env = VecNormalize(make_vec_env(cfg, min(cfg.eval_episodes, 50), cfg.seed + 10_000),
+                            training=False, norm_reward=False)
+    # Evaluation before checkpoint: a checkpoint at step N implies the evaluation due at N is
+    # logged, so a kill between the two never loses an entry of the history.
+    callbacks = [PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
+                              cfg.eval_episodes, done, run_config=asdict(cfg)),
+                 AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
+    if session.progress_bar:
+        callbacks.append(RateProgress())
+    remaining = max(cfg.timesteps - done, 0)
+    if remaining:
+        model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=done == 0)
+    steps = int(model.num_timesteps)
+    latest = runfolder.latest_checkpoint(ckpt_dir)
+    if latest is None or latest["timesteps"] != steps:
+        save_checkpoint(model, ckpt_dir, steps, clock.total())  # a longer resume continues here
+    weights.save_model(model, out / runfolder.FINAL_MODEL)
+    atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
+    env.close()
+    eval_env.close()
+    updates = int(getattr(model, "_n_updates", 0))
+    if updates == 0:
+        warnings.warn(f"{cfg.algo} took no gradient step in {steps} timesteps: the saved "
+                      "policy is untrained", stacklevel=4)
+    return {**engine.session_summary(cfg, steps, done, clock), "gradient_updates": updates,
+            "trained": updates > 0}
+
+
+def _start(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> tuple:
+    """(model, env, steps done, clock): from the newest checkpoint that loads, else new."""
+    ckpt_dir = out / runfolder.CHECKPOINTS
+    base = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    loaded = load_checkpoint(cfg, ckpt_dir, base, session.trust_pickle) if resume else None
+    if loaded is not None:
+        model, env, ckpt = loaded
+        done = int(model.num_timesteps)
+        print(f"resuming {cfg.algo} in {str(out)!r} from {done} timesteps ({ckpt.model.name})")
+        load_replay_buffer(model, ckpt_dir, done, session.trust_pickle)
+        return model, env, done, engine.WallClock(ckpt.wall_time_s or 0.0)
+    if resume:
+        print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 timesteps")
+    env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99),
+                       **(cfg.normalize or {"norm_obs": False, "norm_reward": False}))
+    model = algo_class(cfg.algo)("MlpPolicy", env, seed=cfg.seed, device="cpu",
+                                 verbose=session.verbose, **model_kwargs(cfg, env))
+    return model, env, 0, engine.WallClock()
+
+
+def set_threads(n: int) -> None:
+    """torch intra-op threads for training (1 is fastest for small MLPs on a busy machine)."""
+    torch.set_num_threads(int(n))
+
+
+def algo_class(name: str):
+    """The SB3 (or sb3-contrib) class of an algorithm name."""
+    classes = weights.model_classes()
+    if name not in classes:
+        raise InvalidParameterError(f"algo {name!r} needs sb3-contrib (the train extra); "
+                                    f"installed: {sorted(classes)}")
+    return classes[name]
+
+
+def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> VecMonitor:
+    """SB3 view of the native vector env (same-step autoreset), monitored."""
+    venv = gym.make_vec(cfg.env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
+                        autoreset_mode=AutoresetMode.SAME_STEP, scene=cfg.scene,
+                        **cfg.env_kwargs)
+    env = VecMonitor(SB3VecEnv(venv), info_keywords=("is_success",))
+    env.seed(seed)
+    return env
+
+
+# --- callbacks --------------------------------------------------------------------------------
+
+class _Every(BaseCallback):
+    """Base: fire ``_fire()`` each time num_timesteps passes a multiple of ``every``."""
+
+    def __init__(self, every: int):
+        super().__init__()
+        self.every, self._next = int(every), None
+
+    def _on_training_start(self) -> None:
+        self._next = engine.next_multiple(self.num_timesteps, self.every)
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self._next:
+            self._fire()
+            self._next = engine.next_multiple(self.num_timesteps, self.every)
+        return True
+
+    def _fire(self) -> None:
+        raise NotImplementedError
+
+
+class AtomicCheckpoint(_Every):
+    """Every ``every`` timesteps save model + statistics atomically and update latest.json."""
+
+    def __init__(self, directory: Path, every: int, clock: engine.WallClock):
+        super().__init__(every)
+        self.directory, self.clock = Path(directory), clock
+
+    def _fire(self) -> None:
+        save_checkpoint(self.model, self.directory, self.num_timesteps, self.clock.total())
+
+
+class PeriodicEval(_Every):
+    """Deterministic evaluation every ``every`` timesteps, logged to ``eval/evaluations.npz``.
+
+    The policy acts as a loaded one does (:class:`rbenv.agents.policies.sb3.RunPolicy` with
+    ``action="auto"``: the mean throttle for PPO in throttle mode), so the training curve
+    shows the controller that ``rbenv evaluate`` and the report measure. ``run_config``: the
+    run's configuration (its ``env_kwargs`` name the action mode). The history is loaded from
+    the file on resume (entries after the resumed checkpoint are dropped, since those steps are
+    trained again) and rewritten atomically after each evaluation, in the format of SB3's
+    ``EvalCallback``.
+    """
+
+    def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int,
+                 run_config: dict | None = None):
+        super().__init__(every)
+        self.eval_env, self.log, self.episodes = eval_env, Path(log), episodes
+        self.run_config = run_config
+        self.history = engine.load_eval_history(self.log, resumed_at)
+
+    def policy(self) -> RunPolicy:
+        """The model being trained, acting as a loaded policy would. The eval env normalises
+        observations itself, so the policy carries no statistics."""
+        return RunPolicy(self.model, None, self.run_config, source="training model")
+
+    def _fire(self) -> None:
+        sync_envs_normalization(self.training_env, self.eval_env)
+        successes: list[bool] = []
+
+        def record(locals_, _globals):
+            if locals_["done"] and "is_success" in locals_["info"]:
+                successes.append(bool(locals_["info"]["is_success"]))
+
+        rewards, lengths = evaluate_policy(self.policy(), self.eval_env, self.episodes,
+                                           deterministic=True, return_episode_rewards=True,
+                                           warn=False, callback=record)
+        engine.record_evaluation(self.log, self.history, self.num_timesteps, {
+            "results": rewards[:self.episodes], "ep_lengths": lengths[:self.episodes],
+            "successes": successes[:self.episodes]})
+        self.logger.record("eval/mean_reward", float(np.mean(rewards)))
+        self.logger.record("eval/success_rate", float(np.mean(successes)) if successes else 0.0)
+
+
+class RateProgress(BaseCallback):
+    """A tqdm bar over the timesteps of this session showing the true average rate.
+
+    SB3's own bar shows tqdm's smoothed instantaneous rate, which reads the fast rollout phase
+    and misses the gradient updates; here the rate is steps done / wall time since the start.
+    """
+
+    def _on_training_start(self) -> None:
+        total = self.locals["total_timesteps"] - self.model.num_timesteps
+        self.pbar = tqdm(total=total, unit="step", unit_scale=True, smoothing=0.0,
+                         dynamic_ncols=True)
+
+    def _on_step(self) -> bool:
+        self.pbar.update(self.training_env.num_envs)
+        return True
+
+    def _on_training_end(self) -> None:
+        self.pbar.close()
+
+
+# --- checkpoints ------------------------------------------------------------------------------
+
+def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None) -> None:
+    """Write policy_<steps>.pt/.json and obs_stats_<steps>.npz (and an off-policy model's
+    replay_buffer_<steps>.npz), then point latest.json at them. No file is a pickle."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    model_path = directory / f"policy_{steps}.pt"
+    stats_path = directory / f"obs_stats_{steps}.npz"
+    weights.save_model(model, model_path)
+    atomic_write(stats_path, lambda p: weights.save_stats(model.get_vec_normalize_env(), p))
+    buffer = directory / f"replay_buffer_{steps}.npz"
+    if getattr(model, "replay_buffer", None) is not None:  # off-policy: keep the latest only
+        atomic_write(buffer, lambda p: weights.save_replay_buffer(model, p))
+    engine.point_latest(directory, steps, wall_time_s, model=model_path.name,
+                        stats=stats_path.name)
+    for old in directory.glob("replay_buffer_*.*"):
+        if old != buffer:
+            old.unlink(missing_ok=True)
+
+
+def load_replay_buffer(model, directory: Path, steps: int, trust_pickle: bool = False) -> None:
+    """Restore an off-policy model's replay buffer saved with checkpoint ``steps``, if any:
+    ``replay_buffer_<steps>.npz``, or an older run's ``.pkl`` only with ``trust_pickle``."""
+    if getattr(model, "replay_buffer", None) is None:
+        return
+    path = Path(directory) / f"replay_buffer_{steps}.npz"
+    legacy = path.with_suffix(".pkl")
+    try:
+        if path.is_file():
+            size = weights.load_replay_buffer(model, path)
+        elif legacy.is_file():
+            runfolder.require_trust(legacy, "a pickled replay buffer", trust_pickle)
+            model.load_replay_buffer(str(legacy))
+            path, size = legacy, model.replay_buffer.size()
+        else:
+            print(f"no replay buffer saved with checkpoint {steps}; {type(model).__name__} "
+                  "refills it from the resumed policy")
+            return
+    except Exception as e:  # refused, torn or foreign: train on, say what was lost
+        print(f"replay buffer not restored ({type(e).__name__}: {e}); "
+              f"{type(model).__name__} refills it from the resumed policy")
+        return
+    print(f"replay buffer restored: {size} transitions ({path.name})")
+
+
+def load_checkpoint(cfg: TrainConfig, directory: Path, base, trust_pickle: bool = False):
+    """(model, env, checkpoint) from the newest checkpoint that loads, or None if none exists.
+
+    A checkpoint that fails (missing or corrupt file, a pickle without ``trust_pickle``, or a
+    claimed step count that its model contradicts) is reported, naming the file, and the next
+    older one is tried. The model's own ``num_timesteps`` is the truth; the returned
+    checkpoint carries it. Raises :class:`RunFolderError` if complete checkpoints exist but
+    none loads; only incomplete ones (a kill during the first checkpoint) mean starting from 0.
+    """
+    tried, incomplete, untrusted = [], [], False
+    for ckpt in runfolder.checkpoints(directory):
+        missing = _missing_file(ckpt)
+        if missing is not None:
+            # A kill between the writes of a checkpoint; never pointed to by latest.json.
+            print(f"checkpoint at {ckpt.steps} timesteps is incomplete ({str(missing)!r} is "
+                  "missing); skipping it")
+            incomplete.append(ckpt.model.name)
+            continue
+        try:
+            model, env = _load_pair(cfg, ckpt, base, trust_pickle)
+        except RunFolderError as e:
+            print(f"checkpoint at {ckpt.steps} timesteps is unusable: {e}")
+            tried.append(ckpt.model.name)
+            untrusted |= isinstance(e, runfolder.UntrustedPickleError)
+            continue
+        if tried or incomplete:
+            print(f"falling back to the last complete checkpoint: {ckpt.model} "
+                  f"({ckpt.steps} timesteps)")
+        return model, env, ckpt
+    if tried:
+        hint = (f"; they are pickles of an older run: pass {runfolder.TRUST_FLAG} if you trust "
+                "them" if untrusted else "")
+        raise RunFolderError(f"no usable checkpoint in {str(directory)!r} (tried "
+                             f"{', '.join(tried)}){hint}; pass --force without --resume to "
+                             "start over")
+    return None
+
+
+def _missing_file(ckpt: runfolder.Checkpoint) -> Path | None:
+    needed = [ckpt.model, ckpt.stats]
+    if ckpt.model.suffix == ".pt":
+        needed.append(weights.config_path(ckpt.model))
+    return next((p for p in needed if not p.is_file()), None)
+
+
+def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle: bool) -> tuple:
+    """(model, VecNormalize env) of one checkpoint; RunFolderError if it is unusable,
+    including when its model's own num_timesteps is not the count claimed for it."""
+    check_model_file(ckpt.model)
+    env = load_stats(ckpt.stats, base, trust_pickle=trust_pickle)
+    model = load_model(ckpt.model, cfg.algo, env=env, hyperparams=cfg.hyperparams,
+                            seed=cfg.seed, trust_pickle=trust_pickle)
+    own = int(model.num_timesteps)
+    if own != ckpt.steps:
+        claim = ckpt.source or ckpt.model
+        raise RunFolderError(f"{str(claim)!r} claims {ckpt.steps} timesteps but the model "
+                             f"{str(ckpt.model)!r} holds {own}; the checkpoint is the truth")
+    return model, env
+
+
+def model_kwargs(cfg: TrainConfig, env) -> dict:
+    """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
+    ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
+    hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
+    if noise_type is not None:
+        if noise_type != "normal":
+            raise InvalidParameterError(f"noise_type must be 'normal', got {noise_type!r}")
+        dim = env.action_space.shape[0]
+        hp["action_noise"] = NormalActionNoise(np.zeros(dim), float(noise_std) * np.ones(dim))
+    return hp
