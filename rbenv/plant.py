@@ -87,6 +87,7 @@ class Plant:
     disturbance_torque: tuple | None = field(init=False)  # N·m, constant model only
     dist_noise: float = field(init=False)  # N·m, 1σ per-step disturbance noise (0: none)
     sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
+    sensor_draws: int = field(init=False)  # standard normals per sensor draw: 6 or 9
     randomization: Randomization | None = field(init=False)
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
@@ -108,6 +109,12 @@ class Plant:
         values["accounting"] = tuple(a for a in acts if a.needs_account)
         values["sole_actuator"] = acts[0] if len(acts) == 1 else None
         values["observed"] = any(a.observation_structure for a in acts)
+        if values["sensor_draws"] > 6 and not any("field_B" in a.observation_structure
+                                                  for a in acts):
+            raise InvalidParameterError(
+                f"sensor_noise.magnetometer = {self.scene.sensor_noise.magnetometer!r} needs a "
+                f"magnetometer to be noisy, but scene {self.scene.name!r} observes no field; "
+                "give it [magnetorquers] or set sensor_noise.magnetometer = 0")
         values["body"] = _integrated_body(self.scene, acts)
         values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
         values["orbit_table"] = None if values["orbit"] is None else OrbitTable(
@@ -302,8 +309,10 @@ class Plant:
         return q, k.add(st.omega_B, noise[3:], s_rate)
 
     def draw_sensor_noise(self, rng: np.random.Generator, batch: int | None):
-        """6 standard-normal components (one satellite, or (batch,) arrays), or None."""
-        return None if self.sensor_noise is None else _components(rng, 6, batch)
+        """6 standard-normal components, 9 with a noisy magnetometer (one satellite, or
+        (batch,) arrays), or None."""
+        return None if self.sensor_noise is None else _components(rng, self.sensor_draws,
+                                                                  batch)
 
     def draw_step_noise(self, rng: np.random.Generator, batch: int | None) -> StepNoise:
         """This step's random draws from ``rng``: one satellite (batch None) or ``batch``.
@@ -319,7 +328,7 @@ class Plant:
         if self.dist_noise:
             dist = _components(rng, 3, batch)
         if self.sensor_noise is not None:
-            sensor = _components(rng, 6, batch)
+            sensor = _components(rng, self.sensor_draws, batch)
         return StepNoise(faults, dist, sensor)
 
     # ------------------------------------------------------------------- episode start
@@ -360,12 +369,14 @@ class Plant:
             out.update(act.observation_structure)
         return out
 
-    def observe(self, st, xp) -> tuple:
-        """The actuators' observation components."""
+    def observe(self, st, xp, sensor_noise=None) -> tuple:
+        """The actuators' observation components; ``sensor_noise``: this step's sensor normals
+        (its components 6-8, with a noisy magnetometer, go to the actuators' sensors)."""
+        sensed = None if sensor_noise is None or self.sensor_draws == 6 else sensor_noise[6:9]
         out = ()
         for act in self.actuators:
             if act.observation_structure:
-                out = out + act.observe(st, xp)
+                out = out + act.observe(st, xp, sensed)
         return out
 
 
@@ -416,6 +427,8 @@ def _scene_scalars(sc: Scene) -> dict:
         "disturbance_torque": tuple(dist.torque.tolist()) if dist.model == "constant" else None,
         "dist_noise": dist.noise_sigma if dist.model == "random" else 0.0,
         "sensor_noise": (sensor.attitude, sensor.rate) if sensor.model == "gaussian" else None,
+        # 6 normals for the attitude and rate, 3 more for a noisy magnetometer.
+        "sensor_draws": 9 if sensor.model == "gaussian" and sensor.magnetometer else 6,
         "advance_kernel": INTEGRATORS[sc.physics.integrator].advance,
         "randomization": sc.randomization if sc.randomization.enabled else None,
     }

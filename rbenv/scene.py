@@ -231,15 +231,17 @@ class Faults:
 
 @dataclass(frozen=True)
 class SensorNoise:
-    """Gaussian measurement noise on the observation only: attitude (rad) and rate (rad/s), 1σ."""
+    """Gaussian measurement noise on the observation only, 1σ: attitude (rad), rate (rad/s) and
+    the magnetometer (T, each body axis; a scene with magnetorquers observes the field)."""
 
     model: str = "none"
     attitude: float = 0.0
     rate: float = 0.0
+    magnetometer: float = 0.0
 
     def __post_init__(self):
         _choice("sensor_noise.model", self.model, ("none", "gaussian"))
-        for name, high in (("attitude", math.pi), ("rate", 100.0)):
+        for name, high in (("attitude", math.pi), ("rate", 100.0), ("magnetometer", 1e-3)):
             s = _number(f"sensor_noise.{name}", getattr(self, name), low=0.0, high=high)
             _unused(self.model, "gaussian", f"sensor_noise.{name}", s != 0.0)
             object.__setattr__(self, name, s)

@@ -86,7 +86,7 @@ def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     else:
         q, w = plant.measure(st, sensor_noise)
         obs = task.observe(st, q, w, xp)
-    return obs + plant.observe(st, xp) if plant.observed else obs
+    return obs + plant.observe(st, xp, sensor_noise) if plant.observed else obs
 
 
 def info(plant: Plant, task, st, terms, success, xp) -> dict:

@@ -83,8 +83,9 @@ class Actuator(Protocol):
     def sample_start(self, draws) -> dict:
         """Its part of an episode start (values of its state fields) for ``draws.n`` envs."""
 
-    def observe(self, st, xp) -> tuple:
-        """Its observation components (empty when ``observation_structure`` is {})."""
+    def observe(self, st, xp, sensed=None) -> tuple:
+        """Its observation components (empty when ``observation_structure`` is {}); ``sensed``:
+        standard normals for its sensor's noise this step (3 components), or None."""
 
     def info(self, st, xp, out: dict) -> None:
         """Write its info values into ``out`` (units in the key names)."""

@@ -71,6 +71,7 @@ class Magnetorquers:
 
     rods: RodSet
     control_dt: float  # s
+    noise_T: float = 0.0  # the magnetometer's noise, T (1σ per axis)
     n: int = field(init=False)
     action_shape: tuple = field(init=False)
     action_bounds: tuple = field(init=False, repr=False)
@@ -129,10 +130,11 @@ class Magnetorquers:
         zero = draws.xp.zeros(m)
         return {"mtq_dipole_B": (zero, zero, zero), "mtq_energy_J": zero}
 
-    def observe(self, st, xp) -> tuple:
-        """The magnetometer: B_B / 50 µT, clipped to [-1, 1] (the field now)."""
+    def observe(self, st, xp, sensed=None) -> tuple:
+        """The magnetometer: B_B / 50 µT, clipped to [-1, 1] (the field now), with noise
+        ``σ·sensed`` (σ the scene's ``sensor_noise.magnetometer``, T) when ``sensed`` is given."""
         s, clip = 1.0 / FIELD_SCALE_T, xp.clip
-        b = st.field_B_T
+        b = st.field_B_T if sensed is None else k.add(st.field_B_T, sensed, self.noise_T)
         return (clip(b[0] * s, -1.0, 1.0), clip(b[1] * s, -1.0, 1.0), clip(b[2] * s, -1.0, 1.0))
 
     def info(self, st, xp, out: dict) -> None:
@@ -147,5 +149,7 @@ def make_magnetorquers(scene, action_mode: str = "throttle",
         raise InvalidParameterError(
             "magnetorquers need Earth's field: set orbit.model = 'circular' and "
             "orbit.magnetic_field = true in the scene")
+    sensor = scene.sensor_noise
     return Magnetorquers(rods=scene.actuators["magnetorquers"],
-                         control_dt=scene.physics.control_dt)
+                         control_dt=scene.physics.control_dt,
+                         noise_T=sensor.magnetometer if sensor.model == "gaussian" else 0.0)

@@ -179,7 +179,7 @@ class Thrusters:
                 "throttle": np.zeros((m, self.n)),
                 "pending": np.zeros((m, self.n)) if self.delay else None}
 
-    def observe(self, st, xp) -> tuple:
+    def observe(self, st, xp, sensed=None) -> tuple:
         """No observation of its own."""
         return ()
 

@@ -269,7 +269,7 @@ class Wheels:
         return {"wheel_speed": speeds, "wheel_torque": zeros, "wheel_momentum": zeros,
                 "wheel_energy_J": zero}
 
-    def observe(self, st, xp) -> tuple:
+    def observe(self, st, xp, sensed=None) -> tuple:
         """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel."""
         clip, inv = xp.clip, self.inv_max_speed
         return tuple(clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed))

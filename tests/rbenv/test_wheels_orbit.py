@@ -264,3 +264,40 @@ def test_a_bad_option_of_another_task_fails_on_any_env_of_the_scene(tmp_path, va
     path.write_text(text.replace("min_rate_fraction = 0.1", f"min_rate_fraction = {value}"))
     with pytest.raises(InvalidParameterError, match=r"tasks\.detumble\.min_rate_fraction"):
         gym.make(rbenv.ENV_ID, scene=str(path))
+
+
+def _noisy_magnetometer_scene(base: str, sigma: float):
+    import dataclasses
+
+    from rbenv.scene import SensorNoise, load_scene
+
+    return dataclasses.replace(load_scene(base),
+                               sensor_noise=SensorNoise("gaussian", magnetometer=sigma))
+
+
+def test_the_magnetometer_noise_has_its_scene_sigma():
+    """Observed field minus the true field: zero mean and the scene's σ on every axis."""
+    from rbenv.actuators.magnetorquers import FIELD_SCALE_T
+
+    sigma = 2e-6
+    env = gym.make(rbenv.DETUMBLE_ID, scene=_noisy_magnetometer_scene("cubesat-6u-rw", sigma))
+    env.reset(seed=0)
+    base = env.unwrapped
+    names = list(base.observation_structure)
+    where = sum(base.observation_structure[n] for n in names[:names.index("field_B")])
+    errors = []
+    for _ in range(1500):
+        obs, *_ , term, trunc, _ = env.step(np.zeros(env.action_space.shape, np.float32))
+        true_B = np.array(base._st.field_B_T)
+        errors.append(obs[where:where + 3] * FIELD_SCALE_T - true_B)
+        if term or trunc:
+            env.reset()
+    errors = np.array(errors)
+    # float32 observations: a rounding of ~3e-12 T, far below σ = 2e-6 T.
+    assert np.all(np.abs(errors.mean(axis=0)) < 4 * sigma / np.sqrt(len(errors)))
+    assert np.allclose(errors.std(axis=0), sigma, rtol=0.08)
+
+
+def test_magnetometer_noise_without_a_magnetometer_is_refused_by_name():
+    with pytest.raises(InvalidParameterError, match=r"sensor_noise\.magnetometer"):
+        gym.make(rbenv.ENV_ID, scene=_noisy_magnetometer_scene("cubesat-12u", 1e-6))
