@@ -18,6 +18,11 @@ from __future__ import annotations
 
 from typing import ClassVar, NamedTuple, Protocol, runtime_checkable
 
+import numpy as np
+
+from rbenv.core.backend import FLOAT
+from rbenv.core.errors import InvalidParameterError
+
 __all__ = ["Actuator", "Contribution"]
 
 
@@ -89,3 +94,24 @@ class Actuator(Protocol):
 
     def info(self, st, xp, out: dict) -> None:
         """Write its info values into ``out`` (units in the key names)."""
+
+
+def nan_action_error(action) -> InvalidParameterError:
+    """The named error (a ValueError) for an action containing NaN, naming the first bad index."""
+    bad = np.argwhere(np.isnan(np.asarray(action, dtype=float)))
+    where = tuple(int(i) for i in bad[0]) if len(bad) else ()
+    return InvalidParameterError(
+        f"action must not contain NaN (got NaN at index {where}); actions outside [-1, 1] are "
+        "clipped to the action space, but NaN has no meaning"
+    )
+
+
+def action_components(a, xp) -> tuple:
+    """An action (n,) or (N, n) as n components (floats or (N,) arrays); NaN is refused."""
+    c = tuple(a.tolist()) if xp is FLOAT else tuple(a.T)
+    bad = c[0] != c[0]
+    for ci in c[1:]:
+        bad = bad | (ci != ci)
+    if xp.any(bad):
+        raise nan_action_error(a)
+    return c

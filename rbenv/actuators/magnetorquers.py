@@ -20,7 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from rbenv.actuators import tables
-from rbenv.actuators.base import Contribution
+from rbenv.actuators.base import Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
@@ -103,10 +103,8 @@ class Magnetorquers:
 
     def command(self, a, in_place: bool = False, xp=NUMPY) -> tuple:
         """Dipole fractions per rod (components), clipped to [-1, 1]; NaN raises."""
-        from rbenv.actuators.wheels import _action_components
-
         clip = xp.clip
-        return tuple(clip(c, -1.0, 1.0) for c in _action_components(a, xp))
+        return tuple([clip(c, -1.0, 1.0) for c in action_components(a, xp)])
 
     def actuate(self, st, fraction, noise, xp) -> Contribution:
         """``m_B × B_B`` with the field at the start of the step (the plant's ``field_B_T``);

@@ -20,10 +20,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators.base import Contribution
+from rbenv.actuators.base import Contribution, nan_action_error
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY, rows
-from rbenv.core.errors import InvalidParameterError
 from rbenv.scene import G0
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
@@ -217,11 +216,3 @@ def action_matrix(torque_matrix_B, max_force, force_matrix_B=None) -> np.ndarray
     return matrix
 
 
-def nan_action_error(action) -> InvalidParameterError:
-    """The named error (a ValueError) for an action containing NaN, naming the first bad index."""
-    bad = np.argwhere(np.isnan(np.asarray(action, dtype=float)))
-    where = tuple(int(i) for i in bad[0]) if len(bad) else ()
-    return InvalidParameterError(
-        f"action must not contain NaN (got NaN at index {where}); actions outside [-1, 1] are "
-        "clipped to the action space, but NaN has no meaning"
-    )

@@ -35,7 +35,7 @@ from typing import ClassVar
 import numpy as np
 
 from rbenv.actuators import tables
-from rbenv.actuators.base import Contribution
+from rbenv.actuators.base import Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
@@ -196,10 +196,10 @@ class Wheels:
     def command(self, a, in_place: bool = False, xp=NUMPY) -> tuple:
         """Motor torques (N·m), one component per wheel, from the action (clipped to [-1, 1];
         torque mode: ``u = −G⁺ τ``, scaled down as a whole where a wheel would exceed u_max)."""
-        c = _action_components(a, xp)
+        c = action_components(a, xp)
         clip = xp.clip
         if self.action_mode == "throttle":
-            return tuple(clip(ci, -1.0, 1.0) * self.max_torque[i] for i, ci in enumerate(c))
+            return tuple([clip(ci, -1.0, 1.0) * self.max_torque[i] for i, ci in enumerate(c)])
         tau = tuple(clip(ci, -1.0, 1.0) * self.authority[j] for j, ci in enumerate(c))
         u = tuple(-k.dot(self.pinv_rows[i], tau) for i in range(self.n))
         ratio = abs(u[0]) * self.inv_max_torque[0]
@@ -217,20 +217,21 @@ class Wheels:
         momentum and its rate for the integrator; electrical power."""
         ws = self.wheels
         speed, w = st.wheel_speed, st.omega_B
-        # A torque that speeds the wheel up is limited to what reaches Ω_max at the end of
-        # the step (zero at the limit: Basilisk's rule, without its one-step overshoot).
-        room = self.headroom
-        u = tuple(xp.where(s * c >= 0.0, xp.clip(c, -head, head), c)
-                  for s, c, head in ((s, c, xp.maximum((self.max_speed[i] - abs(s)) * room[i],
-                                                       0.0))
-                                     for i, (s, c) in enumerate(zip(speed, u, strict=True))))
-        power = self.standby
-        for s, c in zip(speed, u, strict=True):
+        where, clip, maximum = xp.where, xp.clip, xp.maximum
+        power, limited, h = self.standby, [], []
+        for i in range(self.n):  # a few wheels; each value a float or an (N,) array
+            s, c = speed[i], u[i]
+            # A torque that speeds the wheel up is limited to what reaches Ω_max at the end
+            # of the step (zero at the limit: Basilisk's rule, without its one-step overshoot).
+            head = maximum((self.max_speed[i] - abs(s)) * self.headroom[i], 0.0)
+            c = where(s * c >= 0.0, clip(c, -head, head), c)
             power = power + abs(c * s)
+            limited.append(c)
+            h.append(self.inertia[i] * (s + k.dot(self.axes[i], w)))
+        u, h = tuple(limited), tuple(h)
         if ws.viscous or ws.coulomb:
-            u = tuple(c - ws.viscous * s - ws.coulomb * xp.sign(s)
-                      for s, c in zip(speed, u, strict=True))
-        h = tuple(self.inertia[i] * (speed[i] + k.dot(self.axes[i], w)) for i in range(self.n))
+            u = tuple([c - ws.viscous * s - ws.coulomb * xp.sign(s)
+                       for s, c in zip(speed, u, strict=True)])
         st.wheel_momentum, st.wheel_torque = h, u
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
         return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
@@ -239,11 +240,11 @@ class Wheels:
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
         w = st.omega_B
-        h = tuple(hi + ui * dt for hi, ui in zip(st.wheel_momentum, st.wheel_torque,
-                                                 strict=True))
+        h = tuple([hi + ui * dt for hi, ui in zip(st.wheel_momentum, st.wheel_torque,
+                                                  strict=True)])
         st.wheel_momentum = h
-        st.wheel_speed = tuple(h[i] / self.inertia[i] - k.dot(self.axes[i], w)
-                               for i in range(self.n))
+        st.wheel_speed = tuple([h[i] / self.inertia[i] - k.dot(self.axes[i], w)
+                                for i in range(self.n)])
 
     def _body(self, x: tuple) -> tuple:
         """``G x``: per-wheel values along their axes, summed: 3 body components."""
@@ -272,27 +273,16 @@ class Wheels:
     def observe(self, st, xp, sensed=None) -> tuple:
         """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel."""
         clip, inv = xp.clip, self.inv_max_speed
-        return tuple(clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed))
+        return tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed)])
 
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
         relative to the bus)."""
-        h = self._body(tuple(self.inertia[i] * s for i, s in enumerate(st.wheel_speed)))
+        h = self._body([self.inertia[i] * s for i, s in enumerate(st.wheel_speed)])
         out["wheel_energy_J"] = st.wheel_energy_J
         out["wheel_momentum_Nms"] = xp.sqrt(k.dot(h, h))
 
 
-def _action_components(a, xp) -> tuple:
-    """An action (n,) or (N, n) as n components (floats or (N,) arrays); NaN is refused."""
-    c = tuple(a.tolist()) if xp is FLOAT else tuple(a.T)
-    bad = c[0] != c[0]
-    for ci in c[1:]:
-        bad = bad | (ci != ci)
-    if xp.any(bad):
-        from rbenv.actuators.thrusters import nan_action_error
-
-        raise nan_action_error(a)
-    return c
 
 
 def make_wheels(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Wheels:
