@@ -1,9 +1,10 @@
 """Command-line flags generated from dataclass fields and their docstrings (CleanRL's manner).
 
 Each field of a config dataclass is written once, with its default and its docstring (the
-string literal under it); :func:`add_fields` turns the fields into ``--kebab-case`` flags whose
-help is that docstring and whose default is the field's, and :func:`given` reads back only the
-flags the user gave, so a default is never restated in argparse. Types map as: ``int``,
+string literal under it, read by :func:`rbenv.options.field_docs`); :func:`add_fields` turns
+the fields into ``--kebab-case`` flags whose help is that docstring and whose default is the
+field's, and :func:`given` reads back only the flags the user gave, so a default is never
+restated in argparse. Types map as: ``int``,
 ``float``, ``str`` (``X | None`` too) to the same type; ``bool`` to ``--flag/--no-flag``;
 ``dict`` to a JSON object; ``Literal[...]`` to choices.
 """
@@ -11,34 +12,14 @@ flags the user gave, so a default is never restated in argparse. Types map as: `
 from __future__ import annotations
 
 import argparse
-import ast
 import dataclasses
-import inspect
-import itertools
 import json
-import textwrap
 import types
 import typing
-from functools import cache
+
+from rbenv.options import field_docs
 
 NO_DEFAULT = "(no default)"
-
-
-@cache
-def field_docs(cls: type) -> dict[str, str]:
-    """``{field: docstring}`` of a dataclass and its bases: the string literal under each field."""
-    docs: dict[str, str] = {}
-    for klass in reversed(cls.__mro__):
-        if not dataclasses.is_dataclass(klass):
-            continue
-        tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
-        body = tree.body[0].body
-        for node, after in itertools.pairwise(body):
-            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
-                    and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
-                    and isinstance(after.value.value, str)):
-                docs[node.target.id] = " ".join(after.value.value.split())
-    return docs
 
 
 def flag(name: str) -> str:
