@@ -1,9 +1,8 @@
 """The ``rbenv`` command: train, evaluate and benchmark (also ``python -m rbenv.agents.cli``).
 
-    rbenv train [--algo ppo|sac|td3|tqc|crossq] [--timesteps N] [--n-envs K] [--seed S]
-                [--scene NAME] [--out DIR] [--resume | --force] [--threads T] [--tensorboard DIR]
-                [--checkpoint-every N] [--eval-every N] [--hyperparams JSON]
-                [--env-kwargs JSON] [--no-report] [--no-progress] [--trust-pickle]
+    rbenv train [--engine sb3|rllib] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
+                [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
+                [...]   (one flag per field of rbenv.agents.training.config; see --help)
     rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|policy.pt --episodes N --seed S
                    [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
@@ -17,7 +16,7 @@ when a model is trained or loaded, or a plot is drawn.
 from __future__ import annotations
 
 import argparse
-import json
+import dataclasses
 import os
 import pkgutil
 import subprocess
@@ -33,8 +32,11 @@ from rbenv.agents.policies.evaluate import (
     record_video,
     write_json,
 )
-from rbenv.agents.training import rllib, suite, tune
-from rbenv.agents.training.config import ALGOS, TrainConfig
+from rbenv.agents.training import flags, rllib, suite, tune
+from rbenv.agents.training.config import RLlibOptions, SB3Options, TrainConfig
+from rbenv.agents.training.engine import add_run_arguments
+from rbenv.agents.training.engine import run as engine_run
+from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
@@ -58,16 +60,6 @@ def benchmarks() -> list[str]:
                   if not m.name.startswith("_") and m.name != "common")
 
 
-def _json_arg(text: str):
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise argparse.ArgumentTypeError(f"not valid JSON ({e}): {text!r}") from None
-    if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"must be a JSON object, got {text!r}")
-    return value
-
-
 def _positive(text: str) -> int:
     value = int(text)
     if value <= 0:
@@ -79,49 +71,14 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="rbenv", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train", help="train PPO, SAC, TD3, TQC or CrossQ, then report against "
-                                     "the baselines")
-    t.add_argument("--algo", choices=ALGOS, default="ppo",
-                   help="settings (hyperparameters, envs, budget, env options) come from "
-                        "rbenv/hyperparams/ALGO.py, the file rl_zoo3 reads")
-    t.add_argument("--timesteps", type=_positive, default=None,
-                   help="default: the shipped n_timesteps (ppo 2M, tqc 200k, sac/td3/crossq "
-                        "300k); with --resume, a new total")
-    t.add_argument("--n-envs", type=_positive, default=None,
-                   help="default: the shipped n_envs (ppo 64, off-policy 32)")
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--scene", default="cubesat-12u")
-    t.add_argument("--env-id", default=None,
-                   help="the task, a registered id (default rbenv/SatelliteReorient-v0; "
-                        "also rbenv/SatelliteDetumble-v0, rbenv/SatelliteTrack-v0)")
-    t.add_argument("--out", default=None,
-                   help="run folder (default ./runs/ALGO-SCENE-seedS); must be empty or new "
-                        "unless --resume or --force")
-    mode = t.add_mutually_exclusive_group()
-    mode.add_argument("--resume", action="store_true",
-                      help="continue the run in --out from its last complete checkpoint, with "
-                           "its saved configuration (a finished run is left as it is)")
-    t.add_argument("--trust-pickle", action="store_true",
-                   help="let --resume unpickle a run folder written before rbenv's pickle-free "
-                        "format (or an RLlib run's checkpoints); unpickling runs any code in "
-                        "the files, so only for folders from a source you trust")
-    mode.add_argument("--force", action="store_true",
-                      help="start a new run in a non-empty --out, deleting the old run's files")
-    t.add_argument("--threads", type=_positive, default=None,
-                   help="torch threads (default 1: fastest for these small networks, and "
-                        "robust to other busy processes); part of what makes a run repeatable")
-    t.add_argument("--tensorboard", default=None, metavar="DIR",
-                   help="also log training to TensorBoard under DIR/RUN_NAME")
-    t.add_argument("--checkpoint-every", type=_positive, default=200_000, help="timesteps")
-    t.add_argument("--eval-every", type=_positive, default=200_000, help="timesteps")
-    t.add_argument("--hyperparams", type=_json_arg, default={},
-                   help='JSON overriding algorithm hyperparameters, e.g. \'{"n_steps": 128}\'')
-    t.add_argument("--env-kwargs", type=_json_arg, default={},
-                   help='JSON of gym.make options, e.g. \'{"action_mode": "torque"}\'')
-    t.add_argument("--no-report", action="store_true", help="skip the final evaluation report")
-    t.add_argument("--no-progress", action="store_true", help="no progress bar")
-    t.add_argument("--engine", choices=("sb3", "rllib"), default="sb3",
-                   help="sb3 (default) or rllib: PPO on Ray RLlib (needs the ray extra)")
-    rllib.add_arguments(t)
+                                     "the baselines",
+                       description="Every flag but --resume, --force and --no-report is a field "
+                                   "of the run's configuration (rbenv.agents.training.config), "
+                                   "and its help is that field's docstring.")
+    seen: set[str] = set()
+    for fields in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions):
+        flags.add_fields(t, fields, seen=seen)
+    add_run_arguments(t)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
@@ -137,7 +94,8 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--scene", default=None)
     e.add_argument("--env-id", default=None,
                    help="the task (default: a run's own, else rbenv/SatelliteReorient-v0)")
-    e.add_argument("--env-kwargs", type=_json_arg, default={}, help="JSON of gym.make options")
+    e.add_argument("--env-kwargs", type=flags.json_object, default={},
+                   help="JSON of gym.make options")
     e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
                    help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, 0, "
                         "1)], mode (SB3's deterministic mu), auto (default): mean_throttle for "
@@ -160,35 +118,35 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-FIXED_BY_RUN = ("algo", "n_envs", "seed", "scene", "env_id", "checkpoint_every", "eval_every",
-                "hyperparams", "env_kwargs")
+# What a resumed run takes from the command line; the rest comes from its config.json.
+RESUME_OVERRIDES = ("out", "timesteps", "threads", "engine")
 
 
 def _train(args) -> int:
-    if args.engine == "rllib":
-        rllib.train_from_args(args)
-        return 0
-    if args.address or args.env_runners:
-        raise SystemExit("rbenv train: --address and --env-runners need --engine rllib")
+    """``rbenv train``: the given fields make the config of the chosen back end."""
+    engine = getattr(args, "engine", "sb3")
+    config, options = (TrainConfig, SB3Options) if engine == "sb3" else (RLlibConfig, RLlibOptions)
+    known = {f.name for cls in (config, options) for f in dataclasses.fields(cls)}
+    wrong = [flags.flag(k) for cls in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions)
+             for k in flags.given(args, cls) if k not in known]
+    if wrong:
+        raise SystemExit(f"rbenv train: {', '.join(sorted(set(wrong)))} not for --engine "
+                         f"{engine}")
+    cfg_fields = flags.given(args, config)
     if args.resume:
-        defaults = _parser().parse_args(["train"])
-        ignored = [f"--{k.replace('_', '-')}" for k in FIXED_BY_RUN
-                   if getattr(args, k) != getattr(defaults, k)]
+        ignored = [flags.flag(k) for k in cfg_fields if k not in RESUME_OVERRIDES]
         if ignored:
             print(f"--resume continues the run with its saved config.json; ignoring "
                   f"{', '.join(ignored)}")
+    cfg = config(**cfg_fields)
+    if engine == "rllib":
+        rllib.run(cfg, rllib.RLlibSession(**flags.given(args, options)), resume=args.resume,
+                  force=args.force, report=not args.no_report)
+        return 0
+    from rbenv.agents.training import sb3  # the train extra (SB3, torch)
 
-    from rbenv.agents.training.sb3 import train  # the train extra (SB3, torch)
-
-    cfg = TrainConfig(algo=args.algo, timesteps=args.timesteps, n_envs=args.n_envs,
-                      seed=args.seed, scene=args.scene, out=args.out,
-                      **({"env_id": args.env_id} if args.env_id else {}),
-                      checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
-                      hyperparams=args.hyperparams, env_kwargs=args.env_kwargs,
-                      threads=args.threads or (None if args.resume else 1))
-    train(cfg, resume=args.resume, force=args.force, tensorboard=args.tensorboard,
-          progress_bar=not args.no_progress, report=not args.no_report,
-          trust_pickle=args.trust_pickle)
+    engine_run(cfg, sb3.SB3Session(**flags.given(args, options)), resume=args.resume,
+               force=args.force, report=not args.no_report)
     return 0
 
 

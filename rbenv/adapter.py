@@ -1,7 +1,8 @@
 """What the single-env and the vector-env adapters share: the plant, the task, their spaces.
 
-Both adapters take the same env options (:data:`ENV_OPTIONS`), build the (plant, task) pair
-with :func:`rbenv.tasks.build`, and expose the same accessors; only how they hold the state
+Both adapters take the same env options (:data:`rbenv.options.ENV_OPTIONS`, declared once in
+:class:`rbenv.options.EnvOptions`), build the (plant, task) pair with :func:`rbenv.tasks.build`,
+and expose the same accessors; only how they hold the state
 (floats or arrays) and Gymnasium's API shape differ.
 """
 
@@ -16,10 +17,6 @@ from rbenv import transition
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.tasks import build
-
-ENV_OPTIONS = ("scene", "integrator", "control_dt", "substeps", "action_mode", "reward_weights",
-               "max_initial_angle_deg", "max_initial_rate", "allocator", "randomize",
-               "task_options", "compiled")
 
 
 def action_array(value, shape: tuple, *, copy: bool = False, name: str = "action") -> np.ndarray:

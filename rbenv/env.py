@@ -14,9 +14,10 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv import transition
-from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
+from rbenv.adapter import TaskAdapter, action_array
 from rbenv.core.backend import FLOAT
 from rbenv.draws import EpisodeDraws
+from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
 

@@ -15,12 +15,13 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import ENV_OPTIONS, TaskAdapter, action_array
+from rbenv.adapter import TaskAdapter, action_array
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws
 from rbenv.env import unknown_options
+from rbenv.options import ENV_OPTIONS
 from rbenv.state import State, assign, from_start
 
 _MODES = {mode.value: mode for mode in AutoresetMode}

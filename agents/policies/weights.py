@@ -28,13 +28,15 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Literal, get_args
 
 import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write, write_json
 
 FORMAT = 1
-ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")  # every algorithm of rbenv train (--algo)
+Algo = Literal["ppo", "sac", "td3", "tqc", "crossq"]  # every algorithm of rbenv train (--algo)
+ALGOS: tuple[str, ...] = get_args(Algo)
 POLICY = "MlpPolicy"
 _STATS_FIELDS = ("obs_mean", "obs_var", "obs_count", "ret_mean", "ret_var", "ret_count",
                  "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs", "norm_reward")

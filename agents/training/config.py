@@ -12,11 +12,11 @@ import copy
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TypeVar
+from typing import Literal, TypeVar
 
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.runfolder import RunFolderError
-from rbenv.agents.policies.weights import ALGOS
+from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
@@ -24,25 +24,53 @@ import rbenv
 C = TypeVar("C", bound="RunConfig")
 
 
+Engine = Literal["sb3", "rllib"]
+
+
 @dataclass
 class RunConfig:
-    """The fields every back end shares; saved in ``config.json`` with the back end's own."""
+    """The fields every back end shares; saved in ``config.json`` with the back end's own.
 
-    engine: str = "sb3"
-    algo: str = "ppo"
+    Each field's docstring is its ``rbenv train`` help (:mod:`rbenv.agents.training.flags`).
+    """
+
+    engine: Engine = "sb3"
+    """The training back end: sb3 (Stable-Baselines3), or rllib (PPO on Ray RLlib; the ray
+    extra)."""
+    algo: Algo = "ppo"
+    """The algorithm. Its settings (hyperparameters, envs, budget, env options) come from the
+    task's entry in rbenv/hyperparams, the files rl_zoo3 reads."""
     timesteps: int | None = None
+    """Environment steps to train; unset: the algorithm's shipped n_timesteps for the task. With
+    --resume, a new total."""
     seed: int = 0
+    """Seed of the model and the training envs."""
     scene: str = "cubesat-12u"
-    env_id: str = rbenv.ENV_ID  # the task: any id of the task registry (rbenv.registry)
+    """The spacecraft: a shipped scene's name or a scene TOML file."""
+    env_id: str = rbenv.ENV_ID
+    """The task: a registered id (rbenv.registry), e.g. rbenv/SatelliteDetumble-v0."""
     out: str | None = None
+    """The run folder (unset: ./runs/ALGO-SCENE-seedS); it must be empty or new unless --resume
+    or --force."""
     env_kwargs: dict = field(default_factory=dict)
+    """gym.make options as a JSON object, over the shipped ones, e.g. '{"action_mode":
+    "torque"}'."""
     hyperparams: dict = field(default_factory=dict)
-    checkpoint_every: int = 200_000  # timesteps
-    eval_every: int = 200_000  # timesteps
+    """Algorithm hyperparameters as a JSON object, over the shipped ones, e.g. '{"n_steps":
+    128}'."""
+    checkpoint_every: int = 200_000
+    """Timesteps between checkpoints."""
+    eval_every: int = 200_000
+    """Timesteps between the periodic evaluations of the training curve."""
     eval_episodes: int = 100
+    """Episodes of each periodic evaluation (at most 50 run side by side)."""
     report_episodes: int = 500
+    """Episodes of the final report's evaluation, the same for the policy and the baselines."""
     report_seed: int = 1_000_000
-    threads: int = 1  # torch intra-op threads; part of what makes a run reproducible
+    """Seed of the report's first episode (episode i is seeded report_seed + i)."""
+    threads: int | None = None
+    """Torch intra-op threads; unset: 1 (fastest for these small networks, and robust to other
+    busy processes), or with --resume the run's own. Part of what makes a run repeatable."""
 
     def default_out(self) -> str:
         """The run folder when ``out`` is not given."""
@@ -68,6 +96,8 @@ class RunConfig:
     def resolve(self: C) -> C:
         """Fill the defaults that depend on other fields and validate; back ends extend it."""
         rbenv.registry.get(self.env_id)  # a named error for an id it does not hold
+        if self.threads is None:
+            self.threads = 1
         self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
                            "report_episodes", "threads"))
         self.check_dicts(("env_kwargs", "hyperparams"))
@@ -138,9 +168,11 @@ def normalize_kwargs(setting) -> dict | None:
 class TrainConfig(RunConfig):
     """A run of the SB3 back end; saved as ``config.json`` in the run folder."""
 
-    n_envs: int | None = None  # default: the shipped settings'
-    # VecNormalize's keyword arguments (None: no normalisation); default: the shipped settings
+    n_envs: int | None = None
+    """Envs stepped side by side in one native vector env; unset: the shipped n_envs."""
     normalize: dict | None = None
+    """VecNormalize's keyword arguments as a JSON object ({}: no normalisation); unset: the
+    shipped settings'."""
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
@@ -164,3 +196,35 @@ class TrainConfig(RunConfig):
                 f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
                 "--hyperparams '{\"learning_starts\": N}'")
         return self
+
+
+@dataclass(frozen=True)
+class SessionOptions:
+    """How one training session runs, whatever the back end; not saved with the run."""
+
+    progress: bool = True
+    """Show training progress (a bar for sb3, a line per iteration for rllib)."""
+    trust_pickle: bool = False
+    """Let --resume unpickle a run folder written before rbenv's pickle-free format, or an RLlib
+    run's checkpoints. Unpickling runs any code in the files: only for folders from a source
+    you trust."""
+
+
+@dataclass(frozen=True)
+class SB3Options(SessionOptions):
+    """How one Stable-Baselines3 training session runs."""
+
+    tensorboard: str | None = None
+    """Also log training to TensorBoard under this folder (DIR/RUN_NAME)."""
+    verbose: int = 0
+    """Stable-Baselines3's own logging: 0 (none), 1 or 2."""
+
+
+@dataclass(frozen=True)
+class RLlibOptions(SessionOptions):
+    """How one RLlib training session runs."""
+
+    address: str | None = None
+    """A running Ray cluster: 'auto' (started on this machine with ray start) or HOST:PORT of
+    its head; unset: a private Ray instance on 127.0.0.1."""
+

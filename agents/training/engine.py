@@ -98,6 +98,18 @@ def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool =
     return out
 
 
+def add_run_arguments(parser) -> None:
+    """The flags of :func:`run` itself: ``--resume`` or ``--force``, and ``--no-report``."""
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--resume", action="store_true",
+                      help="continue the run in --out from its last complete checkpoint, with "
+                           "its saved configuration (a finished run is left as it is)")
+    mode.add_argument("--force", action="store_true",
+                      help="start a new run in a non-empty --out, deleting the old run's files")
+    parser.add_argument("--no-report", action="store_true",
+                        help="skip the final evaluation report")
+
+
 def _already_finished(out: Path, timesteps: int) -> bool:
     finished = is_finished(out)
     if finished and int(finished.get("timesteps", 0)) >= timesteps:

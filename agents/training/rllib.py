@@ -24,7 +24,6 @@ Importing this module needs no Ray; training does (the ray extra).
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import time
 from dataclasses import dataclass, field
@@ -35,8 +34,9 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.rllib import MODULE_PATH, RLLIB_HINT, RLlibPolicy, latest
-from rbenv.agents.training import engine
-from rbenv.agents.training.config import RunConfig
+from rbenv.agents.training import engine, flags
+from rbenv.agents.training.config import Engine, RLlibOptions, RunConfig
+from rbenv.agents.training.engine import add_run_arguments
 from rbenv.agents.training.ray_cluster import connect, require_ray, shutdown
 from rbenv.agents.training.report import Trained, write_report
 from rbenv.core.errors import InvalidParameterError
@@ -63,12 +63,17 @@ DEFAULT_MODEL = {"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh",
 class RLlibConfig(RunConfig):
     """A run of the RLlib back end; saved as ``config.json``."""
 
-    engine: str = "rllib"
-    env_runners: int = 0  # runner processes; 0 samples in the driver
-    envs_per_runner: int = 64  # satellites in each runner's native vector env
+    engine: Engine = "rllib"
+    env_runners: int = 0
+    """RLlib env runner processes; 0 samples in the driver."""
+    envs_per_runner: int = 64
+    """Satellites in each runner's native vector env."""
     model: dict = field(default_factory=dict)
-    log_std_init: float = -1.0  # initial log standard deviation of the Gaussian policy
-    normalize_reward: bool = True  # scale rewards by the running spread of the return
+    """RLlib DefaultModelConfig options as a JSON object, over rbenv's (DEFAULT_MODEL)."""
+    log_std_init: float = -1.0
+    """Initial log standard deviation of the Gaussian policy."""
+    normalize_reward: bool = True
+    """Scale rewards by the running spread of the return (as SB3's VecNormalize does)."""
 
     @property
     def n_envs(self) -> int:
@@ -180,13 +185,11 @@ def rollout(policy, cfg: RLlibConfig, episodes: int, seed: int) -> dict:
 # --- the back end --------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class RLlibSession:
+class RLlibSession(RLlibOptions):
     """The RLlib back end (:class:`rbenv.agents.training.engine.Backend`) with the options of
-    one training session: ``address`` of a Ray cluster (None: a private one), progress lines."""
+    one training session."""
 
     packages: ClassVar[tuple[str, ...]] = ("ray", "torch")
-    address: str | None = None
-    progress: bool = True
 
     def fit(self, cfg: RLlibConfig, out: Path, resume: bool) -> dict:
         started = connect(self.address, feature="--engine rllib")
@@ -220,13 +223,19 @@ def train(cfg: RLlibConfig, *, resume: bool = False, force: bool = False,
     own checkpoint, which is pickle-based, so it needs ``trust_pickle=True``
     (``--trust-pickle``); without it the resume is refused before anything is loaded.
     """
-    if resume and not trust_pickle:
-        runfolder.require_trust(Path(cfg.out) / runfolder.CHECKPOINTS,
+    session = RLlibSession(address=address, progress=progress, trust_pickle=trust_pickle)
+    return run(cfg, session, resume=resume, force=force, report=report)
+
+
+def run(cfg: RLlibConfig, session: RLlibSession, *, resume: bool = False, force: bool = False,
+        report: bool = True) -> Path:
+    """:func:`train` with the session's options in one object (the command line's way)."""
+    if resume and not session.trust_pickle:
+        runfolder.require_trust(Path(cfg.out or cfg.default_out()) / runfolder.CHECKPOINTS,
                                 "an RLlib run's checkpoint folder (RLlib pickles its state)",
                                 False, RLLIB_HINT)
     require_ray("--engine rllib")
-    return engine.run(cfg, RLlibSession(address=address, progress=progress), resume=resume,
-                      force=force, report=report)
+    return engine.run(cfg, session, resume=resume, force=force, report=report)
 
 
 def fit(cfg: RLlibConfig, out: Path, resume: bool, progress: bool) -> dict:
@@ -315,63 +324,17 @@ def set_log_std(algo, value: float) -> None:
 
 # --- command line ---------------------------------------------------------------------------
 
-def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """The flags of ``rbenv train --engine rllib`` that the SB3 path lacks."""
-    p.add_argument("--env-runners", type=int, default=0,
-                   help="RLlib env runner processes (0: sample in the driver)")
-    p.add_argument("--envs-per-runner", type=int, default=64,
-                   help="satellites in each runner's native vector env")
-    p.add_argument("--address", default=None,
-                   help="a running Ray cluster: 'auto' (started on this machine with ray "
-                        "start) or HOST:PORT of its head; default: a private Ray on 127.0.0.1")
-    return p
-
-
-def config_from_args(args) -> RLlibConfig:
-    return RLlibConfig(algo=getattr(args, "algo", "ppo"), timesteps=args.timesteps,
-                       env_runners=args.env_runners, envs_per_runner=args.envs_per_runner,
-                       seed=args.seed, scene=args.scene, env_id=getattr(args, "env_id", None)
-                       or rbenv.ENV_ID, out=args.out,
-                       env_kwargs=args.env_kwargs, hyperparams=args.hyperparams,
-                       checkpoint_every=args.checkpoint_every, eval_every=args.eval_every,
-                       threads=args.threads or (None if args.resume else 1))
-
-
-def train_from_args(args) -> Path:
-    """``rbenv train --engine rllib``: the train command's arguments plus add_arguments'."""
-    cfg = config_from_args(args)
-    return train(cfg, resume=args.resume, force=args.force, address=args.address,
-                 report=not args.no_report, progress=not getattr(args, "no_progress", False),
-                 trust_pickle=getattr(args, "trust_pickle", False))
-
-
 def main(argv: list[str] | None = None) -> Path:
     """``python -m rbenv.agents.training.rllib``: the flags of ``rbenv train --engine rllib``."""
     p = argparse.ArgumentParser(prog="python -m rbenv.agents.training.rllib",
                                 description=__doc__.split("\n")[0])
-    p.add_argument("--timesteps", type=int, default=None)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scene", default="cubesat-12u")
-    p.add_argument("--env-id", default=rbenv.ENV_ID)
-    p.add_argument("--out", default=None)
-    mode = p.add_mutually_exclusive_group()
-    mode.add_argument("--resume", action="store_true")
-    mode.add_argument("--force", action="store_true")
-    p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--checkpoint-every", type=int, default=200_000)
-    p.add_argument("--eval-every", type=int, default=200_000)
-    p.add_argument("--hyperparams", type=json.loads, default={})
-    p.add_argument("--env-kwargs", type=json.loads, default={})
-    p.add_argument("--report-episodes", type=int, default=500)
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--trust-pickle", action="store_true",
-                   help="let --resume load RLlib's pickle-based checkpoint")
-    add_arguments(p)
+    flags.add_fields(p, RLlibConfig, skip=("engine",))
+    flags.add_fields(p, RLlibSession)
+    add_run_arguments(p)
     args = p.parse_args(argv)
-    cfg = config_from_args(args)
-    cfg.report_episodes = args.report_episodes
-    return train(cfg, resume=args.resume, force=args.force, address=args.address,
-                 report=not args.no_report, trust_pickle=args.trust_pickle)
+    cfg = RLlibConfig(**flags.given(args, RLlibConfig))
+    return run(cfg, RLlibSession(**flags.given(args, RLlibSession)), resume=args.resume,
+               force=args.force, report=not args.no_report)
 
 
 if __name__ == "__main__":

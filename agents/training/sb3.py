@@ -33,7 +33,7 @@ from rbenv.agents.policies.sb3 import (
     load_stats,
 )
 from rbenv.agents.training import engine
-from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.config import SB3Options, TrainConfig
 from rbenv.agents.training.report import Trained, write_report
 from rbenv.agents.training.sb3_vec_env import SB3VecEnv
 from rbenv.core.errors import InvalidParameterError
@@ -46,16 +46,12 @@ from tqdm import tqdm
 
 
 @dataclass(frozen=True)
-class SB3Session:
+class SB3Session(SB3Options):
     """The SB3 back end (:class:`rbenv.agents.training.engine.Backend`) with the options of one
-    training session. ``trust_pickle``: a resume may unpickle the checkpoints of a run folder
-    written before issue 19 (never needed for runs written now, which hold no pickle)."""
+    training session (``trust_pickle``: a resume may unpickle the checkpoints of a run folder
+    written before issue 19; never needed for runs written now, which hold no pickle)."""
 
     packages: ClassVar[tuple[str, ...]] = ("stable_baselines3", "torch")
-    tensorboard: str | None = None
-    progress_bar: bool = True
-    verbose: int = 0
-    trust_pickle: bool = False
 
     def fit(self, cfg: TrainConfig, out: Path, resume: bool) -> dict:
         return fit(cfg, out, resume, self)
@@ -80,7 +76,7 @@ def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
           tensorboard: str | None = None, progress_bar: bool = True, report: bool = True,
           verbose: int = 0, trust_pickle: bool = False) -> Path:
     """Train (or resume) and save the run; returns the run directory (:func:`engine.run`)."""
-    session = SB3Session(tensorboard=tensorboard, progress_bar=progress_bar, verbose=verbose,
+    session = SB3Session(tensorboard=tensorboard, progress=progress_bar, verbose=verbose,
                          trust_pickle=trust_pickle)
     return engine.run(cfg, session, resume=resume, force=force, report=report)
 
@@ -101,7 +97,7 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     callbacks = [PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
                               cfg.eval_episodes, done, run_config=asdict(cfg)),
                  AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
-    if session.progress_bar:
+    if session.progress:
         callbacks.append(RateProgress())
     remaining = max(cfg.timesteps - done, 0)
     if remaining:

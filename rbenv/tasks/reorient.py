@@ -16,6 +16,7 @@ from typing import ClassVar, NamedTuple
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.hyperparams import tuned
+from rbenv.options import options_table
 from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
     _DEG,
@@ -191,28 +192,9 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
 
     Made by ``gym.make("rbenv/SatelliteReorient-v0", **kwargs)``.
 
-    **Arguments** (all optional):
+    **Arguments** (all optional; :class:`rbenv.options.EnvOptions`):
 
-    =======================  ===================  ==============================================
-    argument                 default              meaning
-    =======================  ===================  ==============================================
-    ``scene``                ``"cubesat-12u"``    shipped name, TOML path or :class:`rbenv.Scene`
-    ``integrator``           scene's              a name in ``rbenv.core.INTEGRATORS``
-    ``control_dt``           scene's              s, one env step
-    ``substeps``             scene's              integrator steps per control step
-    ``action_mode``          ``"throttle"``       ``"throttle"``, ``"on_off"`` or ``"torque"``
-    ``reward_weights``       see below            dict overriding the reward weights
-    ``max_initial_angle_deg``  scene's (180)      initial error within this angle (curriculum)
-    ``max_initial_rate``     scene's              rad/s, initial tumble up to this
-    ``allocator``            ``"pinv"``           torque mode: ``"pinv"``, ``"nnls"``, ``"lp"``
-    ``randomize``            scene's (off)        dict of domain-randomization sizes, or False
-    ``task_options``         None                 unused by this task
-    ``render_mode``          None                 ``"rgb_array"`` or ``"human"``
-    ``compiled``             False                True: the integrator runs numba-compiled
-                                                  (extra ``rbenv[fast]``; same results bit for
-                                                  bit; a few seconds of compilation at the
-                                                  first step; not with randomized inertia)
-    =======================  ===================  ==============================================
+OPTIONS_TABLE
 
     **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
     over the control step) is ``clip(a, 0, 1)``, so ``a ≤ 0`` is off. ``on_off``: ``a > 0``
@@ -250,7 +232,7 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
       drew them from ``np_random``, so seeded episodes differ between the two). rbenv 0.2 adds
       the ``precision`` reward term, weight 0 by default: default rewards are unchanged to the
       last bit, and ``info`` gains ``reward_precision``.
-    """
+    """.replace("OPTIONS_TABLE", options_table())
 
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,

@@ -1,8 +1,9 @@
 """Track: keep pointing at a target attitude that turns at a constant rate.
 
 ``rbenv/SatelliteTrack-v0``. The target frame turns about a world-fixed axis at a constant rate
-``Ω_W`` (uniform direction, magnitude uniform up to ``max_target_rate``), as the local orbital
-frame of a nadir-pointing spacecraft or the line of sight to a ground target does. Its attitude
+``Ω_W`` (uniform direction, magnitude uniform up to the task option
+``max_target_rate_fraction`` × the rate limit), as the local orbital frame of a nadir-pointing
+spacecraft or the line of sight to a ground target does. Its attitude
 after ``t`` seconds is ``exp(Ω_W t) ⊗ q_target(0)``, exact; seen from the body its rate is
 ``ω_t_B = Rᵀ Ω_W`` and that rate changes at ``d(ω_t_B)/dt = ω_t_B × ω_B``.
 

@@ -1,10 +1,10 @@
 """Lower bounds on settle time and propellant (rbenv.bounds), checked against closed forms,
-independent numerics (quadrature, an ODE solver, linprog), the scripted controllers on 200
-episodes, an optimised trajectory, and the benchmark's --quick form."""
+independent numerics (quadrature, an ODE solver, linprog) and the scripted controllers on 200
+episodes. Optimised trajectories against the bounds: tests/agents/baselines/test_optimal.py;
+the benchmark: tests/benchmarks/test_bounds_benchmark.py."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -194,80 +194,3 @@ def test_bounds_lie_below_pd_and_bang_bang_on_200_episodes(limits):
     _, info = envs.reset(seed=SEED)
     envs.close()
     assert np.allclose(np.degrees(st["angle"]), info["attitude_error_deg"])
-
-
-@pytest.mark.slow  # SLSQP, tens of seconds
-def test_optimised_trajectory_is_above_the_bounds():
-    """A time-optimised open-loop sequence (SLSQP), replayed in the env on a 21° episode,
-    succeeds no sooner than the settle bound and spends no less than the propellant bound
-    at its own settle time; it is faster than the bang-bang controller."""
-    from rbenv.agents.baselines import optimal
-
-    seed = SEED + 343  # the smallest initial angle among the first 500 held-out episodes
-    lim = rb.scene_limits("cubesat-12u")
-    st = rb.episode_starts(1, seed)
-    assert math.degrees(st["angle"][0]) == pytest.approx(20.9, abs=0.05)
-    settle = rb.settle_time_bound(lim, st["angle"], st["omega_B"], st["bias_B"])["sampled"][0]
-    bang = optimal.replay("bangbang", seed)
-    problem = optimal.Problem.from_seed(seed)
-    sol = optimal.time_optimal(problem, int(np.rint(bang["settle_time_s"] / 0.5)),
-                               bang["throttles"], int(np.rint(settle / 0.5)) - 1, maxiter=60)
-    rep = optimal.replay(sol.throttles, seed)
-    assert rep["success"]
-    assert settle <= rep["settle_time_s"] < bang["settle_time_s"]
-    own = rb.fuel_bound(lim, st["angle"], st["omega_B"], st["bias_B"],
-                        time_s=rep["settle_time_s"])["kg"][0]
-    assert rep["fuel_kg"] >= own
-
-
-@pytest.mark.slow  # SLSQP, tens of seconds
-def test_fuel_optimised_trajectory_is_above_the_propellant_bound():
-    """A propellant-optimised sequence (SLSQP, settling at 78.5 s), replayed in the env,
-    succeeds, spends less than the PD and no less than the bound for any policy."""
-    from rbenv.agents.baselines import optimal
-
-    seed = SEED + 3  # 118°: a positive propellant bound
-    lim = rb.scene_limits("cubesat-12u")
-    st = rb.episode_starts(1, seed)
-    bound = rb.fuel_bound(lim, st["angle"], st["omega_B"], st["bias_B"])["kg"][0]
-    assert bound > 0
-    pd = optimal.replay("pd", seed)
-    sol = optimal.fuel_optimal(optimal.Problem.from_seed(seed), pd["throttles"], maxiter=60)
-    rep = optimal.replay(sol.throttles, seed)
-    assert rep["success"]
-    assert bound <= rep["fuel_kg"] < pd["fuel_kg"]
-
-
-def test_own_rollout_matches_the_env():
-    """The optimiser's RK4 reproduces the env's trajectory under the bang-bang throttles."""
-    from rbenv.agents.baselines import optimal
-
-    seed = SEED + 3
-    bang = optimal.replay("bangbang", seed)
-    problem = optimal.Problem.from_seed(seed)
-    q, w = problem.rollout(bang["throttles"][None])
-    angle = math.degrees(2 * math.asin(math.sqrt(problem.error_sin2(q[0, -1]))))
-    assert angle < 1.0 and np.linalg.norm(w[0, -1]) < 0.01
-
-
-# --- the benchmark ------------------------------------------------------------------------------
-
-@pytest.mark.slow  # the --quick benchmark, about a minute
-def test_benchmark_quick_smoke(tmp_path):
-    from benchmarks import bounds as bench
-
-    data = bench.main(["--quick", "--out", str(tmp_path)])
-    for name in ("bounds.json", "bounds.md", "bounds.png"):
-        assert (tmp_path / name).stat().st_size > 0
-    saved = json.loads((tmp_path / "bounds.json").read_text())
-    # The suite's PPO policy is evaluated when its (uncommitted) run folder is present.
-    trained = bench.trained_seeds([0]) == [0]
-    assert set(saved["policies"]) == {"pd", "bangbang"} | ({"ppo seed 0"} if trained else set())
-    assert saved["missing_ppo_seeds"] == ([] if trained else [0])
-    assert all(v == 0 for counts in saved["violations"].values() for v in counts.values())
-    for r in data["policies"].values():
-        assert r["settle_ratio"]["min"] >= 1.0
-    (spot,) = data["optimal"]
-    assert spot["time_optimal"]["success"]
-    assert spot["time_optimal"]["settle_time_s"] >= spot["settle_bound_s"]
-    assert "| pd |" in (tmp_path / "bounds.md").read_text()

@@ -1,0 +1,110 @@
+"""The env options, declared once: :class:`EnvOptions`, one field per ``gym.make`` /
+``gym.make_vec`` keyword argument, with its default and its docstring.
+
+Everything else derives from it or is tested against it (tests/rbenv/test_options.py): the
+names the adapters accept (:data:`ENV_OPTIONS`), the keyword arguments of the env
+constructors, :func:`rbenv.tasks.build` and :func:`rbenv.plant.make_plant`, the Arguments table
+of every env's docstring (:func:`options_table`) and the Options table of docs/api.md.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import inspect
+import itertools
+import textwrap
+from functools import cache
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvOptions:
+    """The options of every rbenv env (all optional); the vector env adds ``num_envs``,
+    ``max_episode_steps`` and ``autoreset_mode``, both add ``render_mode``."""
+
+    scene: object = None
+    """A shipped scene's name, a TOML path or an ``rbenv.Scene``; unset: the task's default
+    scene (``cubesat-12u``; desaturation: ``cubesat-6u-rw``)."""
+    integrator: str | None = None
+    """A name in ``rbenv.core.INTEGRATORS``; unset: the scene's ``[physics]`` integrator (rk4:
+    cubesat-12u, cubesat-12u-dr, cubesat-12u-rw, cubesat-6u-rw; midpoint: microsat-100kg,
+    boom-sat)."""
+    control_dt: float | None = None
+    """Seconds of one env step; unset: the scene's."""
+    substeps: int | None = None
+    """Integrator steps per control step; unset: the scene's."""
+    action_mode: str = "throttle"
+    """``"throttle"``, ``"on_off"`` or ``"torque"``."""
+    reward_weights: dict | None = None
+    """A dict overriding the task's reward weights (each task's docstring lists them)."""
+    max_initial_angle_deg: float | None = None
+    """Initial attitude error up to this angle (a curriculum); unset: the scene's."""
+    max_initial_rate: float | None = None
+    """Initial tumble up to this rate, rad/s; unset: the scene's."""
+    allocator: str = "pinv"
+    """Torque mode's allocator: ``"pinv"``, ``"nnls"`` or ``"lp"``."""
+    randomize: dict | bool | None = None
+    """A dict of domain-randomization sizes (``rbenv.Randomization``), or False; unset: the
+    scene's (on: cubesat-12u-dr; off: every other shipped scene)."""
+    task_options: dict | None = None
+    """A dict overriding the scene's ``[tasks.<task>]`` table (detumble, track, desaturate)."""
+    compiled: bool = False
+    """True: the integrator runs numba-compiled (extra ``rbenv[fast]``; rk4, euler,
+    semi_implicit or euler_seed, not midpoint or splitting; not with randomized inertia): the
+    same results bit for bit, after a few seconds of compilation at the first step."""
+
+
+ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions))
+DEFAULTS: dict = {f.name: f.default for f in dataclasses.fields(EnvOptions)}
+
+
+@cache
+def field_docs(cls: type) -> dict[str, str]:
+    """``{field: docstring}`` of a dataclass and its bases: the string literal under each field,
+    its whitespace collapsed."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        if not dataclasses.is_dataclass(klass):
+            continue
+        body = ast.parse(textwrap.dedent(inspect.getsource(klass))).body[0].body
+        for node, after in itertools.pairwise(body):
+            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                    and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
+                    and isinstance(after.value.value, str)):
+                docs[node.target.id] = " ".join(after.value.value.split())
+    return docs
+
+
+def default_text(name: str) -> str:
+    """How a default reads in the tables: ``"throttle"``, False, or "unset"."""
+    value = DEFAULTS[name]
+    return "unset" if value is None else (f'"{value}"' if isinstance(value, str) else repr(value))
+
+
+def _rows() -> list[tuple[str, str, str]]:
+    docs = field_docs(EnvOptions)
+    rows = [(name, default_text(name), docs[name]) for name in ENV_OPTIONS]
+    return [*rows, ("render_mode", "unset", '``"rgb_array"`` or ``"human"`` (single env)')]
+
+
+def options_table(indent: str = "    ") -> str:
+    """The Arguments table of the env docstrings (reStructuredText), from :class:`EnvOptions`."""
+    rows = [(f"``{n}``", f"``{d}``" if d.startswith('"') else d, m) for n, d, m in _rows()]
+    widths = [max(len(r[i]) for r in rows) for i in range(2)]
+    rule = f"{'=' * widths[0]}  {'=' * widths[1]}  {'=' * 50}"
+    lines = [rule, f"{'argument':<{widths[0]}}  {'default':<{widths[1]}}  meaning", rule]
+    for name, default, meaning in rows:
+        wrapped = textwrap.wrap(meaning, 50, break_on_hyphens=False) or [""]
+        lines.append(f"{name:<{widths[0]}}  {default:<{widths[1]}}  {wrapped[0]}")
+        pad = " " * (widths[0] + widths[1] + 4)
+        lines += [pad + more for more in wrapped[1:]]
+    lines.append(rule)
+    return "\n".join((indent + line).rstrip() for line in lines)
+
+
+def options_markdown() -> str:
+    """The same table in Markdown, as docs/api.md holds it."""
+    lines = ["| argument | default | meaning |", "|---|---|---|"]
+    lines += [f"| `{n}` | {f'`{d}`' if d.startswith(chr(34)) else d} | "
+              f"{m.replace('``', '`')} |" for n, d, m in _rows()]
+    return "\n".join(lines)

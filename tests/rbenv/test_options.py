@@ -1,0 +1,99 @@
+"""The env options are declared once (rbenv.options.EnvOptions); the constructors, the env
+docstrings and docs/api.md agree with the declaration, and what it says of defaults is true."""
+
+from __future__ import annotations
+
+import inspect
+import re
+from pathlib import Path
+
+import gymnasium as gym
+import pytest
+
+import rbenv
+from rbenv import options
+from rbenv.env import AttitudeEnv
+from rbenv.plant import make_plant
+from rbenv.tasks import build
+from rbenv.vector_env import AttitudeVectorEnv
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENES = rbenv.list_scenes()
+
+
+def _keywords(function, skip=()) -> dict:
+    return {name: p.default for name, p in inspect.signature(function).parameters.items()
+            if p.kind is p.KEYWORD_ONLY or (p.kind is p.POSITIONAL_OR_KEYWORD and
+                                             name not in ("self", "task_name", "num_envs"))
+            if name not in skip}
+
+
+@pytest.mark.parametrize("constructor", [AttitudeEnv.__init__, AttitudeVectorEnv.__init__, build],
+                         ids=["env", "vector_env", "tasks.build"])
+def test_constructors_take_exactly_the_declared_options_with_their_defaults(constructor):
+    extra = ("render_mode", "max_episode_steps", "autoreset_mode")
+    assert _keywords(constructor, skip=extra) == options.DEFAULTS
+
+
+def test_make_plant_takes_the_plant_options_with_the_declared_defaults():
+    plant_options = _keywords(make_plant, skip=("scene",))  # the plant needs its scene
+    assert plant_options == {k: options.DEFAULTS[k] for k in plant_options}
+
+
+def test_every_option_is_documented_and_an_unknown_one_is_refused_naming_the_valid_ones():
+    docs = options.field_docs(options.EnvOptions)
+    assert set(docs) == set(options.ENV_OPTIONS) and all(docs.values())
+    with pytest.raises(TypeError, match=r"'integrater'.*valid options are.*integrator"):
+        gym.make(rbenv.ENV_ID, integrater="rk4")
+
+
+def test_the_env_docstring_holds_the_generated_arguments_table():
+    assert options.options_table() in gym.make(rbenv.ENV_ID).unwrapped.__doc__
+    table = options.options_table()
+    for name in (*options.ENV_OPTIONS, "render_mode"):
+        assert f"``{name}``" in table
+
+
+def test_docs_api_md_holds_the_generated_options_table():
+    assert options.options_markdown() in (ROOT / "docs" / "api.md").read_text()
+
+
+def _listed(doc: str, key: str) -> set[str]:
+    """Scene names after ``key:`` up to the next ';' or ')' in a docstring."""
+    found = re.search(rf"{key}: ([^;)]*)", doc)
+    return {s.strip() for s in found.group(1).split(",")} if found else set()
+
+
+def test_the_integrator_default_named_per_scene_is_the_scenes():
+    doc = options.field_docs(options.EnvOptions)["integrator"]
+    for scene in SCENES:
+        integrator = rbenv.load_scene(scene).physics.integrator
+        assert scene in _listed(doc, integrator), (scene, integrator)
+        env = gym.make(rbenv.ENV_ID, scene=scene).unwrapped
+        assert env.plant.scene.physics.integrator == integrator
+
+
+def test_the_randomization_default_named_per_scene_is_the_scenes():
+    doc = options.field_docs(options.EnvOptions)["randomize"]
+    on = {s for s in SCENES if any(vars(rbenv.load_scene(s).randomization).values())}
+    assert on == _listed(doc, "on")
+
+
+def test_the_default_scene_named_per_task_is_the_tasks():
+    doc = options.field_docs(options.EnvOptions)["scene"]
+    for env_id in rbenv.ENV_IDS:
+        scene = gym.make(env_id).unwrapped.plant.scene.name
+        assert f"``{scene}``" in doc, (env_id, scene)
+
+
+@pytest.mark.parametrize("env_id", sorted(rbenv.ENV_IDS))
+def test_every_task_option_is_documented_and_every_documented_one_is_real(env_id):
+    env = gym.make(env_id).unwrapped
+    doc = env.__doc__
+    keys = set(getattr(type(env.task), "OPTIONS", {}))
+    for key in keys:
+        assert f"``{key}``" in doc, key
+    named = re.search(r"``task_options`` overrides the scene's ``\[tasks\.\w+\]``\s+table:"
+                      r"(.*?)\n\n", doc, re.S)
+    if named:
+        assert set(re.findall(r"``(\w+)`` \(", named.group(1))) <= keys
