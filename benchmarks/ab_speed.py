@@ -126,25 +126,10 @@ STEPS = {"single": (0, 3000), "vec_zero": (2, 32), "vec_random": (2, 32)}
 
 
 def instructions_per_step(tree: Path, probe: str) -> float:
-    """Instructions per step of ``probe`` on ``tree`` (callgrind; hash seed and BLAS threads
-    fixed, so the count repeats exactly)."""
-    import os
-    import re
-    import subprocess
-    import tempfile
-
-    def count(n: int) -> int:
-        with tempfile.TemporaryDirectory() as tmp:
-            env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONHASHSEED": "0",
-                   "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-            done = subprocess.run(["valgrind", "--tool=callgrind",
-                                   f"--callgrind-out-file={tmp}/cg.out", sys.executable, "-c",
-                                   COUNT, probe, str(n)], env=env, cwd=tree, check=True,
-                                  capture_output=True, text=True)
-        return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
-
+    """Instructions per step of ``probe`` on ``tree`` (:func:`benchmarks.common.instructions`)."""
     low, high = STEPS[probe]
-    return (count(high) - count(low)) / (high - low)
+    count = [common.instructions(COUNT, probe, str(n), tree=tree) for n in (low, high)]
+    return (count[1] - count[0]) / (high - low)
 
 
 def _probe(tree: Path) -> dict:

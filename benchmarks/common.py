@@ -139,6 +139,26 @@ def run_in_tree(tree: Path, program: str, *args: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def instructions(program: str, *args: str, tree: Path | None = None) -> int:
+    """Instructions that ``python -c program *args`` executes, counted by valgrind's callgrind
+    (hash seed and BLAS threads fixed, so a count repeats exactly and does not move with the
+    machine's load). ``tree``: the source tree on ``PYTHONPATH`` (default: this checkout)."""
+    import re
+    import subprocess
+    import sys
+    import tempfile
+
+    tree = Path(tree or Path(__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONHASHSEED": "0",
+           "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    with tempfile.TemporaryDirectory() as tmp:
+        done = subprocess.run(["valgrind", "--tool=callgrind",
+                               f"--callgrind-out-file={tmp}/cg.out", sys.executable, "-c",
+                               program, *args], env=env, cwd=tree, check=True,
+                              capture_output=True, text=True)
+    return int(re.search(r"Collected : (\d+)", done.stderr).group(1))
+
+
 def write_json(name: str, data: dict) -> Path:
     """Write ``data`` plus the machine record to ``benchmarks/results/<name>.json``."""
     RESULTS.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,6 @@
 """What the new physics costs: reaction wheels, magnetorquers and orbit torques, per env step.
 
-    python -m benchmarks.physics_cost        (or: rbenv bench physics_cost)
+    python -m benchmarks.physics_cost [--instructions]    (or: rbenv bench physics_cost)
 
 Times one env step of ``SatelliteReorient-v0`` (random actions, resets inline) through
 ``gym.make`` and, per sub-env, through the native vector env at N = 4096, for the thruster
@@ -9,6 +9,9 @@ at a time: wheels only; wheels and magnetorquers with Earth's field; and the who
 (wheels, rods, field and gravity gradient). All in one run, interleaved (process CPU time,
 best of rounds), so the ratios to ``cubesat-12u`` are what a user pays for each model. Target
 (issue 18): the whole ``cubesat-6u-rw`` within 1.5x of ``cubesat-12u`` per env step.
+
+With ``--instructions`` (needs valgrind) it also counts the instructions of one single-env
+step of each variant with callgrind: a ratio that does not move with the machine's load.
 
 Writes ``physics_cost.json`` and ``physics_cost.png``.
 """
@@ -86,6 +89,25 @@ def measure(rounds: int = 7) -> dict:
     return out
 
 
+# One variant's single env under callgrind: its name and the step count come as arguments.
+COUNT = """
+import sys
+from benchmarks.physics_cost import _single, _variants
+run, _ = _single(_variants()[sys.argv[1]], steps=int(sys.argv[2]))
+run()
+"""
+
+
+def add_instructions(rows: dict, steps: int = 2000) -> None:
+    """Instructions per single-env step of each variant, and their ratio to cubesat-12u."""
+    for name, row in rows.items():
+        low, high = (common.instructions(COUNT, name, str(n)) for n in (0, steps))
+        row["single_instructions"] = (high - low) / steps
+    ref = rows["cubesat-12u (thrusters)"]["single_instructions"]
+    for row in rows.values():
+        row["instructions_vs_12u"] = row["single_instructions"] / ref
+
+
 def plot(rows: dict):
     plt = common.pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 3.6))
@@ -103,12 +125,17 @@ def plot(rows: dict):
 
 
 def main(argv=()) -> dict:
+    counted = "--instructions" in argv
     rows = measure()
+    if counted:
+        add_instructions(rows)
+    columns = ["scene", "single_us", "vector_us", "single_vs_12u", "vector_vs_12u"]
     print(common.table([{"scene": n, **{k: round(v, 3) for k, v in r.items()}}
                         for n, r in rows.items()],
-                       ["scene", "single_us", "vector_us", "single_vs_12u", "vector_vs_12u"]))
+                       columns + (["instructions_vs_12u"] if counted else [])))
+    command = "python -m benchmarks.physics_cost" + (" --instructions" if counted else "")
     common.write_json("physics_cost", {"rows": rows, "n_vector": N_VECTOR,
-                                       "command": "python -m benchmarks.physics_cost"})
+                                       "command": command})
     common.save_figure(plot(rows), "physics_cost")
     return rows
 
