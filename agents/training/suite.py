@@ -162,9 +162,11 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
         best = max(curve["success_rate"])
         steps = max(t for t, x in zip(curve["timesteps"], curve["success_rate"], strict=True)
                     if x == best)
-        model = run / runfolder.CHECKPOINTS / f"model_{steps}.zip"
-        if model.is_file():
-            return model, steps
+        # Any format the run folder holds (policy_<N>.pt; an older run's model_<N>.zip),
+        # pickle-free first, as validation_curve evaluated them.
+        for ckpt in runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None):
+            if ckpt.steps == steps and ckpt.model.is_file():
+                return ckpt.model, steps
     summary = read_json(run / runfolder.SUMMARY, "summary")
     return run / runfolder.FINAL_MODEL, int(summary["timesteps"])
 
