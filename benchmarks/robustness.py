@@ -200,9 +200,7 @@ def suite_policies(suite_out: Path, scene: str, group: str, seeds) -> tuple[list
             missing.append(cell.name)
             continue
         steps = int(result["policy"]["timesteps"])
-        model = folder / "run" / runs.CHECKPOINTS / f"model_{steps}.zip"
-        if not model.is_file():
-            model = folder / "run" / runs.FINAL_MODEL
+        model = suite.checkpoint_at(folder / "run", steps) or folder / "run" / runs.FINAL_MODEL
         specs.append(PolicySpec(group, seed, str(model), steps))
     return specs, missing
 

@@ -152,6 +152,15 @@ def learning_curve(run: Path) -> dict:
     return {"timesteps": steps, "success_rate": success}
 
 
+def checkpoint_at(run: Path, steps: int) -> Path | None:
+    """The model file of the run's checkpoint at ``steps``, in any format the run folder holds
+    (policy_<N>.pt; an older run's model_<N>.zip), pickle-free first; None if there is none."""
+    for ckpt in runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None):
+        if ckpt.steps == steps and ckpt.model.is_file():
+            return ckpt.model
+    return None
+
+
 def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     """The checkpoint with the best validation success in ``curve``, the latest among equals.
 
@@ -162,8 +171,8 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
         best = max(curve["success_rate"])
         steps = max(t for t, x in zip(curve["timesteps"], curve["success_rate"], strict=True)
                     if x == best)
-        model = run / runfolder.CHECKPOINTS / f"model_{steps}.zip"
-        if model.is_file():
+        model = checkpoint_at(run, steps)
+        if model is not None:
             return model, steps
     summary = read_json(run / runfolder.SUMMARY, "summary")
     return run / runfolder.FINAL_MODEL, int(summary["timesteps"])

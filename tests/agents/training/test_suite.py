@@ -152,15 +152,25 @@ def test_cli_train_and_evaluate_take_the_task(tmp_path, capsys):
               "--episodes", "3"])
 
 
-def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path):
+@pytest.mark.parametrize(("model", "stats"), [("policy_{}.pt", "obs_stats_{}.npz"),
+                                              ("model_{}.zip", "vecnormalize_{}.pkl")],
+                         ids=["pickle-free", "older run"])
+def test_the_checkpoint_with_the_best_validation_success_is_selected(tmp_path, model, stats):
+    """In the format rbenv train writes (policy_<N>.pt), and in an older run's (model_<N>.zip);
+    the selection once looked for model_<N>.zip only, so every run written since the
+    pickle-free format fell back to its final model."""
     ckpts = tmp_path / "checkpoints"
     ckpts.mkdir()
     for steps in (100, 200, 300):
-        (ckpts / f"model_{steps}.zip").write_bytes(b"")
+        (ckpts / model.format(steps)).write_bytes(b"")
+        (ckpts / stats.format(steps)).write_bytes(b"")
+    (tmp_path / "training.json").write_text('{"timesteps": 300}')
     curve = {"timesteps": [100, 200, 300], "success_rate": [0.5, 1.0, 0.3]}
-    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
+    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / model.format(200), 200)
     curve["success_rate"] = [1.0, 1.0, 0.3]  # ties: the latest
-    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / "model_200.zip", 200)
+    assert suite.select_checkpoint(tmp_path, curve) == (ckpts / model.format(200), 200)
+    curve["timesteps"] = [100, 250, 300]  # no checkpoint at the best step: the final model
+    assert suite.select_checkpoint(tmp_path, curve) == (tmp_path / "policy.pt", 300)
 
 
 @pytest.mark.slow  # trains
