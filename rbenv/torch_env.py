@@ -39,7 +39,6 @@ numba ``compiled`` kernels and NEXT_STEP autoreset.
 
 from __future__ import annotations
 
-import warnings
 from typing import ClassVar
 
 import gymnasium as gym
@@ -77,6 +76,14 @@ class DeferredTorchNamespace(TorchNamespace):
     @staticmethod
     def isnan_any(x) -> bool:
         return False
+
+    def const(self, value):
+        """:meth:`TorchNamespace.const`; under ``torch.compile`` the NumPy constant is traced
+        as a tensor (the cache's ``id``/``dtype`` reads would break the graph)."""
+        if not torch.compiler.is_compiling() or not isinstance(value, np.ndarray):
+            return super().const(value)
+        t = torch.as_tensor(value, device=self.device)
+        return t.to(self.dtype) if t.is_floating_point() else t
 
 
 def _refuse(option: str, value, rule: str):
@@ -165,8 +172,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self._st = None
         self._renderer = None
         self._step_fn = self._physics
-        self.recompiles = None
-        if compile:
+        if validation.flag("compile", compile):
             from rbenv.torch_compile import compile_step
 
             self._step_fn = compile_step(self)
@@ -383,11 +389,6 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
 
     def close_extras(self, **kwargs):
         self._step_fn = None
-
-
-def warn_eager(reason: str) -> None:
-    warnings.warn(f"compile=True fell back to eager torch: {reason}", RuntimeWarning,
-                  stacklevel=3)
 
 
 def torch_vector_env_class(base: type) -> type:

@@ -1,0 +1,58 @@
+"""``compile=True`` for the torch vector env: its step under ``torch.compile``, or eager.
+
+The compiled function is :meth:`rbenv.torch_env.TorchVectorEnv._physics` (the transition, its
+flags and the stacked observation; no host reads), traced with ``fullgraph=True`` and
+``dynamic=False``: one graph per env (scene, task, options, N, dtype, device), and a graph
+break is an error, not a silent slow path. Autoreset stays outside (it runs in the steps where
+an episode ended). The plant's NumPy constants are traced as tensors
+(:meth:`rbenv.torch_env.DeferredTorchNamespace.const`).
+
+Where compilation is unavailable (no working compiler, an unsupported platform) the first call
+fails; the env then warns once and steps eagerly, with identical results.
+
+:class:`CompiledStep` counts how often Dynamo compiled a frame for it (``compiles``: 1 is one
+graph; more is a recompilation, which the tests and the benchmark report).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import torch
+
+__all__ = ["CompiledStep", "compile_step"]
+
+
+def _frames_compiled() -> int:
+    from torch._dynamo.utils import counters
+
+    return int(counters["stats"]["unique_graphs"])
+
+
+class CompiledStep:
+    """The env's step, compiled on first call; eager after a failed compilation."""
+
+    def __init__(self, eager):
+        self.eager = eager
+        self.compiled = torch.compile(eager, fullgraph=True, dynamic=False)
+        self.compiles = 0  # graphs Dynamo made for this step (recompilations included)
+        self.fallback: str | None = None  # why it runs eagerly, if it does
+
+    def __call__(self, st, action):
+        if self.fallback is not None:
+            return self.eager(st, action)
+        before = _frames_compiled()
+        try:
+            out = self.compiled(st, action)
+        except Exception as exc:  # noqa: BLE001 (any backend failure: fall back, say why)
+            self.fallback = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
+            warnings.warn(f"compile=True fell back to eager torch: {self.fallback}",
+                          RuntimeWarning, stacklevel=3)
+            return self.eager(st, action)
+        self.compiles += _frames_compiled() - before
+        return out
+
+
+def compile_step(env) -> CompiledStep:
+    """The compiled step of ``env`` (a :class:`rbenv.torch_env.TorchVectorEnv`)."""
+    return CompiledStep(env._physics)
