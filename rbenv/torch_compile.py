@@ -44,7 +44,7 @@ class CompiledStep:
         before = _frames_compiled()
         try:
             out = self.compiled(st, action)
-        except Exception as exc:  # noqa: BLE001 (any backend failure: fall back, say why)
+        except Exception as exc:
             self.fallback = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
             warnings.warn(f"compile=True fell back to eager torch: {self.fallback}",
                           RuntimeWarning, stacklevel=3)

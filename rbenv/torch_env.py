@@ -187,14 +187,16 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return t.expand(self.num_envs).clone() if t.ndim == 0 else t
 
     def _field(self, kind: str, value):
-        """One field of a batch state from its start value (:data:`rbenv.state.KINDS`)."""
+        """One field of a batch state from its start value (:data:`rbenv.state.KINDS`), in
+        tensors of its own: a start may share one zero array between fields, and aliased
+        fields would make ``torch.compile`` guard on the aliasing (a recompilation)."""
         if kind in _COMPONENTS:
-            return tuple(self._tensor(c) for c in value)
+            return tuple(self._tensor(c).clone() for c in value)
         if kind == "i":
-            return self._tensor(value, torch.int64)
+            return self._tensor(value, torch.int64).clone()
         if kind == "obj":
             raise InvalidParameterError("backend='torch' holds no per-episode model objects")
-        return self._tensor(value)
+        return self._tensor(value).clone()
 
     def _state(self, start: dict) -> State:
         st = State()

@@ -213,3 +213,37 @@ def test_cuda_episodes_are_reproducible():  # pragma: no cover (needs a GPU)
             obs = env.step(a.clone())[0]
         outs.append(obs.cpu())
     assert torch.equal(outs[0], outs[1])
+
+
+def test_compiled_step_is_one_graph_and_matches_eager():
+    """compile=True: one graph across steps and autoresets (no recompilation, no graph break:
+    fullgraph=True would raise and fall back with a warning), results as eager's."""
+    kw = {"backend": "torch", "max_episode_steps": 3, "num_envs": 4}
+    envs = [gym.make_vec(rbenv.DETUMBLE_ID, compile=c, **kw) for c in (True, False)]
+    for e in envs:
+        e.reset(seed=2)
+    a = torch.linspace(-1, 1, 4 * 12, dtype=torch.float64).reshape(4, 12)
+    for _ in range(7):  # two autoresets
+        outs = [e.step(a.clone()) for e in envs]
+        np.testing.assert_allclose(outs[0][0].numpy(), outs[1][0].numpy(), rtol=0, atol=1e-12)
+        assert outs[0][3].tolist() == outs[1][3].tolist()
+    step = envs[0].unwrapped._step_fn
+    assert step.fallback is None, step.fallback
+    assert step.compiles == 1
+
+
+def test_compile_falls_back_to_eager_with_a_warning(monkeypatch):
+    from rbenv import torch_compile
+
+    env = gym.make_vec(rbenv.ENV_ID, num_envs=2, backend="torch", compile=True)
+    env.reset(seed=0)
+    step = env.unwrapped._step_fn
+
+    def unavailable(*args):
+        raise RuntimeError("no compiler on this platform")
+
+    monkeypatch.setattr(step, "compiled", unavailable)
+    with pytest.warns(RuntimeWarning, match="fell back to eager torch: RuntimeError: no comp"):
+        obs = env.step(torch.zeros(2, 12, dtype=torch.float64))[0]
+    assert step.fallback is not None and obs.shape == (2, 7)
+    assert torch_compile.CompiledStep  # the class the env uses
