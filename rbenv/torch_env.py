@@ -12,7 +12,8 @@ episode starts come from :mod:`rbenv.torch_draws`, the counter-based draws on th
 
 **Autoreset on the device.** SAME_STEP (default): a sub-env that ends returns its new
 episode's first observation; the last one is in ``info["final_obs"]``, an (N, d) tensor whose
-rows are valid where ``info["_final_obs"]`` is True. New episodes are drawn for every row and
+rows are valid where ``info["_final_obs"]`` is True, and ``info["final_info"]`` holds the
+last step's ``is_success`` alone (masked alike). New episodes are drawn for every row and
 selected with ``torch.where`` (no index lists, no host round trip). DISABLED: nothing resets
 by itself; ``reset(options={"reset_mask": mask})`` with an (N,) bool tensor. NEXT_STEP is
 refused by name. On CPU the start is only drawn in a step where some sub-env ended (one host
@@ -334,7 +335,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         done = terminated | truncated
         extra = {}
         if self.autoreset_mode is AutoresetMode.SAME_STEP:
-            extra = {"final_obs": obs, "_final_obs": done}
+            extra = {"final_obs": obs, "_final_obs": done, "_final_info": done,
+                     "final_info": {"is_success": success, "_is_success": done}}
             new, obs, terms, success = self._restart(done, new, obs, terms, success)
         else:
             self._done = done
