@@ -27,9 +27,9 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
+from rbenv.core.errors import InvalidParameterError
 from tensordict import TensorDict
 from tensordict.nn import AddStateIndependentNormalScale, TensorDictModule
 from torch import nn
@@ -42,7 +42,6 @@ from torchrl.objectives import ClipPPOLoss
 from torchrl.objectives.value import GAE
 
 import rbenv
-from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["RbenvTorchRLEnv", "TorchRLConfig", "success_rate", "train"]
 

@@ -1,0 +1,46 @@
+"""rbenv train --engine torchrl: the batched TorchRL adapter passes check_env_specs, partial
+resets through "_reset" reach the torch env, and the quick CLI form trains end to end (a smoke
+run: its success rate is not asserted; the full run's is in docs/torch.md)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("torchrl", reason="torchrl is not installed (ecosystem extra)")
+import torch  # noqa: E402
+from rbenv.agents import cli  # noqa: E402
+from rbenv.agents.torchrl_train import RbenvTorchRLEnv  # noqa: E402
+from torchrl.envs.utils import check_env_specs  # noqa: E402
+
+
+def test_the_adapter_passes_check_env_specs():
+    check_env_specs(RbenvTorchRLEnv(num_envs=4, seed=1))
+
+
+def test_partial_reset_restarts_only_the_masked_sub_envs():
+    env = RbenvTorchRLEnv(num_envs=3, seed=2, max_episode_steps=2)
+    td = env.reset()
+    first = td["observation"].clone()
+    for _ in range(2):
+        td = env.step(td.set("action", torch.zeros(3, 12)))["next"]
+    assert td["truncated"].all()
+    mask = torch.tensor([[True], [False], [True]])
+    out = env.reset(td.set("_reset", mask))
+    # Reset rows start their second episode; the other keeps its current observation.
+    assert not torch.equal(out["observation"][0], first[0])
+    assert torch.equal(out["observation"][1], td["observation"][1])
+
+
+def test_quick_cli_trains_and_writes_its_record(tmp_path):
+    assert cli.main(["train", "--engine", "torchrl", "--device", "cpu", "--quick",
+                     "--out", str(tmp_path)]) == 0
+    record = json.loads((tmp_path / "torchrl.json").read_text())
+    assert record["samples"] >= 16_384 and 0.0 <= record["held_out_success"] <= 1.0
+    assert record["config"]["device"] == "cpu"
+
+
+def test_cli_refuses_device_without_torchrl():
+    with pytest.raises(SystemExit, match="need --engine torchrl"):
+        cli.main(["train", "--device", "cuda", "--timesteps", "10"])
