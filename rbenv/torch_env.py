@@ -13,11 +13,12 @@ episode starts come from :mod:`rbenv.torch_draws`, the counter-based draws on th
 **Autoreset on the device.** SAME_STEP (default): a sub-env that ends returns its new
 episode's first observation; the last one is in ``info["final_obs"]``, an (N, d) tensor whose
 rows are valid where ``info["_final_obs"]`` is True, and ``info["final_info"]`` holds the
-last step's ``is_success`` alone (masked alike). New episodes are drawn for every row and
-selected with ``torch.where`` (no index lists, no host round trip). DISABLED: nothing resets
-by itself; ``reset(options={"reset_mask": mask})`` with an (N,) bool tensor. NEXT_STEP is
-refused by name. On CPU the start is only drawn in a step where some sub-env ended (one host
-read of a flag, which costs nothing there); on other devices it is drawn every step.
+last step's ``is_success`` alone (masked alike). On a CUDA (any non-CPU) device new
+episodes are drawn for every row and the ended ones selected with ``torch.where``: no index
+list, no host round trip. On a CPU, where a host read costs nothing, only the ended rows are
+drawn (by index), which is cheaper; the numbers are the same. DISABLED: nothing resets by
+itself; ``reset(options={"reset_mask": mask})`` with an (N,) bool tensor. NEXT_STEP is
+refused by name.
 
 **Seeding.** ``reset(seed=s)`` seeds sub-env i with s + i, as the NumPy env: on CPU in float64
 every episode equals the NumPy vector env's (and so the single env's with seed s + i) to
@@ -173,6 +174,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self._st = None
         self._renderer = None
         self._step_fn = self._physics
+        self._index_restart = self.device.type == "cpu"
         if validation.flag("compile", compile):
             from rbenv.torch_compile import compile_step
 
@@ -180,37 +182,58 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
 
     # ------------------------------------------------------------------- helpers
 
-    def _tensor(self, value, dtype=None) -> torch.Tensor:
-        """A start value as an (N,)-leading tensor in the env's dtype (or ``dtype``)."""
+    def _tensor(self, value, dtype=None, n=None) -> torch.Tensor:
+        """A value as an (n,)-leading tensor (n: num_envs by default) in the env's dtype (or
+        ``dtype``)."""
         dtype = dtype or self.dtype
         t = torch.as_tensor(value, device=self.device)
         t = t.to(dtype) if t.dtype != dtype else t
-        return t.expand(self.num_envs).clone() if t.ndim == 0 else t
+        return t.expand(n or self.num_envs).clone() if t.ndim == 0 else t
 
-    def _field(self, kind: str, value):
+    def _field(self, kind: str, value, n=None):
         """One field of a batch state from its start value (:data:`rbenv.state.KINDS`), in
         tensors of its own: a start may share one zero array between fields, and aliased
         fields would make ``torch.compile`` guard on the aliasing (a recompilation)."""
         if kind in _COMPONENTS:
-            return tuple(self._tensor(c).clone() for c in value)
+            return tuple(self._tensor(c, n=n).clone() for c in value)
         if kind == "i":
-            return self._tensor(value, torch.int64).clone()
+            return self._tensor(value, torch.int64, n).clone()
         if kind == "obj":
             raise InvalidParameterError("backend='torch' holds no per-episode model objects")
-        return self._tensor(value).clone()
+        return self._tensor(value, n=n).clone()
 
-    def _state(self, start: dict) -> State:
+    def _state(self, start: dict, n=None) -> State:
         st = State()
         for name, kind in self._layout.kinds.items():
             value = start.get(name)
-            setattr(st, name, None if value is None else self._field(kind, value))
+            setattr(st, name, None if value is None else self._field(kind, value, n))
         return st
 
-    def _draw_starts(self, options=None) -> State:
-        """A new episode for every sub-env (their current seeds and episode counters)."""
-        draws = TorchDraws(self._seeds, self._episodes, self.xp)
+    def _draw_starts(self, options=None, idx=None) -> State:
+        """A new episode for every sub-env, or for those in ``idx`` (an index tensor), from
+        their current seeds and episode counters."""
+        seeds, episodes = self._seeds, self._episodes
+        if idx is not None:
+            seeds, episodes = seeds[idx], episodes[idx]
+        draws = TorchDraws(seeds, episodes, self.xp)
         rows = np.arange(self.num_envs) if options else None
-        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows))
+        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows),
+                           draws.n)
+
+    def _scatter(self, idx: torch.Tensor, new: State, old: State) -> State:
+        """Rows ``idx`` from ``new`` (a state of len(idx)), the others from ``old`` (a new
+        state: ``index_copy`` out of place)."""
+        out = State()
+        for name, kind in self._layout.kinds.items():
+            a, b = getattr(new, name), getattr(old, name)
+            if a is None or b is None:
+                value = b
+            elif kind in _COMPONENTS:
+                value = tuple(y.index_copy(0, idx, x) for x, y in zip(a, b, strict=True))
+            else:
+                value = b.index_copy(0, idx, a)
+            setattr(out, name, value)
+        return out
 
     def _mux(self, mask: torch.Tensor, new: State, old: State) -> State:
         """Rows of ``new`` where ``mask``, else of ``old`` (a new state; no in-place writes)."""
@@ -227,8 +250,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             setattr(out, name, value)
         return out
 
-    def _stack(self, comps: tuple) -> torch.Tensor:
-        return torch.stack([self._tensor(c) for c in comps], dim=1)
+    def _stack(self, comps: tuple, n=None) -> torch.Tensor:
+        return torch.stack([self._tensor(c, n=n) for c in comps], dim=1)
 
     def _info(self, st, terms, success) -> dict:
         values = transition.info(self.plant, self.task, st, terms, success, self.xp)
@@ -347,9 +370,22 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return obs, reward, terminated, truncated, info
 
     def _restart(self, done, st, obs, terms, success):
-        """SAME_STEP autoreset of the rows where ``done``: new episodes (drawn for all rows,
-        selected by ``torch.where``), their observations, and zero terms and success there."""
-        if self.device.type == "cpu" and not bool(done.any()):
+        """SAME_STEP autoreset of the rows where ``done``: new episodes, their observations,
+        and zero terms and success there. On a CPU (``_index_restart``; host reads are free
+        there) only the ended rows are drawn, by index; elsewhere every row is drawn and the
+        ended ones selected by ``torch.where``, with no host read. The same numbers either way.
+        """
+        if self._index_restart:
+            idx = torch.nonzero(done).reshape(-1)
+            if idx.numel():
+                start = self._draw_starts(idx=idx)
+                self._episodes = self._episodes.index_add(0, idx, torch.ones_like(idx))
+                st = self._scatter(idx, start, st)
+                first = self._stack(transition.observe(self.plant, self.task, start, None,
+                                                       self.xp), idx.numel())
+                obs = obs.index_copy(0, idx, first)
+                terms = type(terms)(*(self._tensor(t).index_fill(0, idx, 0.0) for t in terms))
+                success = success.index_fill(0, idx, False)
             return st, obs, terms, success
         start = self._draw_starts()
         self._episodes = self._episodes + done.to(torch.int64)

@@ -72,11 +72,14 @@ def _close(t, n, what, atol=1e-12):
                                atol=atol, err_msg=what)
 
 
+@pytest.mark.parametrize("restart", ["index", "mask"])
 @pytest.mark.parametrize(("env_id", "scene", "mode"), CASES)
-def test_torch_episodes_equal_the_numpy_episodes(env_id, scene, mode, scene_path):
+def test_torch_episodes_equal_the_numpy_episodes(env_id, scene, mode, restart, scene_path):
+    """restart: the CPU's autoreset by index, or the device path (all rows drawn, masked)."""
     kwargs = _kwargs(scene, mode, scene_path)
     ne = gym.make_vec(env_id, num_envs=N, **kwargs)
     te = gym.make_vec(env_id, num_envs=N, backend="torch", **kwargs)
+    te.unwrapped._index_restart = restart == "index"
     assert isinstance(te, VectorEnv) and te.unwrapped.device.type == "cpu"
     obs_n, info_n = ne.reset(seed=11)
     obs_t, info_t = te.reset(seed=11)
