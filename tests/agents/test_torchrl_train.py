@@ -9,10 +9,10 @@ import json
 import pytest
 
 pytest.importorskip("torchrl", reason="torchrl is not installed (ecosystem extra)")
-import torch  # noqa: E402
-from rbenv.agents import cli  # noqa: E402
-from rbenv.agents.torchrl_train import RbenvTorchRLEnv  # noqa: E402
-from torchrl.envs.utils import check_env_specs  # noqa: E402
+import torch
+from rbenv.agents import cli
+from rbenv.agents.torchrl_train import RbenvTorchRLEnv
+from torchrl.envs.utils import check_env_specs
 
 
 def test_the_adapter_passes_check_env_specs():
