@@ -107,9 +107,9 @@ class TorchRLConfig:
     scene: str | None = None
     device: str = "cpu"
     timesteps: int = 2_000_000
-    num_envs: int = 512
-    rollout: int = 32  # steps per sub-env per batch
-    minibatch: int = 4096
+    num_envs: int = 256
+    rollout: int = 64  # steps per sub-env per batch
+    minibatch: int = 1024
     epochs: int = 5
     lr: float = 5e-4
     gamma: float = 0.99
@@ -117,34 +117,81 @@ class TorchRLConfig:
     clip: float = 0.2
     hidden: int = 128
     log_std_init: float = -1.0
-    reward_scale: float = 0.1
     seed: int = 0
     threads: int = 1
     compile: bool = False
     eval_episodes: int = 500
 
 
-def _mlp(n_in: int, n_out: int, hidden: int) -> nn.Sequential:
-    return nn.Sequential(nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden),
+class RunningNorm(nn.Module):
+    """x ↦ clip((x − mean)/√(var + 1e-8), ±10) with running statistics (Chan's parallel
+    update), SB3 VecNormalize's transform; the first layer of actor and critic, so a saved
+    policy carries it. Updated between PPO iterations (:meth:`update`), never inside one."""
+
+    def __init__(self, width: int):
+        super().__init__()
+        self.register_buffer("mean", torch.zeros(width))
+        self.register_buffer("var", torch.ones(width))
+        self.register_buffer("count", torch.tensor(1e-4))
+
+    def forward(self, x):
+        return torch.clamp((x - self.mean) / torch.sqrt(self.var + 1e-8), -10.0, 10.0)
+
+    @torch.no_grad()
+    def update(self, x):
+        x = x.reshape(-1, x.shape[-1]) if x.ndim > 1 else x.reshape(-1, 1)
+        n, mean, var = x.shape[0], x.mean(0), x.var(0, unbiased=False)
+        total = self.count + n
+        delta = mean - self.mean
+        self.var.copy_((self.var * self.count + var * n
+                        + delta * delta * self.count * n / total) / total)
+        self.mean.add_(delta * n / total)
+        self.count.copy_(total)
+
+
+def _mlp(norm, n_in: int, n_out: int, hidden: int) -> nn.Sequential:
+    return nn.Sequential(norm, nn.Linear(n_in, hidden), nn.Tanh(), nn.Linear(hidden, hidden),
                          nn.Tanh(), nn.Linear(hidden, n_out))
 
 
 def make_modules(obs_dim: int, act_dim: int, cfg: TorchRLConfig):
-    """The actor (Normal, state-independent scale) and the critic, on ``cfg.device``."""
-    net = nn.Sequential(_mlp(obs_dim, act_dim, cfg.hidden),
+    """The actor (Normal, state-independent scale) and the critic, sharing one observation
+    normalizer, on ``cfg.device``."""
+    norm = RunningNorm(obs_dim)
+    net = nn.Sequential(_mlp(norm, obs_dim, act_dim, cfg.hidden),
                         AddStateIndependentNormalScale(act_dim, init_value=cfg.log_std_init,
                                                        scale_mapping="exp"))
     actor = ProbabilisticActor(
         TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
         in_keys=["loc", "scale"], distribution_class=IndependentNormal,
         return_log_prob=True).to(cfg.device)
-    critic = ValueOperator(_mlp(obs_dim, 1, cfg.hidden), in_keys=["observation"]).to(cfg.device)
-    return actor, critic
+    critic = ValueOperator(_mlp(norm, obs_dim, 1, cfg.hidden),
+                           in_keys=["observation"]).to(cfg.device)
+    return actor, critic, norm
 
 
-def _scaled(batch: TensorDict, scale: float) -> TensorDict:
-    batch.set(("next", "reward"), batch.get(("next", "reward")) * scale)
-    return batch
+class ReturnScale:
+    """Rewards divided by the running std of the discounted return (SB3 VecNormalize's
+    ``norm_reward``), per sub-env, over a (N, T) batch in time order."""
+
+    def __init__(self, num_envs: int, gamma: float, device):
+        self.gamma = gamma
+        self.ret = torch.zeros(num_envs, device=device)
+        self.stats = RunningNorm(1).to(device)
+
+    @torch.no_grad()
+    def __call__(self, batch):
+        reward = batch.get(("next", "reward"))  # (N, T, 1)
+        done = batch.get(("next", "done"))
+        rets = []
+        for t in range(reward.shape[1]):
+            self.ret = self.ret * self.gamma + reward[:, t, 0]
+            rets.append(self.ret)
+            self.ret = torch.where(done[:, t, 0], 0.0, self.ret)
+        self.stats.update(torch.stack(rets).reshape(-1, 1))
+        scaled = torch.clamp(reward / torch.sqrt(self.stats.var + 1e-8), -10.0, 10.0)
+        batch.set(("next", "reward"), scaled)
+        return batch
 
 
 def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
@@ -160,7 +207,8 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
     env = RbenvTorchRLEnv(cfg.env_id, cfg.num_envs, cfg.device, cfg.seed, compile=cfg.compile,
                           **kwargs)
     obs_dim = env.observation_spec["observation"].shape[-1]
-    actor, critic = make_modules(obs_dim, env.action_spec.shape[-1], cfg)
+    actor, critic, norm = make_modules(obs_dim, env.action_spec.shape[-1], cfg)
+    scale = ReturnScale(cfg.num_envs, cfg.gamma, cfg.device)
     gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=critic, average_gae=False)
     loss = ClipPPOLoss(actor, critic, clip_epsilon=cfg.clip, entropy_bonus=False,
                        critic_coeff=0.5, loss_critic_type="l2", normalize_advantage=True)
@@ -174,10 +222,12 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
     for i, batch in enumerate(collector):
         collect_s += time.perf_counter() - tick
         samples += batch.numel()
-        _update(_scaled(batch, cfg.reward_scale), gae, loss, opt, cfg)
+        reward = float(batch.get(("next", "reward")).mean())
+        _update(scale(batch), gae, loss, opt, cfg)
+        norm.update(batch.get("observation"))  # for the next iteration's rollout and update
         if i % 10 == 0:
             curve.append({"samples": samples, "s": time.perf_counter() - t0,
-                          "reward": float(batch.get(("next", "reward")).mean())})
+                          "reward": reward})
             log(f"torchrl ppo: {samples} samples, {time.perf_counter() - t0:.0f} s, "
                 f"reward/step {curve[-1]['reward']:.3f}")
         tick = time.perf_counter()
@@ -228,7 +278,8 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
     module = actor.module[0]  # the (loc, scale) network
     ended = torch.zeros(n, dtype=torch.bool, device=cfg.device)
     success = torch.zeros_like(ended)
-    thrusters_only = set(env.unwrapped.plant.scene.actuators) == {"thrusters"}
+    scene = env.unwrapped.plant.scene
+    thrusters_only = scene.thrusters is not None and not scene.actuators
     while not bool(ended.all()):
         loc, scale = module.module(obs.float())
         action = loc
