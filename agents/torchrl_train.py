@@ -121,6 +121,7 @@ class TorchRLConfig:
     threads: int = 1
     compile: bool = False
     eval_episodes: int = 500
+    eval_every: int = 0  # samples between held-out evaluations during training (0: none)
 
 
 class RunningNorm(nn.Module):
@@ -217,7 +218,8 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
     collector = Collector(env, actor, frames_per_batch=frames, total_frames=cfg.timesteps,
                           device=cfg.device, auto_register_policy_transforms=False)
     t0 = time.perf_counter()
-    collect_s, samples, curve = 0.0, 0, []
+    collect_s = eval_s = 0.0
+    samples, curve, next_eval = 0, [], cfg.eval_every
     tick = time.perf_counter()
     for i, batch in enumerate(collector):
         collect_s += time.perf_counter() - tick
@@ -225,16 +227,23 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
         reward = float(batch.get(("next", "reward")).mean())
         _update(scale(batch), gae, loss, opt, cfg)
         norm.update(batch.get("observation"))  # for the next iteration's rollout and update
-        if i % 10 == 0:
-            curve.append({"samples": samples, "s": time.perf_counter() - t0,
-                          "reward": reward})
-            log(f"torchrl ppo: {samples} samples, {time.perf_counter() - t0:.0f} s, "
-                f"reward/step {curve[-1]['reward']:.3f}")
+        point = {"samples": samples, "s": time.perf_counter() - t0 - eval_s, "reward": reward}
+        if cfg.eval_every and samples >= next_eval:  # held-out success, timed apart
+            tick = time.perf_counter()
+            point["held_out_success"] = success_rate(actor, cfg, kwargs)
+            eval_s += time.perf_counter() - tick
+            next_eval += cfg.eval_every
+        if i % 10 == 0 or "held_out_success" in point:
+            curve.append(point)
+            log(f"torchrl ppo: {samples} samples, {point['s']:.0f} s, reward/step "
+                f"{reward:.3f}" + (f", held-out success {point['held_out_success']:.3f}"
+                                   if "held_out_success" in point else ""))
         tick = time.perf_counter()
-    train_s = time.perf_counter() - t0
+    train_s = time.perf_counter() - t0 - eval_s
     collector.shutdown()
     rate = success_rate(actor, cfg, kwargs)
     result = {"config": asdict(cfg), "samples": samples, "train_wall_s": train_s,
+              "eval_wall_s": eval_s,
               "collect_wall_s": collect_s, "samples_per_s": samples / train_s,
               "held_out_success": rate, "episodes": cfg.eval_episodes, "curve": curve,
               "torch": torch.__version__}

@@ -409,7 +409,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                                                                      torch.int64)):
             raise TypeError(f"actions must be real numbers of shape {shape}, got dtype "
                             f"{actions.dtype}")
-        return actions.to(device=self.device, dtype=self.dtype)
+        return actions.detach().to(device=self.device, dtype=self.dtype)
 
     def check(self) -> None:
         """A sync point: raise the NumPy env's error if some sub-env has diverged since the
