@@ -44,3 +44,19 @@ def test_quick_cli_trains_and_writes_its_record(tmp_path):
 def test_cli_refuses_device_without_torchrl():
     with pytest.raises(SystemExit, match="need --engine torchrl"):
         cli.main(["train", "--device", "cuda", "--timesteps", "10"])
+
+
+def test_bench_env_speed_torch_quick_writes_json_and_png(tmp_path):
+    """CI's form of ``rbenv bench env_speed --backend torch``: eager torch against NumPy at
+    two sizes, memory, float32's cost, training throughput; JSON and PNG written."""
+    assert cli.main(["bench", "env_speed", "--backend", "torch", "--device", "cpu", "--quick",
+                     "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "torch_env_speed_cpu_quick.json").read_text())
+    assert (tmp_path / "torch_env_speed_cpu_quick.png").is_file()
+    cases = {r["case"] for r in data["speed"]}
+    assert {"torch eager off N=4096", "numpy off N=4096", "torch eager reset-heavy N=1024"} \
+        <= cases
+    assert all(r["env_steps_per_s"] > 0 for r in data["speed"])
+    assert data["memory"]["bytes_per_sub_env"] > 0
+    assert 0 < data["float32_accuracy"]["obs_gap_max"] < 1e-3
+    assert data["training"]["samples"] >= 16_384
