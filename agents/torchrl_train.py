@@ -106,12 +106,12 @@ class TorchRLConfig:
     env_id: str = rbenv.ENV_ID
     scene: str | None = None
     device: str = "cpu"
-    timesteps: int = 2_000_000
+    timesteps: int = 800_000
     num_envs: int = 256
     rollout: int = 64  # steps per sub-env per batch
-    minibatch: int = 1024
+    minibatch: int = 2048
     epochs: int = 5
-    lr: float = 5e-4
+    lr: float = 1e-3
     gamma: float = 0.99
     lmbda: float = 0.95
     clip: float = 0.2
