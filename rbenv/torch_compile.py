@@ -1,10 +1,10 @@
 """``compile=True`` for the torch vector env: its step under ``torch.compile``, or eager.
 
-The compiled function is :meth:`rbenv.torch_env.TorchVectorEnv._physics` (the transition, its
-flags and the stacked observation; no host reads), traced with ``fullgraph=True`` and
-``dynamic=False``: one graph per env (scene, task, options, N, dtype, device), and a graph
-break is an error, not a silent slow path. Autoreset stays outside (it runs in the steps where
-an episode ended). The plant's NumPy constants are traced as tensors
+Two functions are compiled: :meth:`rbenv.torch_env.TorchVectorEnv._physics` (the transition,
+its flags and the stacked observation; no host reads) and ``_restart_all`` (the autoreset:
+starts drawn for every row, the ended ones selected), each traced with ``fullgraph=True`` and
+``dynamic=False``: one graph each per env (scene, task, options, N, dtype, device), and a graph
+break is an error, not a silent slow path. The plant's NumPy constants are traced as tensors
 (:meth:`rbenv.torch_env.DeferredTorchNamespace.const`).
 
 Where compilation is unavailable (no working compiler, an unsupported platform) the first call
@@ -20,7 +20,7 @@ import warnings
 
 import torch
 
-__all__ = ["CompiledStep", "compile_step"]
+__all__ = ["CompiledStep"]
 
 
 def _frames_compiled() -> int:
@@ -30,7 +30,8 @@ def _frames_compiled() -> int:
 
 
 class CompiledStep:
-    """The env's step, compiled on first call; eager after a failed compilation."""
+    """A function of the env (its step, its restart), compiled on first call; eager after a
+    failed compilation."""
 
     def __init__(self, eager):
         self.eager = eager
@@ -38,21 +39,17 @@ class CompiledStep:
         self.compiles = 0  # graphs Dynamo made for this step (recompilations included)
         self.fallback: str | None = None  # why it runs eagerly, if it does
 
-    def __call__(self, st, action):
+    def __call__(self, *args):
         if self.fallback is not None:
-            return self.eager(st, action)
+            return self.eager(*args)
         before = _frames_compiled()
         try:
-            out = self.compiled(st, action)
+            out = self.compiled(*args)
         except Exception as exc:
             self.fallback = f"{type(exc).__name__}: {str(exc).splitlines()[0][:200]}"
             warnings.warn(f"compile=True fell back to eager torch: {self.fallback}",
                           RuntimeWarning, stacklevel=3)
-            return self.eager(st, action)
+            return self.eager(*args)
         self.compiles += _frames_compiled() - before
         return out
 
-
-def compile_step(env) -> CompiledStep:
-    """The compiled step of ``env`` (a :class:`rbenv.torch_env.TorchVectorEnv`)."""
-    return CompiledStep(env._physics)

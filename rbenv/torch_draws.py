@@ -23,6 +23,8 @@ from rbenv import draws as _np_draws
 
 __all__ = ["TorchDraws"]
 
+_SLOT_KEYS: dict = {}  # (stream, count, offset, device) -> (count, 1) int64 slot keys
+
 
 def _signed(value: int) -> int:
     """A uint64 value (Python int) as the int64 with the same bits."""
@@ -68,18 +70,19 @@ class TorchDraws:
         self.xp = xp
         self.n = int(seeds.shape[0])
         self._keys = keys(seeds, episodes)
-        self._slot_cache: dict = {}
 
     def _slot_keys(self, stream: str, count: int, offset: int) -> torch.Tensor:
-        """(count, 1) int64: ``(slot + 1)·golden + stream key`` for slots offset…"""
-        key = (stream, count, offset)
-        hit = self._slot_cache.get(key)
+        """(count, 1) int64: ``(slot + 1)·golden + stream key`` for slots offset… Cached per
+        module (the env's first, eager reset fills it, so a compiled restart reads constants
+        and never traces the NumPy stream keys)."""
+        key = (stream, count, offset, self._keys.device)
+        hit = _SLOT_KEYS.get(key)
         if hit is None:
             base = int(_np_draws._STREAM_KEYS[stream])
             golden = int(_np_draws._GOLDEN)
             values = [_signed((slot + 1) * golden + base)
                       for slot in range(offset, offset + count)]
-            hit = self._slot_cache[key] = torch.tensor(
+            hit = _SLOT_KEYS[key] = torch.tensor(
                 values, dtype=torch.int64, device=self._keys.device).unsqueeze(1)
         return hit
 

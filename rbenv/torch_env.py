@@ -173,12 +173,14 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self._steps_since_check = 0
         self._st = None
         self._renderer = None
-        self._step_fn = self._physics
+        self._step_fn, self._restart_fn = self._physics, self._restart_all
         self._index_restart = self.device.type == "cpu"
         if validation.flag("compile", compile):
-            from rbenv.torch_compile import compile_step
+            from rbenv.torch_compile import CompiledStep
 
-            self._step_fn = compile_step(self)
+            self._step_fn = CompiledStep(self._physics)
+            self._restart_fn = CompiledStep(self._restart_all)
+            self._index_restart = False  # the compiled restart has fixed shapes
 
     # ------------------------------------------------------------------- helpers
 
@@ -387,13 +389,22 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                 terms = type(terms)(*(self._tensor(t).index_fill(0, idx, 0.0) for t in terms))
                 success = success.index_fill(0, idx, False)
             return st, obs, terms, success
-        start = self._draw_starts()
-        self._episodes = self._episodes + done.to(torch.int64)
+        if self.device.type == "cpu" and not bool(done.any()):  # a free read on a CPU
+            return st, obs, terms, success
+        st, obs, terms, success, self._episodes = self._restart_fn(
+            done, st, obs, terms, success, self._seeds, self._episodes)
+        return st, obs, terms, success
+
+    def _restart_all(self, done, st, obs, terms, success, seeds, episodes):
+        """The device path of :meth:`_restart`, a pure function (``compile=True`` compiles
+        it as a second graph): every row drawn, the ended ones selected."""
+        draws = TorchDraws(seeds, episodes, self.xp)
+        start = self._state(transition.start(self.plant, self.task, draws), draws.n)
         st = self._mux(done, start, st)
         first = self._stack(transition.observe(self.plant, self.task, start, None, self.xp))
         obs = torch.where(done.unsqueeze(1), first, obs)
         terms = type(terms)(*(torch.where(done, 0.0, self._tensor(t)) for t in terms))
-        return st, obs, terms, success & ~done
+        return st, obs, terms, success & ~done, episodes + done.to(torch.int64)
 
     def _actions(self, actions) -> torch.Tensor:
         """The action batch as a tensor of the env's dtype on its device; a named error for

@@ -219,8 +219,9 @@ def test_cuda_episodes_are_reproducible():  # pragma: no cover (needs a GPU)
 
 
 def test_compiled_step_is_one_graph_and_matches_eager():
-    """compile=True: one graph across steps and autoresets (no recompilation, no graph break:
-    fullgraph=True would raise and fall back with a warning), results as eager's."""
+    """compile=True: one graph for the step and one for the autoreset, across steps and
+    autoresets (no recompilation, no graph break: fullgraph=True would raise and fall back
+    with a warning), results as eager's."""
     kw = {"backend": "torch", "max_episode_steps": 3, "num_envs": 4}
     envs = [gym.make_vec(rbenv.DETUMBLE_ID, compile=c, **kw) for c in (True, False)]
     for e in envs:
@@ -230,9 +231,9 @@ def test_compiled_step_is_one_graph_and_matches_eager():
         outs = [e.step(a.clone()) for e in envs]
         np.testing.assert_allclose(outs[0][0].numpy(), outs[1][0].numpy(), rtol=0, atol=1e-12)
         assert outs[0][3].tolist() == outs[1][3].tolist()
-    step = envs[0].unwrapped._step_fn
-    assert step.fallback is None, step.fallback
-    assert step.compiles == 1
+    for fn in (envs[0].unwrapped._step_fn, envs[0].unwrapped._restart_fn):
+        assert fn.fallback is None, fn.fallback
+        assert fn.compiles == 1  # the step and the autoreset: one graph each
 
 
 def test_compile_falls_back_to_eager_with_a_warning(monkeypatch):
