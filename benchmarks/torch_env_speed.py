@@ -198,7 +198,7 @@ def float32_speed(device, n: int, rounds: int) -> list[dict]:
 
 
 def training(device, quick: bool) -> dict:
-    from rbenv.agents.torchrl_train import TorchRLConfig, train
+    from rbenv.agents.training.torchrl import TorchRLConfig, train
 
     cfg = TorchRLConfig(device=str(device), timesteps=16_384 if quick else 262_144,
                         num_envs=256 if quick else 1024, eval_episodes=20)

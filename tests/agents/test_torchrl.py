@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("torchrl", reason="torchrl is not installed (ecosystem extra)")
 import torch
 from rbenv.agents import cli
-from rbenv.agents.torchrl_train import RbenvTorchRLEnv
+from rbenv.agents.training.torchrl import RbenvTorchRLEnv
 from torchrl.envs.utils import check_env_specs
 
 
