@@ -304,8 +304,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             if len(seed) != n:
                 raise InvalidParameterError(
                     f"seed list must have num_envs = {n} entries, got {len(seed)}")
-            values = [validation.integer(f"seed[{i}]", int(s), low=0)
-                      for i, s in enumerate(seed)]
+            values = [validation.integer(f"seed[{i}]", s.item() if hasattr(s, "item") else s,
+                                         low=0) for i, s in enumerate(seed)]
         else:
             s = validation.integer("seed", seed, low=0)
             values = [s + i for i in range(n)]
