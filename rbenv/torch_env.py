@@ -50,11 +50,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import ENV_OPTIONS, TaskAdapter
+from rbenv.adapter import TaskAdapter
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
 from rbenv.env import unknown_options
+from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import State
 from rbenv.torch_draws import TorchDraws

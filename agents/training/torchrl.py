@@ -301,15 +301,14 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
     return float(success.float().mean())
 
 
-def train_from_args(args) -> int:
-    """``rbenv train --engine torchrl``'s entry (its flags: --device, --timesteps, --n-envs,
-    --seed, --scene, --env-id, --out, --threads)."""
-    cfg = TorchRLConfig(device=args.device, seed=args.seed, threads=args.threads or 1,
-                        **({"env_id": args.env_id} if args.env_id else {}),
-                        **({"scene": args.scene} if args.scene else {}),
-                        **({"timesteps": args.timesteps} if args.timesteps else {}),
-                        **({"num_envs": args.n_envs} if args.n_envs else {}))
-    if args.quick:
+def train_from_config(run, options) -> int:
+    """``rbenv train --engine torchrl``: the run's shared fields (task, scene, seed, timesteps,
+    out, threads, report_episodes) and its options (device, quick)."""
+    cfg = TorchRLConfig(env_id=run.env_id, scene=run.scene, device=options.device,
+                        seed=run.seed, threads=run.threads or 1,
+                        eval_episodes=run.report_episodes,
+                        **({"timesteps": run.timesteps} if run.timesteps else {}))
+    if options.quick:
         cfg.timesteps, cfg.num_envs, cfg.eval_episodes = 16_384, 256, 50
-    train(cfg, Path(args.out) if args.out else None)
+    train(cfg, Path(run.out) if run.out else None)
     return 0
