@@ -1,6 +1,6 @@
 """The ``rbenv`` command: train, evaluate and benchmark (also ``python -m rbenv.agents.cli``).
 
-    rbenv train [--engine sb3|rllib] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
+    rbenv train [--engine sb3|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
                 [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
                 [...]   (one flag per field of rbenv.agents.training.config; see --help)
     rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|policy.pt --episodes N --seed S
@@ -33,7 +33,13 @@ from rbenv.agents.policies.evaluate import (
     write_json,
 )
 from rbenv.agents.training import flags, rllib, suite, tune
-from rbenv.agents.training.config import RLlibOptions, SB3Options, TrainConfig
+from rbenv.agents.training.config import (
+    RLlibOptions,
+    RunConfig,
+    SB3Options,
+    TorchRLOptions,
+    TrainConfig,
+)
 from rbenv.agents.training.engine import add_run_arguments
 from rbenv.agents.training.engine import run as engine_run
 from rbenv.agents.training.rllib import RLlibConfig
@@ -76,7 +82,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "of the run's configuration (rbenv.agents.training.config), "
                                    "and its help is that field's docstring.")
     seen: set[str] = set()
-    for fields in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions):
+    for fields in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions, TorchRLOptions):
         flags.add_fields(t, fields, seen=seen)
     add_run_arguments(t)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
@@ -125,9 +131,11 @@ RESUME_OVERRIDES = ("out", "timesteps", "threads", "engine")
 def _train(args) -> int:
     """``rbenv train``: the given fields make the config of the chosen back end."""
     engine = getattr(args, "engine", "sb3")
-    config, options = (TrainConfig, SB3Options) if engine == "sb3" else (RLlibConfig, RLlibOptions)
+    config, options = {"sb3": (TrainConfig, SB3Options), "rllib": (RLlibConfig, RLlibOptions),
+                       "torchrl": (RunConfig, TorchRLOptions)}[engine]
     known = {f.name for cls in (config, options) for f in dataclasses.fields(cls)}
-    wrong = [flags.flag(k) for cls in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions)
+    wrong = [flags.flag(k) for cls in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions,
+                                       TorchRLOptions)
              for k in flags.given(args, cls) if k not in known]
     if wrong:
         raise SystemExit(f"rbenv train: {', '.join(sorted(set(wrong)))} not for --engine "
@@ -139,6 +147,10 @@ def _train(args) -> int:
             print(f"--resume continues the run with its saved config.json; ignoring "
                   f"{', '.join(ignored)}")
     cfg = config(**cfg_fields)
+    if engine == "torchrl":
+        from rbenv.agents.training import torchrl  # the ecosystem extra (torch, TorchRL)
+
+        return torchrl.train_from_config(cfg, TorchRLOptions(**flags.given(args, options)))
     if engine == "rllib":
         rllib.run(cfg, rllib.RLlibSession(**flags.given(args, options)), resume=args.resume,
                   force=args.force, report=not args.no_report)
@@ -204,15 +216,19 @@ def _bench(args) -> int:
                PYTHONPATH=os.pathsep.join(filter(None, [str(CHECKOUT),
                                                         os.environ.get("PYTHONPATH")])))
     print(f"results go to {out}")
-    return subprocess.run([sys.executable, "-m", f"benchmarks.{args.name}"], env=env,
-                          cwd=CHECKOUT, check=False).returncode
+    return subprocess.run([sys.executable, "-m", f"benchmarks.{args.name}", *args.extra],
+                          env=env, cwd=CHECKOUT, check=False).returncode
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run a command. From the command line (``argv`` None) a documented error (a
     ``ValueError`` subclass of :mod:`rbenv.core.errors`, such as a corrupt run file) is printed as
     ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra and args.command != "bench":
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    args.extra = extra  # rbenv bench NAME ARGS...: passed on to the benchmark
     command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
                "suite": _suite}[args.command]
     if argv is not None:

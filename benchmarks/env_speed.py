@@ -202,4 +202,9 @@ def main() -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    if "--backend" in sys.argv[1:]:  # rbenv bench env_speed --backend torch ...
+        from benchmarks import torch_env_speed
+
+        torch_env_speed.main(sys.argv[1:])
+    else:
+        main()

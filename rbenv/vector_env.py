@@ -68,16 +68,28 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
                                 "autoreset_mode": AutoresetMode.NEXT_STEP}
 
+    def __new__(cls, *args, backend="numpy", **kwargs):
+        """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
+        needs torch); "numpy" (default) this one."""
+        if backend == "torch":
+            from rbenv.torch_env import torch_vector_env_class
+
+            return torch_vector_env_class(cls)(*args, **kwargs)
+        if backend != "numpy":
+            raise InvalidParameterError(
+                f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
+        return super().__new__(cls)
+
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False,
-                 **unknown):
+                 backend="numpy", **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
-                             "render_mode"))
+                             "render_mode", "backend"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(

@@ -24,7 +24,7 @@ import rbenv
 C = TypeVar("C", bound="RunConfig")
 
 
-Engine = Literal["sb3", "rllib"]
+Engine = Literal["sb3", "rllib", "torchrl"]
 
 
 @dataclass
@@ -35,8 +35,9 @@ class RunConfig:
     """
 
     engine: Engine = "sb3"
-    """The training back end: sb3 (Stable-Baselines3), or rllib (PPO on Ray RLlib; the ray
-    extra)."""
+    """The training back end: sb3 (Stable-Baselines3), rllib (PPO on Ray RLlib; the ray
+    extra), or torchrl (TorchRL's PPO on the torch env, env and learner on --device; the
+    ecosystem extra; writes torchrl.json, no run-folder engine yet)."""
     algo: Algo = "ppo"
     """The algorithm. Its settings (hyperparameters, envs, budget, env options) come from the
     task's entry in rbenv/hyperparams, the files rl_zoo3 reads."""
@@ -228,3 +229,12 @@ class RLlibOptions(SessionOptions):
     """A running Ray cluster: 'auto' (started on this machine with ray start) or HOST:PORT of
     its head; unset: a private Ray instance on 127.0.0.1."""
 
+
+@dataclass(frozen=True)
+class TorchRLOptions:
+    """How one TorchRL training session runs (``--engine torchrl``)."""
+
+    device: str = "cpu"
+    """The torch device of env and learner (cpu, cuda, cuda:1, ...)."""
+    quick: bool = False
+    """A 16k-step smoke run with 50 held-out episodes (CI's form)."""

@@ -173,10 +173,10 @@ class Thrusters:
         health = None
         if self.fault_model == "random":
             u = draws.uniform_array("plant", self.n, offset=6)
-            health = (u.T >= self.p_reset).astype(float)
+            health = rows(xp).to_float(u.T >= self.p_reset)
         return {"health": health, "fuel_kg": zero, "impulse_Ns": zero,
-                "throttle": np.zeros((m, self.n)),
-                "pending": np.zeros((m, self.n)) if self.delay else None}
+                "throttle": rows(xp).zeros((m, self.n)),
+                "pending": rows(xp).zeros((m, self.n)) if self.delay else None}
 
     def observe(self, st, xp, sensed=None) -> tuple:
         """No observation of its own."""

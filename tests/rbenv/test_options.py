@@ -31,7 +31,7 @@ def _keywords(function, skip=()) -> dict:
 @pytest.mark.parametrize("constructor", [AttitudeEnv.__init__, AttitudeVectorEnv.__init__, build],
                          ids=["env", "vector_env", "tasks.build"])
 def test_constructors_take_exactly_the_declared_options_with_their_defaults(constructor):
-    extra = ("render_mode", "max_episode_steps", "autoreset_mode")
+    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend")  # backend: vector
     assert _keywords(constructor, skip=extra) == options.DEFAULTS
 
 

@@ -1,0 +1,454 @@
+"""A torch-native vector env: the same transition on (N,) tensors of one device.
+
+``gym.make_vec(ID, num_envs=N, backend="torch", device="cpu")`` (or ``"cuda"``; ``dtype``
+``"float64"`` by default, ``"float32"`` as an option) returns a :class:`TorchVectorEnv`, a
+``gymnasium.vector.VectorEnv`` whose ``step`` takes an (N, k) action tensor and returns
+tensors on its device: obs (N, d) in the env's dtype, reward (N,), terminated and truncated
+(N,) bool, and ``info``, a dict of (N,) tensors with a ``_key`` mask each, as the NumPy env.
+
+The physics is not restated: the plant, actuators, tasks and integrators of
+:mod:`rbenv.transition` run through the torch namespace (:mod:`rbenv.core.torch_backend`), and
+episode starts come from :mod:`rbenv.torch_draws`, the counter-based draws on the device.
+
+**Autoreset on the device.** SAME_STEP (default): a sub-env that ends returns its new
+episode's first observation; the last one is in ``info["final_obs"]``, an (N, d) tensor whose
+rows are valid where ``info["_final_obs"]`` is True, and ``info["final_info"]`` holds the
+last step's ``is_success`` alone (masked alike). On a CUDA (any non-CPU) device new
+episodes are drawn for every row and the ended ones selected with ``torch.where``: no index
+list, no host round trip. On a CPU, where a host read costs nothing, only the ended rows are
+drawn (by index), which is cheaper; the numbers are the same. DISABLED: nothing resets by
+itself; ``reset(options={"reset_mask": mask})`` with an (N,) bool tensor. NEXT_STEP is
+refused by name.
+
+**Seeding.** ``reset(seed=s)`` seeds sub-env i with s + i, as the NumPy env: on CPU in float64
+every episode equals the NumPy vector env's (and so the single env's with seed s + i) to
+round-off, for the same actions.
+
+**Divergence.** A step whose state leaves the floats, or whose action holds NaN, sets the
+sub-env's row of ``info["diverged"]`` and of :attr:`TorchVectorEnv.diverged` (sticky, an (N,)
+bool tensor); the step itself never reads a tensor on the host. The env raises the NumPy env's
+errors (:class:`rbenv.core.errors.NonFiniteError`, or the named NaN-action error) at its sync
+points: every ``check_every`` steps (default 1: the step that diverged raises, as the NumPy
+env), at ``reset()`` and at :meth:`TorchVectorEnv.check`. ``check_every=0`` checks only at
+reset and on request, for a device whose host syncs are costly.
+
+**Not supported yet** (refused by name at construction): the implicit integrators (midpoint,
+splitting), the desaturate task (its wheel-load start is NumPy row operations), the torque
+action mode (its allocators are NumPy/SciPy), domain randomization,
+per-step noise (sensor noise, disturbance noise, mid-episode thruster faults), rendering, the
+numba ``compiled`` kernels and NEXT_STEP autoreset.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import gymnasium as gym
+import numpy as np
+import torch
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from rbenv import transition
+from rbenv.adapter import TaskAdapter
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
+from rbenv.core.torch_backend import TorchNamespace
+from rbenv.env import unknown_options
+from rbenv.options import ENV_OPTIONS
+from rbenv.plant import NO_NOISE
+from rbenv.state import State
+from rbenv.torch_draws import TorchDraws
+
+__all__ = ["DTYPES", "TorchVectorEnv", "torch_vector_env_class"]
+
+DTYPES = {"float64": torch.float64, "float32": torch.float32}
+IMPLICIT = ("midpoint", "splitting")
+_COMPONENTS = ("c3", "c4", "cn")
+
+
+class DeferredTorchNamespace(TorchNamespace):
+    """The torch namespace with the step's host reads removed: ``any`` and ``isnan_any``
+    answer False without reading the device (the transition's divergence test, the action NaN
+    tests). The env computes those flags as tensors instead and raises at its sync points."""
+
+    @staticmethod
+    def any(x) -> bool:
+        return False
+
+    @staticmethod
+    def isnan_any(x) -> bool:
+        return False
+
+    def const(self, value):
+        """:meth:`TorchNamespace.const`; under ``torch.compile`` the NumPy constant is traced
+        as a tensor (the cache's ``id``/``dtype`` reads would break the graph)."""
+        if not torch.compiler.is_compiling() or not isinstance(value, np.ndarray):
+            return super().const(value)
+        t = torch.as_tensor(value, device=self.device)
+        return t.to(self.dtype) if t.is_floating_point() else t
+
+
+def _refuse(option: str, value, rule: str):
+    raise InvalidParameterError(
+        f"backend='torch' does not support {option}={value!r} yet: {rule}")
+
+
+def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
+    """Raise, naming the option and value, for what the torch backend cannot run yet."""
+    sc = plant.scene
+    if task.name == "desaturate":
+        _refuse("task", task.name, "its wheel-load start is drawn with NumPy row operations")
+    integrator = sc.physics.integrator
+    if integrator in IMPLICIT:
+        _refuse("integrator", integrator, "the implicit integrators (Newton iterations, "
+                "frame caches) are NumPy-only; pass integrator='rk4' (or another explicit one)")
+    if plant.action_mode == "torque":
+        _refuse("action_mode", "torque", "the thrust allocators are NumPy/SciPy; use "
+                "'throttle' or 'on_off'")
+    if plant.randomization is not None:
+        _refuse("randomize", True, "the per-episode model of domain randomization is NumPy; "
+                "pass randomize=False")
+    if plant.noisy:
+        _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
+                "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
+                "without it")
+    if autoreset_mode is AutoresetMode.NEXT_STEP:
+        _refuse("autoreset_mode", "NEXT_STEP", "use SAME_STEP (default) or DISABLED")
+    if render_mode is not None:
+        _refuse("render_mode", render_mode, "rendering reads the host; use the NumPy env")
+    if compiled:
+        _refuse("compiled", compiled, "the numba kernels are NumPy's; use compile=True for "
+                "torch.compile")
+
+
+class TorchVectorEnv(TaskAdapter, VectorEnv):
+    """``num_envs`` satellites stepped as torch tensors on ``device`` (see the module doc).
+
+    Options: those of :class:`rbenv.vector_env.AttitudeVectorEnv` (minus the unsupported ones,
+    refused by name) plus ``device`` (a torch device, default "cpu"), ``dtype`` ("float64" or
+    "float32"), ``compile`` (run the step under ``torch.compile``) and ``check_every`` (steps
+    between divergence checks on the host; 0: only at reset and :meth:`check`).
+    """
+
+    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
+                 substeps=None, action_mode="throttle", reward_weights=None,
+                 max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
+                 randomize=None, task_options=None, max_episode_steps=None,
+                 autoreset_mode=AutoresetMode.SAME_STEP, render_mode=None, compiled=False,
+                 device="cpu", dtype="float64", compile=False, check_every=1, **unknown):
+        from rbenv.vector_env import _autoreset_mode
+
+        if unknown:
+            unknown_options(type(self).__name__, unknown,
+                            (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
+                             "device", "dtype", "compile", "check_every", "backend"))
+        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
+        self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
+        if dtype not in DTYPES:
+            raise InvalidParameterError(f"dtype must be one of {sorted(DTYPES)}, got {dtype!r}")
+        self.device, self.dtype = torch.device(device), DTYPES[dtype]
+        self.xp = DeferredTorchNamespace(self.device, self.dtype)
+        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+        self.single_action_space, single_obs = self._setup(options, None, ())
+        check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
+        self.single_observation_space = gym.spaces.Box(-1.0, 1.0, single_obs.shape,
+                                                       np.dtype(dtype))
+        self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
+                         "render_fps": 1.0 / self.plant.control_dt}
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        steps = self.plant.scene.episode_steps
+        if max_episode_steps is not None:
+            steps = min(steps, validation.count("max_episode_steps", max_episode_steps,
+                                                high=2**31))
+        self._max_steps = steps
+        self.check_every = validation.integer("check_every", check_every, low=0)
+        n, dev = self.num_envs, self.device
+        self._seeds = None
+        self._episodes = torch.zeros(n, dtype=torch.int64, device=dev)
+        self._mask = torch.ones(n, dtype=torch.bool, device=dev)
+        self.diverged = torch.zeros(n, dtype=torch.bool, device=dev)
+        self._steps_since_check = 0
+        self._st = None
+        self._renderer = None
+        self._step_fn, self._restart_fn = self._physics, self._restart_all
+        self._index_restart = self.device.type == "cpu"
+        if validation.flag("compile", compile):
+            from rbenv.torch_compile import CompiledStep
+
+            self._step_fn = CompiledStep(self._physics)
+            self._restart_fn = CompiledStep(self._restart_all)
+            self._index_restart = False  # the compiled restart has fixed shapes
+
+    # ------------------------------------------------------------------- helpers
+
+    def _tensor(self, value, dtype=None, n=None) -> torch.Tensor:
+        """A value as an (n,)-leading tensor (n: num_envs by default) in the env's dtype (or
+        ``dtype``)."""
+        dtype = dtype or self.dtype
+        t = torch.as_tensor(value, device=self.device)
+        t = t.to(dtype) if t.dtype != dtype else t
+        return t.expand(n or self.num_envs).clone() if t.ndim == 0 else t
+
+    def _field(self, kind: str, value, n=None):
+        """One field of a batch state from its start value (:data:`rbenv.state.KINDS`), in
+        tensors of its own: a start may share one zero array between fields, and aliased
+        fields would make ``torch.compile`` guard on the aliasing (a recompilation)."""
+        if kind in _COMPONENTS:
+            return tuple(self._tensor(c, n=n).clone() for c in value)
+        if kind == "i":
+            return self._tensor(value, torch.int64, n).clone()
+        if kind == "obj":
+            raise InvalidParameterError("backend='torch' holds no per-episode model objects")
+        return self._tensor(value, n=n).clone()
+
+    def _state(self, start: dict, n=None) -> State:
+        st = State()
+        for name, kind in self._layout.kinds.items():
+            value = start.get(name)
+            setattr(st, name, None if value is None else self._field(kind, value, n))
+        return st
+
+    def _draw_starts(self, options=None, idx=None) -> State:
+        """A new episode for every sub-env, or for those in ``idx`` (an index tensor), from
+        their current seeds and episode counters."""
+        seeds, episodes = self._seeds, self._episodes
+        if idx is not None:
+            seeds, episodes = seeds[idx], episodes[idx]
+        draws = TorchDraws(seeds, episodes, self.xp)
+        rows = np.arange(self.num_envs) if options else None
+        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows),
+                           draws.n)
+
+    def _scatter(self, idx: torch.Tensor, new: State, old: State) -> State:
+        """Rows ``idx`` from ``new`` (a state of len(idx)), the others from ``old`` (a new
+        state: ``index_copy`` out of place)."""
+        out = State()
+        for name, kind in self._layout.kinds.items():
+            a, b = getattr(new, name), getattr(old, name)
+            if a is None or b is None:
+                value = b
+            elif kind in _COMPONENTS:
+                value = tuple(y.index_copy(0, idx, x) for x, y in zip(a, b, strict=True))
+            else:
+                value = b.index_copy(0, idx, a)
+            setattr(out, name, value)
+        return out
+
+    def _mux(self, mask: torch.Tensor, new: State, old: State) -> State:
+        """Rows of ``new`` where ``mask``, else of ``old`` (a new state; no in-place writes)."""
+        out = State()
+        col = mask.unsqueeze(1)
+        for name, kind in self._layout.kinds.items():
+            a, b = getattr(new, name), getattr(old, name)
+            if a is None or b is None:
+                value = b
+            elif kind in _COMPONENTS:
+                value = tuple(torch.where(mask, x, y) for x, y in zip(a, b, strict=True))
+            else:
+                value = torch.where(col if a.ndim == 2 else mask, a, b)
+            setattr(out, name, value)
+        return out
+
+    def _stack(self, comps: tuple, n=None) -> torch.Tensor:
+        return torch.stack([self._tensor(c, n=n) for c in comps], dim=1)
+
+    def _info(self, st, terms, success) -> dict:
+        values = transition.info(self.plant, self.task, st, terms, success, self.xp)
+        out = {}
+        for key, value in values.items():
+            out[key] = self._tensor(value) if not isinstance(value, torch.Tensor) or \
+                value.dtype.is_floating_point else value.expand(self.num_envs)
+            out["_" + key] = self._mask
+        return out
+
+    # ------------------------------------------------------------------- reset
+
+    def reset(self, *, seed=None, options=None):
+        """Reset all sub-envs, or those of ``options["reset_mask"]`` ((N,) bool tensor).
+
+        seed: an int (sub-env i gets s + i), a list of N ints, or None. A sync point: raises
+        for a divergence not yet reported.
+        """
+        self.check()
+        options = dict(options or {})
+        mask = self._reset_mask(options.pop("reset_mask", None))
+        seeds = self._seed_tensor(seed)
+        super().reset(seed=None if seeds is None else int(seeds[0]))
+        if seeds is not None:
+            self._seeds = seeds if self._seeds is None else torch.where(mask, seeds,
+                                                                        self._seeds)
+            self._episodes = torch.where(mask, 0, self._episodes)
+        elif self._seeds is None:
+            base = int(self.np_random.integers(2**62))
+            self._seeds = torch.arange(base, base + self.num_envs, dtype=torch.int64,
+                                       device=self.device)
+        start = self._draw_starts(options)
+        self._episodes = self._episodes + mask.to(torch.int64)
+        self._st = start if self._st is None else self._mux(mask, start, self._st)
+        self.diverged = torch.zeros_like(self.diverged)
+        self._done = torch.zeros_like(self._mask)
+        obs = self._stack(transition.observe(self.plant, self.task, self._st, None, self.xp))
+        zeros = torch.zeros(self.num_envs, dtype=self.dtype, device=self.device)
+        info = self._info(self._st, transition.zero_terms(self.task, zeros),
+                          torch.zeros_like(self._mask))
+        return obs, info
+
+    def _seed_tensor(self, seed):
+        if seed is None:
+            return None
+        n = self.num_envs
+        if isinstance(seed, (list, tuple, np.ndarray, torch.Tensor)):
+            if len(seed) != n:
+                raise InvalidParameterError(
+                    f"seed list must have num_envs = {n} entries, got {len(seed)}")
+            values = [validation.integer(f"seed[{i}]", s.item() if hasattr(s, "item") else s,
+                                         low=0) for i, s in enumerate(seed)]
+        else:
+            s = validation.integer("seed", seed, low=0)
+            values = [s + i for i in range(n)]
+        if max(values) >= 2**63:
+            raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
+                                        f"{max(values)}")
+        return torch.tensor(values, dtype=torch.int64, device=self.device)
+
+    def _reset_mask(self, mask) -> torch.Tensor:
+        if mask is None:
+            return self._mask
+        rule = f"options['reset_mask'] must be a torch bool tensor of shape ({self.num_envs},)"
+        if not isinstance(mask, torch.Tensor) or mask.dtype != torch.bool:
+            raise TypeError(f"{rule}, got {type(mask).__name__} "
+                            f"{getattr(mask, 'dtype', '')}")
+        if tuple(mask.shape) != (self.num_envs,):
+            raise InvalidParameterError(f"{rule}, got shape {tuple(mask.shape)}")
+        if self._st is None:
+            raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
+        return mask.to(self.device)
+
+    # ------------------------------------------------------------------- step
+
+    def _physics(self, st, action):
+        """The transition on the batch: (new state, obs (N, d), reward, terminated, truncated,
+        terms, success, diverged). No host reads (the step that ``compile=True`` compiles)."""
+        new, out = transition.step(self.plant, self.task, st, action, NO_NOISE, self.xp,
+                                   own_action=True)
+        diverged = out.diverged | torch.isnan(action).any(dim=1)
+        terminated = out.failure | (out.success & self.task.success_terminates)
+        truncated = new.steps >= self._max_steps
+        return (new, self._stack(out.obs), self._tensor(out.reward), terminated, truncated,
+                out.terms, out.success, diverged)
+
+    def step(self, actions):
+        """Step all sub-envs. actions: an (N, k) tensor (moved to the env's device)."""
+        st = self._st
+        if st is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        a = self._actions(actions)
+        if self.autoreset_mode is AutoresetMode.DISABLED and self._done.any():
+            raise gym.error.ResetNeeded(
+                "some sub-envs have ended; with autoreset_mode DISABLED reset them with "
+                "reset(options={'reset_mask': mask}) before the next step")
+        new, obs, reward, terminated, truncated, terms, success, diverged = \
+            self._step_fn(st, a.clone())
+        self.diverged = self.diverged | diverged
+        self._last = (new, a)
+        self._steps_since_check += 1
+        if self.check_every and self._steps_since_check >= self.check_every:
+            self.check()
+        done = terminated | truncated
+        extra = {}
+        if self.autoreset_mode is AutoresetMode.SAME_STEP:
+            extra = {"final_obs": obs, "_final_obs": done, "_final_info": done,
+                     "final_info": {"is_success": success, "_is_success": done}}
+            new, obs, terms, success = self._restart(done, new, obs, terms, success)
+        else:
+            self._done = done
+        self._st = new
+        info = self._info(new, terms, success)
+        info["diverged"] = diverged
+        info.update(extra)
+        return obs, reward, terminated, truncated, info
+
+    def _restart(self, done, st, obs, terms, success):
+        """SAME_STEP autoreset of the rows where ``done``: new episodes, their observations,
+        and zero terms and success there. On a CPU (``_index_restart``; host reads are free
+        there) only the ended rows are drawn, by index; elsewhere every row is drawn and the
+        ended ones selected by ``torch.where``, with no host read. The same numbers either way.
+        """
+        if self._index_restart:
+            idx = torch.nonzero(done).reshape(-1)
+            if idx.numel():
+                start = self._draw_starts(idx=idx)
+                self._episodes = self._episodes.index_add(0, idx, torch.ones_like(idx))
+                st = self._scatter(idx, start, st)
+                first = self._stack(transition.observe(self.plant, self.task, start, None,
+                                                       self.xp), idx.numel())
+                obs = obs.index_copy(0, idx, first)
+                terms = type(terms)(*(self._tensor(t).index_fill(0, idx, 0.0) for t in terms))
+                success = success.index_fill(0, idx, False)
+            return st, obs, terms, success
+        if self.device.type == "cpu" and not bool(done.any()):  # a free read on a CPU
+            return st, obs, terms, success
+        st, obs, terms, success, self._episodes = self._restart_fn(
+            done, st, obs, terms, success, self._seeds, self._episodes)
+        return st, obs, terms, success
+
+    def _restart_all(self, done, st, obs, terms, success, seeds, episodes):
+        """The device path of :meth:`_restart`, a pure function (``compile=True`` compiles
+        it as a second graph): every row drawn, the ended ones selected."""
+        draws = TorchDraws(seeds, episodes, self.xp)
+        start = self._state(transition.start(self.plant, self.task, draws), draws.n)
+        st = self._mux(done, start, st)
+        first = self._stack(transition.observe(self.plant, self.task, start, None, self.xp))
+        obs = torch.where(done.unsqueeze(1), first, obs)
+        terms = type(terms)(*(torch.where(done, 0.0, self._tensor(t)) for t in terms))
+        return st, obs, terms, success & ~done, episodes + done.to(torch.int64)
+
+    def _actions(self, actions) -> torch.Tensor:
+        """The action batch as a tensor of the env's dtype on its device; a named error for
+        anything else (the shape and the type are checked, values are clipped by the plant)."""
+        shape = self.action_space.shape
+        if not isinstance(actions, torch.Tensor):
+            raise TypeError(f"actions must be a torch tensor of shape {shape} on backend="
+                            f"'torch', got {type(actions).__name__}")
+        if tuple(actions.shape) != shape:
+            raise InvalidParameterError(f"actions must have shape {shape}, got "
+                                        f"{tuple(actions.shape)}")
+        if not (actions.dtype.is_floating_point or actions.dtype in (torch.int32,
+                                                                     torch.int64)):
+            raise TypeError(f"actions must be real numbers of shape {shape}, got dtype "
+                            f"{actions.dtype}")
+        return actions.detach().to(device=self.device, dtype=self.dtype)
+
+    def check(self) -> None:
+        """A sync point: raise the NumPy env's error if some sub-env has diverged since the
+        last reset (one host read of the sticky flag)."""
+        self._steps_since_check = 0
+        if self._st is None or not bool(self.diverged.any()):
+            return
+        i = int(torch.nonzero(self.diverged)[0, 0])
+        st, a = getattr(self, "_last", (self._st, None))
+        comps = tuple(float(c[i]) for c in st.q), tuple(float(c[i]) for c in st.omega_B)
+        if a is not None and bool(torch.isnan(a[i]).any()):
+            transition.raise_diverged(self.plant, st, a.cpu().numpy())
+        raise self.plant.divergence_error(*comps)
+
+    def render(self):
+        return None
+
+    def close_extras(self, **kwargs):
+        self._step_fn = None
+
+
+def torch_vector_env_class(base: type) -> type:
+    """The torch vector-env class for a task's NumPy vector-env class (same ``task_name``)."""
+    name = base.__name__.replace("VectorEnv", "TorchVectorEnv")
+    cls = globals().get(name)
+    if cls is None or cls.task_name != base.task_name:
+        cls = type(name, (TorchVectorEnv,), {"task_name": base.task_name,
+                                             "__module__": __name__, "__qualname__": name})
+        globals()[name] = cls
+    return cls
