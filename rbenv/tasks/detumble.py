@@ -149,19 +149,17 @@ class DetumbleV1(Detumble):
         """ω_B/L clipped (3), fine(ω, |ω|, ω_s) (3)."""
         return v1.rate_features(w, self.inv_rate_limit, self.success_rate, xp)
 
-    def psi(self, rate, xp):
-        """ψ(|ω|) on [0, L] (|ω| above the limit counts as the limit)."""
-        return v1.log_scale(xp.minimum(rate, self.rate_limit), self.success_rate,
-                            self.rate_limit, xp)
-
     def evaluate(self, st, effort, xp):
-        """v1 terms (error ψ(|ω|), progress on it), success, failure."""
-        psi_prev = self.psi(st.rate, xp)
+        """v1 terms (error ψ(|ω|) on [0, L], progress on it), success, failure."""
+        prev = xp.minimum(st.rate, self.rate_limit)
         rate, _, failure = self.measure(st, xp)
         success = st.hold >= self.hold_steps
-        psi = self.psi(rate, xp)
+        now = xp.minimum(rate, self.rate_limit)
+        L, w_s = self.rate_limit, self.success_rate
+        drop = v1.log_scale_drop(prev, now, w_s, L, xp)
+        psi = v1.log_scale(now, w_s, L, xp)
         st.rate = rate
-        return v1.terms(self.weights, psi_prev, psi, 0.0 * psi, effort, success, failure), \
+        return v1.terms(self.weights, drop, psi, 0.0 * psi, effort, success, failure), \
             success, failure
 
 

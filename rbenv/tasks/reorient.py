@@ -211,14 +211,15 @@ class ReorientV1(v1.V1Decode, Reorient):
 
     def evaluate(self, st, effort, xp):
         """v1 terms (error ψ(θ), rate ψ(|ω|), progress on ψ(θ)), success, failure."""
-        psi_prev = v1.log_scale(st.angle, self.success_angle, math.pi, xp)
+        prev = st.angle
         angle, rate, _, failure = self.measure(st, xp)
         success = st.hold >= self.hold_steps
+        drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
         psi = v1.log_scale(angle, self.success_angle, math.pi, xp)
         psi_rate = v1.log_scale(xp.minimum(rate, self.rate_limit), self.success_rate,
                                 self.rate_limit, xp)
         st.angle = angle
-        return v1.terms(self.weights, psi_prev, psi, psi_rate, effort, success, failure), \
+        return v1.terms(self.weights, drop, psi, psi_rate, effort, success, failure), \
             success, failure
 
 

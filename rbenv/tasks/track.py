@@ -279,13 +279,14 @@ class TrackV1(v1.V1Decode, Track):
     def evaluate(self, st, effort, xp):
         """v1 terms (error ψ(θ), rate ψ(|ω − ω_t|), progress on ψ(θ)); success is paid on
         the last step when the episode succeeds."""
-        psi_prev = v1.log_scale(st.angle, self.success_angle, math.pi, xp)
+        prev = st.angle
         angle, rate_err, _, failure, success = self.measure(st, xp)
+        drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
         psi = v1.log_scale(angle, self.success_angle, math.pi, xp)
         psi_rate = v1.log_scale(xp.minimum(rate_err, self.rate_limit), self.success_rate,
                                 self.rate_limit, xp)
         st.angle = angle
-        return v1.terms(self.weights, psi_prev, psi, psi_rate, effort, success, failure), \
+        return v1.terms(self.weights, drop, psi, psi_rate, effort, success, failure), \
             success, failure
 
 

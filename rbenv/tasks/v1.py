@@ -71,14 +71,21 @@ def log_scale(x, x_s: float, x_max: float, xp):
     return xp.log1p(x * (1.0 / x_s)) * (1.0 / math.log1p(x_max / x_s))
 
 
-def terms(wt: V1Weights, psi_prev, psi, psi_rate, effort, success, failure) -> V1Terms:
-    """The reward terms from the error's ψ before and after the step, the rate's ψ, the
-    actuators' effort (fraction of full rate) and the success/failure flags of the step."""
+def log_scale_drop(x_prev, x, x_s: float, x_max: float, xp):
+    """ψ(x_prev) − ψ(x), written as log1p((x_prev − x)/(x_s + x))/log(1 + x_max/x_s) so that
+    a small step is not the difference of two nearly equal logarithms (round-off)."""
+    return xp.log1p((x_prev - x) / (x_s + x)) * (1.0 / math.log1p(x_max / x_s))
+
+
+def terms(wt: V1Weights, drop, psi, psi_rate, effort, success, failure) -> V1Terms:
+    """The reward terms from the error's ψ drop over the step (:func:`log_scale_drop`) and ψ
+    after it, the rate's ψ, the actuators' effort (fraction of full rate) and the
+    success/failure flags of the step."""
     return tuple.__new__(V1Terms, (
         -wt.error * psi,
         -wt.rate * psi_rate,
         -wt.fuel * effort,
-        wt.progress * (psi_prev - psi),
+        wt.progress * drop,
         wt.success * success,
         -wt.failure * failure,
     ))

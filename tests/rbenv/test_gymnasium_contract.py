@@ -156,7 +156,10 @@ def test_vector_env_equal(env_id, scene, mode, quiet_scenes):
         assert data_equivalence(got_s, want_s, exact=True), f"{name}: {got} != {want}"
         assert got_f.keys() == want_f.keys(), name
         for path, value in got_f.items():
-            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-15,
+            # atol 1e-14: a reward term that differences the error over one step (v1's
+            # progress, rbenv.tasks.v1) carries the physics' ~1e-15 round-off (the xfail below)
+            # divided by a small step; everything else agrees to 1e-15.
+            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-14,
                                        err_msg=f"{name}: {path}")
         if name.startswith("step"):
             ended += int(np.sum(got[2] | got[3]))

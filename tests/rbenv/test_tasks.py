@@ -237,6 +237,6 @@ def test_a_task_is_one_module_and_one_registry_line():
         task = env.unwrapped.task
         assert rbenv.registry.get(env_id).task is type(task)
         assert isinstance(baseline(env, "pd"), (RateDamping, TrackingPD, WheelHoldPD)) or \
-            task.name == "reorient"
+            task.table_name() == "reorient"
     with pytest.raises(ValueError, match="bangbang"):
         baseline(gym.make(rbenv.DETUMBLE_ID), "bangbang")
