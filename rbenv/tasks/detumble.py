@@ -232,7 +232,7 @@ ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and rew
     ``ω_B / (ω_s + |ω|)`` (length 1/2 at the success rate ω_s).
 
     **Reward** (:mod:`rbenv.tasks.v1`; ``ψ(|ω|) = log(1 + |ω|/ω_s)/log(1 + L/ω_s)``): error
-    ``−0.1·ψ(|ω|)``, fuel ``−1.0·Σu_iF_i/ΣF_i``, progress ``10·(ψ_prev − ψ)``, success
+    ``−0.1·ψ(|ω|)``, fuel ``−2.0·Σu_iF_i/ΣF_i``, progress ``10·(ψ_prev − ψ)``, success
     ``+20`` once when the hold completes, failure ``−25`` on loss of control (the ``rate``
     term has weight 0; ``reward_weights`` overrides these). Nothing is paid for staying below
     the success rate without completing the hold.

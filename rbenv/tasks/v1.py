@@ -49,7 +49,7 @@ class V1Weights(Weights):
 
     error: float = 0.1
     rate: float = 0.05
-    fuel: float = 1.0
+    fuel: float = 2.0
     progress: float = 10.0
     success: float = 20.0
     failure: float = 25.0
