@@ -39,6 +39,10 @@ for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC,
               reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1):
     registry.register(_spec)
 
+from rbenv import goal  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
+
+goal.register()
+
 from rbenv.env import (  # made by the registrations above
     SatelliteDetumbleEnv,
     SatelliteReorientEnv,
