@@ -125,9 +125,11 @@ class Detumble(Task):
 
 @dataclass(frozen=True)
 class DetumbleV1Weights(v1.V1Weights):
-    """v1 weights of detumble: the error is the rate itself, so no separate rate term."""
+    """v1 weights of detumble: the error is the rate itself, so no separate rate term; fuel
+    2.0 (PPO: 100 %, 0.43 g against the PD's 0.67 g; benchmarks/results/rl/v1)."""
 
     rate: float = 0.0
+    fuel: float = 2.0
 
 
 @dataclass(frozen=True, eq=False)

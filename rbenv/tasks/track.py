@@ -381,7 +381,7 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
     (clipped) and over ``ω_s + |ω_B − ω_t_B|``; the target's rate over the rate limit.
 
     **Reward** (:mod:`rbenv.tasks.v1`): error ``−0.1·ψ(θ)``, rate ``−0.05·ψ(|ω − ω_t|)``, fuel
-    ``−2.0·Σu_iF_i/ΣF_i``, progress ``10·(ψ(θ_prev) − ψ(θ))``, success ``+20`` once, on the last
+    ``−1.5·Σu_iF_i/ΣF_i``, progress ``10·(ψ(θ_prev) − ψ(θ))``, success ``+20`` once, on the last
     step of a successful episode, failure ``−25``. v0's per-step on-target pay is gone: the
     steep error term pays for staying on target, and success for doing so long enough.
 
