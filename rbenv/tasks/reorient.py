@@ -312,7 +312,7 @@ ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and re
     ``ω_B / rate_limit`` clipped; ``ω_B / (ω_s + |ω|)`` (length 1/2 at the success rate).
 
     **Reward** (:mod:`rbenv.tasks.v1`; ``ψ(x) = log(1 + x/x_s)/log(1 + x_max/x_s)``): error
-    ``−0.1·ψ(θ)``, rate ``−0.05·ψ(|ω|)``, fuel ``−1.5·Σu_iF_i/ΣF_i``, progress
+    ``−0.1·ψ(θ)``, rate ``−0.05·ψ(|ω|)``, fuel ``−1.0·Σu_iF_i/ΣF_i``, progress
     ``10·(ψ(θ_prev) − ψ(θ))``, success ``+20`` once when the hold completes, failure ``−25``
     on loss of control (``reward_weights`` overrides these). Nothing is paid for staying inside
     the thresholds: the episode's success pays more than any hovering can.
