@@ -43,6 +43,7 @@ class FloatNamespace:
     cos = staticmethod(math.cos)
     tan = staticmethod(math.tan)
     atan2 = staticmethod(math.atan2)
+    log1p = staticmethod(math.log1p)
     isfinite = staticmethod(math.isfinite)
 
     @staticmethod
@@ -102,6 +103,7 @@ class NumpyNamespace:
     cos = staticmethod(np.cos)
     tan = staticmethod(np.tan)
     atan2 = staticmethod(np.arctan2)
+    log1p = staticmethod(np.log1p)
     isfinite = staticmethod(np.isfinite)
     where = staticmethod(np.where)
     clip = staticmethod(np.clip)

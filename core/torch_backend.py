@@ -39,6 +39,7 @@ class TorchNamespace:
     cos = staticmethod(torch.cos)
     tan = staticmethod(torch.tan)
     atan2 = staticmethod(torch.atan2)
+    log1p = staticmethod(torch.log1p)
     isfinite = staticmethod(torch.isfinite)
     abs = staticmethod(torch.abs)
     sign = staticmethod(torch.sign)

@@ -35,8 +35,13 @@ from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
 # The shipped tasks: one registry entry each (rbenv.registry). A new task adds its line here.
-for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC):
+for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC,
+              reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1):
     registry.register(_spec)
+
+from rbenv import goal  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
+
+goal.register()
 
 from rbenv.env import (  # made by the registrations above
     SatelliteDetumbleEnv,

@@ -42,21 +42,11 @@ from rbenv.agents.training.report import Trained, write_report
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
+from rbenv.hyperparams import _rllib
 
 ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every Ray process
-# RLlib PPO settings matched to `rbenv train`'s SB3 PPO: 4096 steps per update in minibatches
-# of 1024, 5 epochs, the same learning rate, discount, clipping and gradient-norm limit; the
-# value loss unclipped.
-DEFAULT_HYPERPARAMS = {"train_batch_size_per_learner": 4096, "minibatch_size": 1024,
-                       "num_epochs": 5, "lr": 5e-4, "gamma": 0.99, "lambda_": 0.95,
-                       "clip_param": 0.2, "vf_clip_param": 1e6, "entropy_coeff": 0.0,
-                       "grad_clip": 0.5, "grad_clip_by": "global_norm"}
-# Separate policy and value networks; a state-independent log std (set to log_std_init at the
-# start, SB3's -1.0): with a state-dependent one the policy learns to act through its noise and
-# its mean (the deterministic policy) fails.
-DEFAULT_TIMESTEPS = 2_000_000
-DEFAULT_MODEL = {"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh",
-                 "vf_share_layers": False, "free_log_std": True}
+# RLlib PPO settings: the task entry's shipped PPO settings (rbenv.hyperparams.tuned, the one
+# source) in RLlib's names (rbenv.hyperparams._rllib), so both engines train with one set.
 
 
 @dataclass
@@ -69,9 +59,9 @@ class RLlibConfig(RunConfig):
     envs_per_runner: int = 64
     """Satellites in each runner's native vector env."""
     model: dict = field(default_factory=dict)
-    """RLlib DefaultModelConfig options as a JSON object, over rbenv's (DEFAULT_MODEL)."""
-    log_std_init: float = -1.0
-    """Initial log standard deviation of the Gaussian policy."""
+    """RLlib DefaultModelConfig options as a JSON object, over the shipped PPO network's."""
+    log_std_init: float | None = None
+    """Initial log standard deviation of the Gaussian policy (None: the shipped PPO's)."""
     normalize_reward: bool = True
     """Scale rewards by the running spread of the return (as SB3's VecNormalize does)."""
 
@@ -84,8 +74,12 @@ class RLlibConfig(RunConfig):
         return f"runs/rllib-{self.algo}-{self.scene}-seed{self.seed}"
 
     def resolve(self) -> RLlibConfig:
+        # A named error for an id it does not hold; its PPO settings are the defaults.
+        shipped = rbenv.registry.get(self.env_id).hyperparams["ppo"]
         if self.timesteps is None:
-            self.timesteps = DEFAULT_TIMESTEPS
+            self.timesteps = shipped["n_timesteps"]
+        if self.log_std_init is None:
+            self.log_std_init = _rllib.ppo_log_std_init(shipped)
         if self.algo != "ppo":
             raise InvalidParameterError(f"algo must be 'ppo' with engine rllib, got "
                                         f"{self.algo!r}")
@@ -93,8 +87,8 @@ class RLlibConfig(RunConfig):
         self.check_counts(("env_runners",), minimum=0)
         self.check_dicts(("model",))
         super().resolve()
-        self.hyperparams = {**DEFAULT_HYPERPARAMS, **self.hyperparams}
-        self.model = {**DEFAULT_MODEL, **self.model}
+        self.hyperparams = {**_rllib.ppo(shipped), **self.hyperparams}
+        self.model = {**_rllib.ppo_model(shipped), **self.model}
         return self
 
 

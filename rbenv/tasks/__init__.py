@@ -27,7 +27,7 @@ def build(task_name: str, scene=None, *, integrator=None, control_dt=None, subst
     spec = registry.by_name(task_name)
     if scene is None:
         scene = spec.default_scene or DEFAULT_SCENE
-    scene = load_scene(scene).for_task(task_name)
+    scene = load_scene(scene).for_task(spec.task.table_name())
     plant = make_plant(scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
                        action_mode=action_mode, allocator=allocator, randomize=randomize,
                        compiled=compiled)

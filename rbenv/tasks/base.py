@@ -84,8 +84,14 @@ class Task:
     moving_target: ClassVar[bool] = False  # advance_target is called every step
     start_slots: ClassVar[int] = 32  # slots of stream "task" that sample_start draws (a hint)
     WeightsType: ClassVar[type] = Weights
+    scene_table: ClassVar[str | None] = None  # the scene's [tasks.<x>] table read (None: name)
 
     plant: object  # rbenv.plant.Plant
+
+    @classmethod
+    def table_name(cls) -> str:
+        """The scene table ``[tasks.<x>]`` this task reads (a later version reads its v0's)."""
+        return cls.scene_table or cls.name
 
     # ------------------------------------------------------------------- observation layout
 
@@ -177,7 +183,8 @@ def option_table(scene, task_cls, task_options) -> dict:
     """A task's options: its class defaults, then the scene's ``[tasks.<name>]`` table, then
     ``task_options`` (a dict); unknown names are errors."""
     merged = dict(task_cls.OPTIONS)
-    for where, table in ((f"scene [tasks.{task_cls.name}]", scene.tasks.get(task_cls.name)),
+    table_name = task_cls.table_name()
+    for where, table in ((f"scene [tasks.{table_name}]", scene.tasks.get(table_name)),
                          ("task_options", task_options)):
         if table is None:
             continue

@@ -16,6 +16,7 @@ from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
+from rbenv.tasks import v1
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
 
 
@@ -94,13 +95,18 @@ class Detumble(Task):
         clip = xp.clip
         return (clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0), clip(w[2] * s, -1.0, 1.0))
 
-    def evaluate(self, st, effort, xp):
-        wt = self.weights
+    def measure(self, st, xp) -> tuple:
+        """After a step: (|ω| in rad/s, inside the threshold, failure: |ω| > rate limit); sets
+        the hold counter (not ``st.rate``, which still holds the rate before the step)."""
         w = st.omega_B
         rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         inside = rate < self.success_rate
         st.hold = xp.where(inside, st.hold + 1, 0)
-        failure = rate > self.rate_limit
+        return rate, inside, rate > self.rate_limit
+
+    def evaluate(self, st, effort, xp):
+        wt = self.weights
+        rate, inside, failure = self.measure(st, xp)
         inv_limit = self.inv_rate_limit
         terms = tuple.__new__(DetumbleTerms, (
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
@@ -117,17 +123,71 @@ class Detumble(Task):
         return {"rate_dps": st.rate * _DEG}
 
 
+@dataclass(frozen=True)
+class DetumbleV1Weights(v1.V1Weights):
+    """v1 weights of detumble: the error is the rate itself, so no separate rate term; fuel
+    2.0 (PPO: 100 %, 0.43 g against the PD's 0.67 g; benchmarks/results/rl/v1)."""
+
+    rate: float = 0.0
+    fuel: float = 2.0
+
+
+@dataclass(frozen=True, eq=False)
+class DetumbleV1(Detumble):
+    """Detumble, v1 observation and reward (:mod:`rbenv.tasks.v1`); same episodes as v0."""
+
+    name: ClassVar[str] = "detumble_v1"
+    scene_table: ClassVar[str] = "detumble"
+    observation_structure: ClassVar[dict] = {"omega_B": 3, "omega_fine": 3}
+    Terms: ClassVar[type] = v1.V1Terms
+    WeightsType: ClassVar[type] = DetumbleV1Weights
+
+    weights: DetumbleV1Weights = DetumbleV1Weights()
+
+    def observation_scale(self) -> dict:
+        return {"omega_B": self.rate_limit, "omega_fine": 1.0}
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """ω_B/L clipped (3), fine(ω, |ω|, ω_s) (3)."""
+        return v1.rate_features(w, self.inv_rate_limit, self.success_rate, xp)
+
+    def evaluate(self, st, effort, xp):
+        """v1 terms (error ψ(|ω|) on [0, L], progress on it), success, failure."""
+        prev = xp.minimum(st.rate, self.rate_limit)
+        rate, _, failure = self.measure(st, xp)
+        success = st.hold >= self.hold_steps
+        now = xp.minimum(rate, self.rate_limit)
+        L, w_s = self.rate_limit, self.success_rate
+        drop = v1.log_scale_drop(prev, now, w_s, L, xp)
+        psi = v1.log_scale(now, w_s, L, xp)
+        st.rate = rate
+        return v1.terms(self.weights, drop, psi, 0.0 * psi, effort, success, failure), \
+            success, failure
+
+
 def make_detumble(plant, reward_weights=None, max_initial_angle_deg=None,
                   max_initial_rate=None, task_options=None) -> Detumble:
     """The detumble task on ``plant``; ``max_initial_rate`` (rad/s) overrides the top rate."""
-    opts = option_table(plant.scene, Detumble, task_options)
+    return _make(Detumble, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
+
+
+def make_detumble_v1(plant, reward_weights=None, max_initial_angle_deg=None,
+                     max_initial_rate=None, task_options=None) -> DetumbleV1:
+    """The v1 detumble task (options as :func:`make_detumble`)."""
+    return _make(DetumbleV1, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
+
+
+def _make(cls, plant, reward_weights, max_initial_angle_deg, max_initial_rate, task_options):
+    opts = option_table(plant.scene, cls, task_options)
     limit = plant.scene.episode.rate_limit
     lo = validation.number("tasks.detumble.min_rate_fraction", opts["min_rate_fraction"],
                            low=0.0, high=1.0, high_open=True)
     hi = validation.number("tasks.detumble.max_rate_fraction", opts["max_rate_fraction"],
                            low=lo, high=1.0, high_open=True)
-    task = Detumble(plant=plant, weights=DetumbleWeights.from_mapping(reward_weights),
-                    min_rate=lo * limit, max_rate=hi * limit)
+    task = cls(plant=plant, weights=cls.WeightsType.from_mapping(reward_weights),
+               min_rate=lo * limit, max_rate=hi * limit)
     return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
 
@@ -162,3 +222,25 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_de
                            "bdot": "rbenv.agents.baselines.controllers:BDot"},
                 budget={"ppo": 300_000, "sac": 100_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
+
+ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and reward).
+
+    Made by ``gym.make("rbenv/SatelliteDetumble-v1", **kwargs)``; arguments, action, episode
+    end, info and reset options as ``rbenv/SatelliteDetumble-v0``, and the same episodes for
+    the same seed.
+
+    **Observation** ``Box(-1, 1, (6,), float32)``, ``observation_structure``
+    ``{"omega_B": 3, "omega_fine": 3}``: ``ω_B / rate_limit`` clipped, then
+    ``ω_B / (ω_s + |ω|)`` (length 1/2 at the success rate ω_s).
+
+    **Reward** (:mod:`rbenv.tasks.v1`; ``ψ(|ω|) = log(1 + |ω|/ω_s)/log(1 + L/ω_s)``): error
+    ``−0.1·ψ(|ω|)``, fuel ``−2.0·Σu_iF_i/ΣF_i``, progress ``10·(ψ_prev − ψ)``, success
+    ``+20`` once when the hold completes, failure ``−25`` on loss of control (the ``rate``
+    term has weight 0; ``reward_weights`` overrides these). Nothing is paid for staying below
+    the success rate without completing the hold.
+
+    """ + v1.version_history("rbenv/SatelliteDetumble-v0")
+
+SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteDetumble-v1", task=DetumbleV1, make=make_detumble_v1,
+                   baselines=SPEC.baselines, budget={"ppo": 300_000, "sac": 100_000},
+                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

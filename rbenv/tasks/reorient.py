@@ -18,6 +18,7 @@ from rbenv.core import validation
 from rbenv.hyperparams import tuned
 from rbenv.options import options_table
 from rbenv.registry import TaskSpec
+from rbenv.tasks import v1
 from rbenv.tasks.base import (
     _DEG,
     Task,
@@ -143,15 +144,20 @@ class Reorient(Task):
         return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
                 clip(w[2] * s, -1.0, 1.0))
 
-    def evaluate(self, st, effort, xp):
-        """Reward terms, success (thresholds held) and failure (|ω| > rate limit)."""
-        wt = self.weights
+    def measure(self, st, xp) -> tuple:
+        """Set q_err, rate and the hold counter of ``st`` after a step; returns (angle (rad),
+        rate (rad/s), inside the thresholds, failure: |ω| > rate limit)."""
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
         w = st.omega_B
         st.rate = rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         inside = (angle < self.success_angle) & (rate < self.success_rate)
         st.hold = xp.where(inside, st.hold + 1, 0)
-        failure = rate > self.rate_limit
+        return angle, rate, inside, rate > self.rate_limit
+
+    def evaluate(self, st, effort, xp):
+        """Reward terms, success (thresholds held) and failure (|ω| > rate limit)."""
+        wt = self.weights
+        angle, rate, inside, failure = self.measure(st, xp)
         terms = tuple.__new__(ReorientTerms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate * self.inv_rate_limit, 1.0),
@@ -179,13 +185,63 @@ class Reorient(Task):
         return st.angle
 
 
+@dataclass(frozen=True, eq=False)
+class ReorientV1(v1.V1Decode, Reorient):
+    """Reorient, v1 observation and reward (:mod:`rbenv.tasks.v1`); same episodes as v0."""
+
+    name: ClassVar[str] = "reorient_v1"
+    scene_table: ClassVar[str] = "reorient"
+    observation_structure: ClassVar[dict] = {"rot6_err": 6, "attitude_fine": 3, "omega_B": 3,
+                                             "omega_fine": 3}
+    Terms: ClassVar[type] = v1.V1Terms
+    WeightsType: ClassVar[type] = v1.V1Weights
+
+    weights: v1.V1Weights = v1.V1Weights()
+
+    def observation_scale(self) -> dict:
+        return {"rot6_err": 1.0, "attitude_fine": 1.0, "omega_B": self.rate_limit,
+                "omega_fine": 1.0}
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """rot6(q_err) (6), fine(θ·axis, θ, θ_s) (3), ω_B/L clipped (3), fine(ω, |ω|, ω_s) (3)."""
+        e, angle = (st.q_err, st.angle) if q is st.q else \
+            error_quaternion(st.q_target_conj, q, xp)
+        return (*v1.rot6(e), *v1.axis_angle_fine(e, angle, self.success_angle, xp),
+                *v1.rate_features(w, self.inv_rate_limit, self.success_rate, xp))
+
+    def evaluate(self, st, effort, xp):
+        """v1 terms (error ψ(θ), rate ψ(|ω|), progress on ψ(θ)), success, failure."""
+        prev = st.angle
+        angle, rate, _, failure = self.measure(st, xp)
+        success = st.hold >= self.hold_steps
+        drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
+        psi = v1.log_scale(angle, self.success_angle, math.pi, xp)
+        psi_rate = v1.log_scale(xp.minimum(rate, self.rate_limit), self.success_rate,
+                                self.rate_limit, xp)
+        st.angle = angle
+        return v1.terms(self.weights, drop, psi, psi_rate, effort, success, failure), \
+            success, failure
+
+
+def _make(cls, plant, reward_weights, max_initial_angle_deg, max_initial_rate, task_options):
+    option_table(plant.scene, cls, task_options)  # it takes none: unknown names raise
+    angle, rate = initial_ranges(plant.scene, max_initial_angle_deg, max_initial_rate)
+    return cls(plant=plant, weights=cls.WeightsType.from_mapping(reward_weights),
+               max_initial_angle=angle, max_initial_rate=rate)
+
+
 def make_reorient(plant, reward_weights=None, max_initial_angle_deg=None,
                   max_initial_rate=None, task_options=None) -> Reorient:
     """The reorientation task on ``plant`` with validated options (None: scene defaults)."""
-    option_table(plant.scene, Reorient, task_options)  # it takes none: unknown names raise
-    angle, rate = initial_ranges(plant.scene, max_initial_angle_deg, max_initial_rate)
-    return Reorient(plant=plant, weights=ReorientWeights.from_mapping(reward_weights),
-                    max_initial_angle=angle, max_initial_rate=rate)
+    return _make(Reorient, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
+
+
+def make_reorient_v1(plant, reward_weights=None, max_initial_angle_deg=None,
+                     max_initial_rate=None, task_options=None) -> ReorientV1:
+    """The v1 reorientation task (options as :func:`make_reorient`)."""
+    return _make(ReorientV1, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
 
 
 ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thrusters.
@@ -242,3 +298,27 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_re
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
+
+ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and reward).
+
+    Made by ``gym.make("rbenv/SatelliteReorient-v1", **kwargs)``; arguments, action, episode
+    end, info and reset options as ``rbenv/SatelliteReorient-v0`` (:class:`SatelliteReorientEnv`),
+    and the same episodes for the same seed.
+
+    **Observation** ``Box(-1, 1, (15,), float32)``, ``observation_structure``
+    ``{"rot6_err": 6, "attitude_fine": 3, "omega_B": 3, "omega_fine": 3}``: the first two
+    columns of the error rotation R(q_target* ⊗ q) (continuous in the attitude); the error as
+    an axis-angle vector θ·axis scaled by 1/(θ_s + θ) (length 1/2 at the 1° threshold θ_s);
+    ``ω_B / rate_limit`` clipped; ``ω_B / (ω_s + |ω|)`` (length 1/2 at the success rate).
+
+    **Reward** (:mod:`rbenv.tasks.v1`; ``ψ(x) = log(1 + x/x_s)/log(1 + x_max/x_s)``): error
+    ``−0.1·ψ(θ)``, rate ``−0.05·ψ(|ω|)``, fuel ``−1.0·Σu_iF_i/ΣF_i``, progress
+    ``10·(ψ(θ_prev) − ψ(θ))``, success ``+20`` once when the hold completes, failure ``−25``
+    on loss of control (``reward_weights`` overrides these). Nothing is paid for staying inside
+    the thresholds: the episode's success pays more than any hovering can.
+
+    """ + v1.version_history("rbenv/SatelliteReorient-v0")
+
+SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=make_reorient_v1,
+                   baselines=SPEC.baselines, budget={"ppo": 1_000_000, "sac": 200_000},
+                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

@@ -35,6 +35,7 @@ from rbenv.core.errors import InvalidParameterError
 from rbenv.core.quaternion import from_matrix
 from rbenv.hyperparams import tuned
 from rbenv.registry import TaskSpec
+from rbenv.tasks import v1
 from rbenv.tasks.base import (
     _DEG,
     Task,
@@ -176,8 +177,11 @@ class Track(Task):
         return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
                 *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
 
-    def evaluate(self, st, effort, xp):
-        wt = self.weights
+    def measure(self, st, xp) -> tuple:
+        """After a step: set q_err, ω_t_B, rate error, rate and the on-target count of ``st``
+        (not ``st.angle``, still the error before the step); returns (angle (rad), rate error
+        (rad/s), on target, failure: |ω| > rate limit, success: the last step, on target
+        long enough)."""
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
         w = st.omega_B
         st.omega_target_B = w_t = k.rotate_inverse(st.q, st.omega_target_W)
@@ -186,7 +190,14 @@ class Track(Task):
         st.rate = rate = xp.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         on = (angle < self.success_angle) & (rate_err < self.success_rate)
         st.on_steps = st.on_steps + (on & (st.steps > self.scored_from))
-        failure = rate > self.rate_limit
+        scored = self.episode_steps - self.scored_from
+        success = (st.steps >= self.episode_steps) & \
+            (st.on_steps >= self.min_track_fraction * scored)
+        return angle, rate_err, on, rate > self.rate_limit, success
+
+    def evaluate(self, st, effort, xp):
+        wt = self.weights
+        angle, rate_err, on, failure, success = self.measure(st, xp)
         terms = tuple.__new__(TrackTerms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
@@ -196,9 +207,6 @@ class Track(Task):
             -wt.failure * failure,
         ))
         st.angle = angle
-        scored = self.episode_steps - self.scored_from
-        success = (st.steps >= self.episode_steps) & \
-            (st.on_steps >= self.min_track_fraction * scored)
         return terms, success, failure
 
     def info(self, st, xp) -> dict:
@@ -234,10 +242,78 @@ def lvlh_target(orbit) -> tuple:
             tuple(float(c) for c in orbit.mean_motion * h_hat))
 
 
+@dataclass(frozen=True)
+class TrackV1Weights(v1.V1Weights):
+    """v1 weights of track: fuel 2.5 (PPO, 1 M steps: 100 % at 1.22x the PD's propellant;
+    2.0: 100 % at 1.38x; 3.0: 97.6 % at 0.82x; benchmarks/results/rl/v1)."""
+
+    fuel: float = 2.5
+
+
+@dataclass(frozen=True, eq=False)
+class TrackV1(v1.V1Decode, Track):
+    """Track, v1 observation and reward (:mod:`rbenv.tasks.v1`); same episodes as v0."""
+
+    name: ClassVar[str] = "track_v1"
+    scene_table: ClassVar[str] = "track"
+    observation_structure: ClassVar[dict] = {"rot6_err": 6, "attitude_fine": 3,
+                                             "omega_err_B": 3, "omega_err_fine": 3,
+                                             "omega_target_B": 3}
+    Terms: ClassVar[type] = v1.V1Terms
+    WeightsType: ClassVar[type] = TrackV1Weights
+
+    weights: TrackV1Weights = TrackV1Weights()
+
+    def observation_scale(self) -> dict:
+        L = self.rate_limit
+        return {"rot6_err": 1.0, "attitude_fine": 1.0, "omega_err_B": L, "omega_err_fine": 1.0,
+                "omega_target_B": L}
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """rot6(q_err) (6), fine(θ·axis) (3), (ω − ω_t_B)/L clipped (3), fine(ω − ω_t_B) (3),
+        ω_t_B/L clipped (3)."""
+        if q is st.q:
+            e, angle, w_t = st.q_err, st.angle, st.omega_target_B
+        else:  # a noisy measurement
+            e, angle = error_quaternion(st.q_target_conj, q, xp)
+            w_t = k.rotate_inverse(q, st.omega_target_W)
+        s = self.inv_rate_limit
+        clip = xp.clip
+        e_w = (w[0] - w_t[0], w[1] - w_t[1], w[2] - w_t[2])
+        return (*v1.rot6(e), *v1.axis_angle_fine(e, angle, self.success_angle, xp),
+                *v1.rate_features(e_w, s, self.success_rate, xp),
+                *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
+
+    def evaluate(self, st, effort, xp):
+        """v1 terms (error ψ(θ), rate ψ(|ω − ω_t|), progress on ψ(θ)); success is paid on
+        the last step when the episode succeeds."""
+        prev = st.angle
+        angle, rate_err, _, failure, success = self.measure(st, xp)
+        drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
+        psi = v1.log_scale(angle, self.success_angle, math.pi, xp)
+        psi_rate = v1.log_scale(xp.minimum(rate_err, self.rate_limit), self.success_rate,
+                                self.rate_limit, xp)
+        st.angle = angle
+        return v1.terms(self.weights, drop, psi, psi_rate, effort, success, failure), \
+            success, failure
+
+
 def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initial_rate=None,
                task_options=None) -> Track:
     """The tracking task on ``plant`` (options: scene ``[tasks.track]``, then task_options)."""
-    opts = option_table(plant.scene, Track, task_options)
+    return _make(Track, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
+
+
+def make_track_v1(plant, reward_weights=None, max_initial_angle_deg=None,
+                  max_initial_rate=None, task_options=None) -> TrackV1:
+    """The v1 tracking task (options as :func:`make_track`)."""
+    return _make(TrackV1, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options)
+
+
+def _make(cls, plant, reward_weights, max_initial_angle_deg, max_initial_rate, task_options):
+    opts = option_table(plant.scene, cls, task_options)
     limit = plant.scene.episode.rate_limit
     frac = validation.number("tasks.track.max_target_rate_fraction",
                              opts["max_target_rate_fraction"], low=0.0, high=0.9)
@@ -255,10 +331,10 @@ def make_track(plant, reward_weights=None, max_initial_angle_deg=None, max_initi
                 f"orbit, but scene {plant.scene.name!r} has none ([orbit] model = 'none'); "
                 "give it an [orbit] table or use target = 'random'")
         nadir = lvlh_target(orbit)
-    task = Track(plant=plant, weights=TrackWeights.from_mapping(reward_weights),
-                 max_target_rate=frac * limit, max_initial_angle=math.radians(deg),
-                 max_initial_rate=plant.scene.episode.max_initial_rate,
-                 min_track_fraction=share, nadir=nadir)
+    task = cls(plant=plant, weights=cls.WeightsType.from_mapping(reward_weights),
+               max_target_rate=frac * limit, max_initial_angle=math.radians(deg),
+               max_initial_rate=plant.scene.episode.max_initial_rate,
+               min_track_fraction=share, nadir=nadir)
     return task.with_initial_ranges(max_initial_angle_deg, max_initial_rate)
 
 
@@ -299,3 +375,26 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
                 baselines={"pd": "rbenv.agents.baselines.controllers:TrackingPD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
+
+ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observation and reward).
+
+    Made by ``gym.make("rbenv/SatelliteTrack-v1", **kwargs)``; arguments, action, episode end,
+    success, info and reset options as ``rbenv/SatelliteTrack-v0``, and the same episodes for
+    the same seed.
+
+    **Observation** ``Box(-1, 1, (18,), float32)``, ``observation_structure``
+    ``{"rot6_err": 6, "attitude_fine": 3, "omega_err_B": 3, "omega_err_fine": 3,
+    "omega_target_B": 3}``: two columns of the error rotation to the moving target; the
+    axis-angle error scaled by 1/(θ_s + θ); the rate error ``ω_B − ω_t_B`` over the rate limit
+    (clipped) and over ``ω_s + |ω_B − ω_t_B|``; the target's rate over the rate limit.
+
+    **Reward** (:mod:`rbenv.tasks.v1`): error ``−0.1·ψ(θ)``, rate ``−0.05·ψ(|ω − ω_t|)``, fuel
+    ``−2.5·Σu_iF_i/ΣF_i``, progress ``10·(ψ(θ_prev) − ψ(θ))``, success ``+20`` once, on the last
+    step of a successful episode, failure ``−25``. v0's per-step on-target pay is gone: the
+    steep error term pays for staying on target, and success for doing so long enough.
+
+    """ + v1.version_history("rbenv/SatelliteTrack-v0")
+
+SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteTrack-v1", task=TrackV1, make=make_track_v1,
+                   baselines=SPEC.baselines, budget={"ppo": 1_000_000, "sac": 200_000},
+                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

@@ -156,7 +156,10 @@ def test_vector_env_equal(env_id, scene, mode, quiet_scenes):
         assert data_equivalence(got_s, want_s, exact=True), f"{name}: {got} != {want}"
         assert got_f.keys() == want_f.keys(), name
         for path, value in got_f.items():
-            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-15,
+            # atol 1e-14: a reward term that differences the error over one step (v1's
+            # progress, rbenv.tasks.v1) carries the physics' ~1e-15 round-off (the xfail below)
+            # divided by a small step; everything else agrees to 1e-15.
+            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-14,
                                        err_msg=f"{name}: {path}")
         if name.startswith("step"):
             ended += int(np.sum(got[2] | got[3]))
@@ -280,6 +283,8 @@ def test_action_space_seeding_is_deterministic():
 def test_all_env_api(env_id, scene):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        # v0 ids have a v1: Gymnasium's registry calls them out of date (its convention).
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
         env = gym.make(env_id, scene=scene).unwrapped
         check_env(env, skip_render_check=True)
         env.close()
@@ -292,6 +297,8 @@ def test_all_env_api(env_id, scene):
 def test_all_env_passive_env_checker(env_id, scene):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        # v0 ids have a v1: Gymnasium's registry calls them out of date (its convention).
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
         env = gym.make(env_id, scene=scene)
         env.reset(seed=0)
         env.step(env.action_space.sample())

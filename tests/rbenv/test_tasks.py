@@ -26,6 +26,8 @@ def test_new_tasks_pass_both_checkers_without_warnings(env_id, scene):
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # v0 ids have a v1: Gymnasium's registry calls them out of date (its convention).
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
         check_env(gym.make(env_id, scene=scene).unwrapped, skip_render_check=True)
         sb3_checker.check_env(gym.make(env_id, scene=scene).unwrapped)
 
@@ -35,6 +37,8 @@ def test_torque_mode_and_rendering_work_for_new_tasks(env_id):
     pytest.importorskip("pygame")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # v0 ids have a v1: Gymnasium's registry calls them out of date (its convention).
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
         check_env(gym.make(env_id, action_mode="torque", render_mode="rgb_array").unwrapped)
     env = gym.make(env_id, render_mode="rgb_array")
     env.reset(seed=0)
@@ -233,6 +237,6 @@ def test_a_task_is_one_module_and_one_registry_line():
         task = env.unwrapped.task
         assert rbenv.registry.get(env_id).task is type(task)
         assert isinstance(baseline(env, "pd"), (RateDamping, TrackingPD, WheelHoldPD)) or \
-            task.name == "reorient"
+            task.table_name() == "reorient"
     with pytest.raises(ValueError, match="bangbang"):
         baseline(gym.make(rbenv.DETUMBLE_ID), "bangbang")

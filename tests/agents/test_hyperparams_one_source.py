@@ -1,0 +1,79 @@
+"""PPO's settings have one source, rbenv.hyperparams.tuned (the task registry points at it):
+`rbenv train` (SB3), `rbenv train --engine rllib`, the RL Zoo file and the SAC ablation's PPO
+row read it; none keeps a copy (issue 21 item 2)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import rbenv
+from rbenv.hyperparams import tuned
+
+ROOT = Path(__file__).resolve().parents[2]
+# Settings only PPO has, under SB3's and RLlib's names; the readers that train nothing else
+# must not hold the shared ones either (the SAC ablation keeps its own off-policy variants).
+PPO_ONLY = {"n_epochs", "num_epochs", "gae_lambda", "lambda_", "clip_range", "clip_param",
+            "minibatch_size", "train_batch_size_per_learner", "fcnet_hiddens"}
+SHARED = {"learning_rate", "lr", "ent_coef", "entropy_coeff", "log_std_init"}
+READERS = {"agents/training/config.py": PPO_ONLY | SHARED,
+           "agents/training/sb3.py": PPO_ONLY | SHARED,
+           "agents/training/rllib.py": PPO_ONLY | SHARED,
+           "benchmarks/rl/sac_ablation.py": PPO_ONLY}
+
+
+def _literal_keys(tree: ast.AST, keys: set) -> set:
+    """PPO keys given a number (or a list of numbers) in a dict literal or a keyword."""
+    found = set()
+    for node in ast.walk(tree):
+        pairs = []
+        if isinstance(node, ast.Dict):
+            pairs = [(k.value, v) for k, v in zip(node.keys, node.values, strict=True)
+                     if isinstance(k, ast.Constant)]
+        elif isinstance(node, ast.Call):
+            pairs = [(kw.arg, kw.value) for kw in node.keywords]
+        for key, value in pairs:
+            if key in keys and _is_number(value):
+                found.add(key)
+    return found
+
+
+def _is_number(node) -> bool:
+    if isinstance(node, ast.UnaryOp):
+        node = node.operand
+    if isinstance(node, ast.List):
+        return bool(node.elts) and all(_is_number(e) for e in node.elts)
+    return isinstance(node, ast.Constant) and isinstance(node.value, int | float) \
+        and not isinstance(node.value, bool)
+
+
+@pytest.mark.parametrize("path", list(READERS))
+def test_readers_hold_no_ppo_numbers_and_import_the_source(path):
+    tree = ast.parse((ROOT / path).read_text())
+    assert _literal_keys(tree, READERS[path]) == set(), f"{path} restates PPO settings"
+    if path.endswith("sb3.py"):  # it takes its settings from the config (config.py)
+        return
+    imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert imported & {"rbenv.hyperparams", "rbenv.hyperparams.ppo", "rbenv.registry"} or \
+        "rbenv.registry" in (ROOT / path).read_text()
+
+
+def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
+    """Change tuned.PPO in place: SB3's and RLlib's defaults follow (they read, not copy)."""
+    from rbenv.agents.training.config import shipped_settings
+    from rbenv.agents.training.rllib import RLlibConfig
+
+    monkeypatch.setitem(tuned.PPO, "learning_rate", 1.234e-4)
+    monkeypatch.setitem(tuned.PPO, "n_epochs", 7)
+    for env_id in (rbenv.ENV_ID, "rbenv/SatelliteReorient-v1"):
+        assert rbenv.registry.get(env_id).hyperparams["ppo"] is tuned.PPO
+        assert shipped_settings("ppo", env_id)["learning_rate"] == 1.234e-4
+        cfg = RLlibConfig(env_id=env_id).resolve()
+        assert (cfg.hyperparams["lr"], cfg.hyperparams["num_epochs"]) == (1.234e-4, 7)
+        assert cfg.hyperparams["train_batch_size_per_learner"] == \
+            tuned.PPO["n_envs"] * tuned.PPO["n_steps"]
+        assert cfg.model["fcnet_hiddens"] == tuned.PPO["policy_kwargs"]["net_arch"]
+        assert cfg.log_std_init == tuned.PPO["policy_kwargs"]["log_std_init"]
+    assert rbenv.registry.zoo_hyperparams("ppo")[rbenv.ENV_ID]["n_epochs"] == 7
