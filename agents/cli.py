@@ -220,15 +220,22 @@ def _bench(args) -> int:
                           env=env, cwd=CHECKOUT, check=False).returncode
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run a command. From the command line (``argv`` None) a documented error (a
-    ``ValueError`` subclass of :mod:`rbenv.core.errors`, such as a corrupt run file) is printed as
-    ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
+def parse(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line's arguments; ``rbenv bench NAME ARGS...`` keeps ARGS for the benchmark
+    (``args.extra``), any other command refuses unknown arguments."""
     parser = _parser()
     args, extra = parser.parse_known_args(argv)
     if extra and args.command != "bench":
         parser.error(f"unrecognized arguments: {' '.join(extra)}")
-    args.extra = extra  # rbenv bench NAME ARGS...: passed on to the benchmark
+    args.extra = extra
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run a command. From the command line (``argv`` None) a documented error (a
+    ``ValueError`` subclass of :mod:`rbenv.core.errors`, such as a corrupt run file) is printed as
+    ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
+    args = parse(argv)
     command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
                "suite": _suite}[args.command]
     if argv is not None:
