@@ -104,8 +104,12 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
         model.learn(remaining, callback=CallbackList(callbacks), reset_num_timesteps=done == 0)
     steps = int(model.num_timesteps)
     latest = runfolder.latest_checkpoint(ckpt_dir)
-    if latest is None or latest["timesteps"] != steps:
-        save_checkpoint(model, ckpt_dir, steps, clock.total())  # a longer resume continues here
+    # A checkpoint that the callback wrote at the last step of this session holds the weights
+    # from before the update that followed it (SB3 trains after a rollout's callbacks, at the
+    # same num_timesteps), so it is written again: checkpoint <steps> is the final model, and
+    # a longer resume continues from the trained weights.
+    if remaining or latest is None or latest["timesteps"] != steps:
+        save_checkpoint(model, ckpt_dir, steps, clock.total())
     weights.save_model(model, out / runfolder.FINAL_MODEL)
     atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
     env.close()

@@ -63,6 +63,21 @@ def test_save_load_round_trip_gives_identical_deterministic_actions(run_dir):
     assert np.array_equal(again, actions)
 
 
+def test_the_checkpoint_at_the_last_step_is_the_final_model(run_dir):
+    """The callback checkpoints step 2048 before PPO's last update; the run must end with
+    checkpoint 2048 holding the final weights, or selecting "the checkpoint at 2048" (the suite)
+    and loading the final model give different policies for the same step count."""
+    ckpt = latest_checkpoint(run_dir / "checkpoints")
+    assert ckpt["timesteps"] == 2048
+    final = weights.load_model(run_dir / "policy.pt").policy.state_dict()
+    at_end = weights.load_model(run_dir / "checkpoints" / ckpt["model"]).policy.state_dict()
+    assert final.keys() == at_end.keys()
+    assert all(torch.equal(final[k], at_end[k]) for k in final)
+    with np.load(run_dir / "obs_stats.npz") as a, np.load(run_dir / "checkpoints" /
+                                                           ckpt["stats"]) as b:
+        assert all(np.array_equal(a[k], b[k]) for k in a.files)
+
+
 def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
     from rbenv.agents.policies.sb3 import expected_throttle
 
