@@ -227,7 +227,8 @@ ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and rew
 
     Made by ``gym.make("rbenv/SatelliteDetumble-v1", **kwargs)``; arguments, action, episode
     end, info and reset options as ``rbenv/SatelliteDetumble-v0``, and the same episodes for
-    the same seed.
+    the same seed; ``task_options`` as v0's (``min_rate_fraction``, ``max_rate_fraction``,
+    read from the scene's ``[tasks.detumble]`` table).
 
     **Observation** ``Box(-1, 1, (6,), float32)``, ``observation_structure``
     ``{"omega_B": 3, "omega_fine": 3}``: ``ω_B / rate_limit`` clipped, then

@@ -380,7 +380,9 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
 
     Made by ``gym.make("rbenv/SatelliteTrack-v1", **kwargs)``; arguments, action, episode end,
     success, info and reset options as ``rbenv/SatelliteTrack-v0``, and the same episodes for
-    the same seed.
+    the same seed; ``task_options`` as v0's (``max_target_rate_fraction``,
+    ``max_initial_angle_deg``, ``min_track_fraction``, ``target``, read from the scene's
+    ``[tasks.track]`` table).
 
     **Observation** ``Box(-1, 1, (18,), float32)``, ``observation_structure``
     ``{"rot6_err": 6, "attitude_fine": 3, "omega_err_B": 3, "omega_err_fine": 3,
