@@ -72,6 +72,14 @@ class TaskAdapter:
         return (gym.spaces.Box(-1.0, 1.0, self.plant.action_shape, np.float32),
                 gym.spaces.Box(-1.0, 1.0, (size,), np.float32))
 
+    def _episode_steps(self, max_episode_steps) -> int:
+        """Steps per episode for a vector env: the scene's, or fewer (``max_episode_steps``)."""
+        steps = self.plant.scene.episode_steps
+        if max_episode_steps is not None:
+            steps = min(steps, validation.count("max_episode_steps", max_episode_steps,
+                                                high=2**31))
+        return steps
+
     @property
     def scene(self):
         """The :class:`rbenv.Scene` in use (after option overrides)."""

@@ -160,11 +160,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        steps = self.plant.scene.episode_steps
-        if max_episode_steps is not None:
-            steps = min(steps, validation.count("max_episode_steps", max_episode_steps,
-                                                high=2**31))
-        self._max_steps = steps
+        self._max_steps = self._episode_steps(max_episode_steps)
         self.check_every = validation.integer("check_every", check_every, low=0)
         n, dev = self.num_envs, self.device
         self._seeds = None
