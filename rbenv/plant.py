@@ -380,7 +380,6 @@ class Plant:
         return out
 
 
-
 NO_NOISE = StepNoise(None, None, None)
 
 

@@ -34,15 +34,18 @@ def build(task_name: str, scene=None, *, integrator=None, control_dt=None, subst
     task = spec.make(plant, reward_weights=reward_weights,
                      max_initial_angle_deg=max_initial_angle_deg,
                      max_initial_rate=max_initial_rate, task_options=task_options)
-    check_other_task_tables(plant, task_name)
+    check_other_task_tables(plant, spec.task.table_name())
     return plant, task
 
 
-def check_other_task_tables(plant: Plant, task_name: str) -> None:
+def check_other_task_tables(plant: Plant, own_table: str) -> None:
     """Check the scene's option tables of the other tasks too (``[tasks.<other>]``), with
     their own makers: a bad value there fails when any env is made on the scene, not only
-    when that task's is."""
-    names = {spec.name for spec in registry.specs()}
-    for other in plant.scene.tasks:
-        if other != task_name and other in names:
-            registry.by_name(other).make(make_plant(plant.scene.for_task(other)))
+    when that task's is. ``own_table``: the table the env's task has read already (a v1 task
+    reads its v0's)."""
+    makers: dict = {}
+    for spec in registry.specs():
+        makers.setdefault(spec.task.table_name(), spec.make)
+    for table in plant.scene.tasks:
+        if table != own_table and table in makers:
+            makers[table](make_plant(plant.scene.for_task(table)))
