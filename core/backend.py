@@ -31,19 +31,51 @@ import math
 
 import numpy as np
 
-__all__ = ["FLOAT", "NUMPY", "namespace"]
+__all__ = ["FLOAT", "NUMPY", "matmul", "namespace"]
+
+
+def _numpy_scalar(ufunc):
+    """``ufunc`` on Python floats, returning a Python float: NumPy's value, bit for bit.
+
+    NumPy gives a scalar the same value as the same number inside an array of any length
+    (tests/core/test_backend.py checks it), so FLOAT and NUMPY agree to the bit.
+    """
+    def f(*args: float) -> float:
+        return float(ufunc(*args))
+
+    f.__name__ = f.__qualname__ = ufunc.__name__
+    return f
+
+
+def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` for 2-d a (m, n) and b (n, p), each entry the same bits whatever m and p.
+
+    NumPy hands a single row or column to BLAS's matrix–vector product and anything larger to
+    its matrix–matrix product, which add the n terms in different orders. A single row (or
+    column) is therefore multiplied as two equal ones, so that one satellite's wrench is, to the
+    bit, one sub-env's of a batch.
+    """
+    if a.shape[0] == 1:
+        return (np.concatenate((a, a)) @ b)[:1]
+    if b.shape[1] == 1:
+        return (a @ np.concatenate((b, b), axis=1))[:, :1]
+    return a @ b
 
 
 class FloatNamespace:
     """Array-API names over Python floats (bools for comparisons)."""
 
     name = "float"
-    sqrt = staticmethod(math.sqrt)
-    sin = staticmethod(math.sin)
-    cos = staticmethod(math.cos)
-    tan = staticmethod(math.tan)
-    atan2 = staticmethod(math.atan2)
-    log1p = staticmethod(math.log1p)
+    sqrt = staticmethod(math.sqrt)  # correctly rounded in libm and NumPy alike
+    # The transcendental functions are NumPy's, not libm's: on some CPUs (AVX-512) NumPy
+    # evaluates them with its own SIMD code, which differs from libm in the last bit, and one
+    # satellite must step exactly as one sub-env of a batch (`_numpy_scalar`).
+    sin = staticmethod(_numpy_scalar(np.sin))
+    cos = staticmethod(_numpy_scalar(np.cos))
+    tan = staticmethod(_numpy_scalar(np.tan))
+    atan2 = staticmethod(_numpy_scalar(np.arctan2))
+    log1p = staticmethod(_numpy_scalar(np.log1p))
+    power = staticmethod(_numpy_scalar(np.power))
     isfinite = staticmethod(math.isfinite)
 
     @staticmethod
@@ -104,6 +136,7 @@ class NumpyNamespace:
     tan = staticmethod(np.tan)
     atan2 = staticmethod(np.arctan2)
     log1p = staticmethod(np.log1p)
+    power = staticmethod(np.power)
     isfinite = staticmethod(np.isfinite)
     where = staticmethod(np.where)
     clip = staticmethod(np.clip)
@@ -136,6 +169,7 @@ class NumpyNamespace:
     # Row operations (per-actuator rows: (N, n), or a single satellite's (n,)).
     expand_dims = staticmethod(np.expand_dims)
     einsum = staticmethod(np.einsum)
+    matmul = staticmethod(matmul)
     abs = staticmethod(np.abs)
     sign = staticmethod(np.sign)
 

@@ -188,26 +188,66 @@ def _newton(body, m, x, h, hw=None):
         # Column j of the Jacobian: e_j − ½h (x × I⁻¹e_j − I⁻¹x × e_j).
         cols = [k.add(_E[j], k.add(k.cross(x, inv_cols[j]), k.cross(v, _E[j]), -1.0), -s)
                 for j in range(3)]
-        x = k.add(x, k.solve3(*cols, r), -1.0)
+        step = k.add(x, k.solve3(*cols, r), -1.0)
+        # An entry that has converged stays at the iterate it converged at, as it would alone:
+        # a sub-env's root never depends on its neighbours in the batch.
+        if np.ndim(ok) != 0:
+            step = tuple(np.where(ok, a, b) for a, b in zip(x, step, strict=True))
+        x = step
     r, _ = _residual(body, m, x, h, hw)
     return x, k.dot(r, r) <= 256.0 * tol2
 
 
-def _continuation(body, m, h, hw, h_int=None):
-    """Solve by continuation in h: Newton at h/K, 2h/K, …, h, each from the previous root.
+def _first_pieces(hw: float) -> int:
+    """Continuation's first step count K: the smallest power of two ≥ 2 with h·|ω|/K ≤ 1."""
+    return 2 ** max(1, int(np.ceil(np.log2(max(float(hw), 1.0)))))
 
-    K is the smallest power of two with h·|ω|/K ≤ 1, doubled until every entry converges.
-    """
-    pieces = 2 ** max(1, int(np.ceil(np.log2(max(float(np.max(hw)), 1.0)))))
+
+def _continue(body, m, h, pieces: int, h_int):
+    """Newton at h/K, 2h/K, …, h (K = ``pieces``), each from the previous root; (x, ok)."""
+    x, ok = m, True
+    for j in range(1, pieces + 1):
+        x, okj = _newton(body, m, x, h * j / pieces, h_int)
+        ok = ok & okj
+    return x, ok
+
+
+def _continuation(body, m, h, hw, h_int=None):
+    """Solve one body by continuation in h: K = :func:`_first_pieces`, doubled until Newton
+    converges at every one of the K steps; None past ``_MAX_CONTINUATION``."""
+    pieces = _first_pieces(hw)
     while pieces <= _MAX_CONTINUATION:
-        x, ok = m, True
-        for j in range(1, pieces + 1):
-            x, okj = _newton(body, m, x, h * j / pieces, h_int)
-            ok = ok & okj
-        if _all(ok):
+        x, ok = _continue(body, m, h, pieces, h_int)
+        if ok:
             return x
         pieces *= 2
     return None
+
+
+def _continuation_batch(body, m, h, hw, h_int=None):
+    """:func:`_continuation` for each entry of (n,) components, as that entry would run alone.
+
+    Entries with the same K run together; an entry keeps the first root it converges to, and
+    only those that fail go on to 2K. NaN components where even the largest K fails.
+    """
+    n = hw.shape[0]
+    out = tuple(np.full(n, np.nan) for _ in range(3))
+    pieces = np.array([_first_pieces(v) for v in hw.tolist()])  # the few hard entries only
+    todo = np.ones(n, bool)
+    while todo.any():
+        for count in np.unique(pieces[todo]).tolist():
+            sel = np.flatnonzero(todo & (pieces == count))
+            if count > _MAX_CONTINUATION:
+                todo[sel] = False
+                continue
+            h_sel = None if h_int is None else tuple(c[sel] for c in h_int)
+            x, ok = _continue(body, tuple(c[sel] for c in m), h, count, h_sel)
+            ok = np.broadcast_to(ok, sel.shape)
+            for c, xc in zip(out, x, strict=True):
+                c[sel[ok]] = np.broadcast_to(xc, sel.shape)[ok]
+            todo[sel[ok]] = False
+            pieces[sel[~ok]] *= 2
+    return out
 
 
 def _solve_midpoint(body, m, h, h_int=None):
@@ -235,9 +275,9 @@ def _solve_midpoint(body, m, h, h_int=None):
     sub = tuple(np.broadcast_to(c, redo.shape)[redo] for c in m)
     h_sub = None if h_int is None else tuple(np.broadcast_to(c, redo.shape)[redo]
                                              for c in h_int)
-    xs = _continuation(body, sub, h, hw[redo], h_sub)
+    xs = _continuation_batch(body, sub, h, hw[redo], h_sub)
     out = tuple(np.array(np.broadcast_to(c, redo.shape), dtype=float) for c in x)
-    for c, cs in zip(out, xs if xs is not None else (np.nan,) * 3, strict=True):
+    for c, cs in zip(out, xs, strict=True):
         c[redo] = cs
     return out
 

@@ -40,10 +40,12 @@ class TorchNamespace:
     tan = staticmethod(torch.tan)
     atan2 = staticmethod(torch.atan2)
     log1p = staticmethod(torch.log1p)
+    power = staticmethod(torch.pow)
     isfinite = staticmethod(torch.isfinite)
     abs = staticmethod(torch.abs)
     sign = staticmethod(torch.sign)
     einsum = staticmethod(torch.einsum)
+    matmul = staticmethod(torch.matmul)
 
     @staticmethod
     def where(cond, a, b):

@@ -49,6 +49,7 @@ import numpy as np
 from scipy.optimize import linprog, lsq_linear, nnls
 
 from rbenv.core import validation as check
+from rbenv.core.backend import matmul
 from rbenv.core.errors import InvalidParameterError, describe
 
 __all__ = [
@@ -317,7 +318,7 @@ class PseudoInverseAllocator(_AllocatorBase):
             object.__setattr__(self, name, arr)
 
     def _allocate(self, tau: np.ndarray) -> np.ndarray:
-        u = tau @ self._pinv_T
+        u = matmul(tau, self._pinv_T)
         if u.shape[0] == 0:
             return u
         t = (u * self._neg_inv_shift).max(axis=1)

@@ -162,8 +162,25 @@ def _perturbed_inertia(inertia: np.ndarray, scale: np.ndarray, rotvec: np.ndarra
     """
     J = 0.5 * np.trace(inertia) * np.eye(3) - inertia
     R = quaternion.to_matrix(quaternion.from_rotation_vector(rotvec))
-    J_new = R @ (scale[:, :, None] * J * scale[:, None, :]) @ np.swapaxes(R, -1, -2)
-    return np.trace(J_new, axis1=1, axis2=2)[:, None, None] * np.eye(3) - J_new
+    J_new = _similar(R, scale[:, :, None] * J * scale[:, None, :])
+    J_new = 0.5 * (J_new + np.swapaxes(J_new, -1, -2))  # as RigidBody stores it (one episode)
+    trace = J_new[:, 0, 0] + J_new[:, 1, 1] + J_new[:, 2, 2]
+    return trace[:, None, None] * np.eye(3) - J_new
+
+
+def _similar(R: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``R S Rᵀ`` for (N, 3, 3) stacks, each sum written out in one order.
+
+    A stacked ``@`` takes another BLAS path for one matrix than for several, so an episode's
+    inertia would depend on how many sub-envs restart with it.
+    """
+    RS = [[R[:, i, 0] * S[:, 0, j] + R[:, i, 1] * S[:, 1, j] + R[:, i, 2] * S[:, 2, j]
+           for j in range(3)] for i in range(3)]
+    out = np.empty_like(S)
+    for i in range(3):
+        for j in range(3):
+            out[:, i, j] = RS[i][0] * R[:, j, 0] + RS[i][1] * R[:, j, 1] + RS[i][2] * R[:, j, 2]
+    return out
 
 
 def _tilted(directions: np.ndarray, normals: np.ndarray, angle: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 
 from rbenv.actuators.base import Contribution, nan_action_error
 from rbenv.core import validation
-from rbenv.core.backend import FLOAT, NUMPY, rows
+from rbenv.core.backend import FLOAT, NUMPY, matmul, rows
 from rbenv.scene import G0
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
@@ -133,13 +133,17 @@ class Thrusters:
         if st.health is not None or st.pending is not None:
             u = self._faults_and_delay(st, u, noise.faults, rows(xp))
         st.throttle = u
-        matrix = self.action_matrix if st.model is None else st.model.action_matrix
-        if xp is FLOAT:
-            parts = (u @ matrix).tolist()  # a list of floats: the kernels index it alike
-        elif matrix.ndim == 2:
-            parts = tuple(rows(xp).const(matrix).T @ u.T)
-        else:  # per-sub-env matrices (domain randomization): (N, n) × (N, n, k)
-            parts = tuple(rows(xp).einsum("ni,nik->kn", u, matrix))
+        # Each product is taken as the batch takes it, so that one satellite's wrench equals
+        # one sub-env's to the bit (matmul: BLAS's gemm for both; einsum: NumPy's own loop).
+        if st.model is None:  # the scene's matrix, shared by every sub-env
+            if xp is FLOAT:  # a list of floats: the kernels index it alike
+                parts = matmul(self.action_matrix.T, u[:, None])[:, 0].tolist()
+            else:
+                parts = tuple(rows(xp).matmul(rows(xp).const(self.action_matrix).T, u.T))
+        elif xp is FLOAT:  # this episode's matrix (domain randomization, delays)
+            parts = np.einsum("i,ik->k", u, st.model.action_matrix).tolist()
+        else:  # per-sub-env matrices: (N, n) × (N, n, k)
+            parts = tuple(rows(xp).einsum("ni,nik->kn", u, st.model.action_matrix))
         thrust = parts[3]
         impulse = thrust * self.control_dt
         st.impulse_Ns = st.impulse_Ns + impulse

@@ -224,7 +224,7 @@ def restricted_haar_angle(u, max_angle: float, xp=None):
 
         xp = namespace(u)
     t = u * (max_angle - math.sin(max_angle))
-    theta = xp.minimum((6.0 * t) ** (1.0 / 3.0), max_angle)
+    theta = xp.minimum(xp.power(6.0 * t, 1.0 / 3.0), max_angle)
     for _ in range(12):
         slope = xp.maximum(1.0 - xp.cos(theta), 1e-300)
         theta = xp.clip(theta - (theta - xp.sin(theta) - t) / slope, 0.0, max_angle)

@@ -90,21 +90,6 @@ def _sync(env_id, scene, mode):
                          autoreset_mode=mode)
 
 
-def _split_floats(data, path=""):
-    """(structure, floats): ``data`` with each 1-d float array replaced by its dtype and
-    shape, and those arrays by path; so the structure compares exactly and the floats apart."""
-    if isinstance(data, dict | tuple | list):
-        items = data.items() if isinstance(data, dict) else enumerate(data)
-        pairs = {k: _split_floats(v, f"{path}.{k}") for k, v in items}
-        floats = {p: a for _, f in pairs.values() for p, a in f.items()}
-        if isinstance(data, dict):
-            return {k: s for k, (s, _) in pairs.items()}, floats
-        return type(data)(s for s, _ in pairs.values()), floats
-    if isinstance(data, np.ndarray) and data.dtype.kind == "f" and data.ndim == 1:
-        return (np.zeros(0, data.dtype), data.shape), {path: data}
-    return data, {}
-
-
 def _rollout(env, mode, actions):
     """Every result of a seeded rollout: reset, steps, and (DISABLED) partial resets."""
     out = [("reset", env.reset(seed=SEED))]
@@ -145,39 +130,17 @@ def _rollouts(env_id, scene, mode):
 @pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])
 @pytest.mark.parametrize(("env_id", "scene"), PAIRS)
 def test_vector_env_equal(env_id, scene, mode, quiet_scenes):
-    """Observations, flags, info keys, masks, dtypes and masked-out zeros: exactly as Sync;
-    rewards and float info values to 1e-12 (bit for bit in the next test)."""
+    """Everything exactly as Sync's, bit for bit: observations, rewards, flags, info values,
+    keys, masks, dtypes and masked-out zeros (issue 19: one satellite steps exactly as one
+    sub-env of a batch; rbenv.core.backend.matmul and FLOAT's NumPy transcendentals)."""
     native, sync = _rollouts(env_id, quiet_scenes[scene], mode)
     assert [name for name, _ in native] == [name for name, _ in sync]
     ended = 0
     for (name, got), (_, want) in zip(native, sync, strict=True):
-        got_s, got_f = _split_floats(got)
-        want_s, want_f = _split_floats(want)
-        assert data_equivalence(got_s, want_s, exact=True), f"{name}: {got} != {want}"
-        assert got_f.keys() == want_f.keys(), name
-        for path, value in got_f.items():
-            # atol 1e-14: a reward term that differences the error over one step (v1's
-            # progress, rbenv.tasks.v1) carries the physics' ~1e-15 round-off (the xfail below)
-            # divided by a small step; everything else agrees to 1e-15.
-            np.testing.assert_allclose(value, want_f[path], rtol=1e-12, atol=1e-14,
-                                       err_msg=f"{name}: {path}")
+        assert data_equivalence(got, want, exact=True), f"{name}: {got} != {want}"
         if name.startswith("step"):
             ended += int(np.sum(got[2] | got[3]))
     assert ended >= N  # every sub-env crossed at least one episode end
-
-
-@pytest.mark.xfail(strict=False, reason=(
-    "rewards and float info values (reward_<term>, impulse_Ns, fuel_kg, rate_dps, "
-    "attitude_error_deg, rate_error_dps) differ from the single env's by up to ~1e-14. The "
-    "reward terms are now summed in one order on both paths (rbenv.transition.step); "
-    "what remains is the throttle-to-wrench product (BLAS gemv for one satellite, gemm for "
-    "N) and libm's atan2 against NumPy's: open in issue 19 item 1"))
-@pytest.mark.parametrize("mode", MODES, ids=[m.value for m in MODES])
-@pytest.mark.parametrize(("env_id", "scene"), PAIRS)
-def test_vector_env_equal_bit_for_bit(env_id, scene, mode, quiet_scenes):
-    native, sync = _rollouts(env_id, quiet_scenes[scene], mode)
-    for (name, got), (_, want) in zip(native, sync, strict=True):
-        assert data_equivalence(got, want, exact=True), f"{name}: {got} != {want}"
 
 
 # --- tests/vector/test_autoreset_mode.py::test_autoreset_metadata / test_make_vec_autoreset ----
