@@ -15,7 +15,9 @@ import numpy as np
 
 from rbenv import transition
 from rbenv.adapter import TaskAdapter, action_array
+from rbenv.core import validation
 from rbenv.core.backend import FLOAT
+from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
@@ -37,12 +39,25 @@ class AttitudeEnv(TaskAdapter, gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
 
+    def __new__(cls, *args, backend="numpy", **kwargs):
+        """``backend="torch"`` makes the torch single env instead (:class:`rbenv.torch_env.
+        TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
+        if backend == "torch":
+            from rbenv.torch_env import torch_env_class
+
+            return torch_env_class(cls)(*args, **kwargs)
+        if backend != "numpy":
+            raise InvalidParameterError(
+                f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
+        return super().__new__(cls)
+
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
                  max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
-                 render_mode=None, compiled=False, **unknown):
+                 render_mode=None, compiled=False, backend="numpy", **unknown):
         if unknown:
-            unknown_options(type(self).__name__, unknown, (*ENV_OPTIONS, "render_mode"))
+            unknown_options(type(self).__name__, unknown,
+                            (*ENV_OPTIONS, "render_mode", "backend"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.action_space, self.observation_space = self._setup(options, render_mode,
                                                                 RENDER_MODES)

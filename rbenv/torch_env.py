@@ -50,7 +50,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter
+from rbenv.adapter import TaskAdapter, action_array
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
@@ -60,7 +60,7 @@ from rbenv.plant import NO_NOISE
 from rbenv.state import State
 from rbenv.torch_draws import TorchDraws
 
-__all__ = ["DTYPES", "TorchVectorEnv", "torch_vector_env_class"]
+__all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv", "torch_env_class", "torch_vector_env_class"]
 
 DTYPES = {"float64": torch.float64, "float32": torch.float32}
 IMPLICIT = ("midpoint", "splitting")
@@ -87,6 +87,22 @@ class DeferredTorchNamespace(TorchNamespace):
             return super().const(value)
         t = torch.as_tensor(value, device=self.device)
         return t.to(self.dtype) if t.is_floating_point() else t
+
+
+def _device(device) -> torch.device:
+    """``device`` as a torch device that this machine has, else a named error."""
+    if not isinstance(device, (str, torch.device)):
+        raise TypeError(f"device must be a torch device or its name ('cpu', 'cuda', "
+                        f"'cuda:1', ...), got {type(device).__name__} {validation.show(device)}")
+    try:
+        dev = torch.device(device)
+        torch.empty(0, device=dev)
+    except (RuntimeError, AssertionError) as exc:
+        raise InvalidParameterError(
+            f"device must be a torch device available here ('cpu'"
+            f"{', cuda' if torch.cuda.is_available() else ''}), got {device!r}: "
+            f"{str(exc).splitlines()[0]}") from None
+    return dev
 
 
 def _refuse(option: str, value, rule: str):
@@ -147,9 +163,12 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                              "device", "dtype", "compile", "check_every", "backend"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
+        if isinstance(dtype, torch.dtype):
+            dtype = str(dtype).removeprefix("torch.")
         if dtype not in DTYPES:
-            raise InvalidParameterError(f"dtype must be one of {sorted(DTYPES)}, got {dtype!r}")
-        self.device, self.dtype = torch.device(device), DTYPES[dtype]
+            raise InvalidParameterError(f"dtype must be one of {sorted(DTYPES)} (or the torch "
+                                        f"dtype), got {dtype!r}")
+        self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.single_action_space, single_obs = self._setup(options, None, ())
@@ -320,6 +339,9 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                             f"{getattr(mask, 'dtype', '')}")
         if tuple(mask.shape) != (self.num_envs,):
             raise InvalidParameterError(f"{rule}, got shape {tuple(mask.shape)}")
+        if not bool(mask.any()):  # a host read, as reset's check() already makes
+            raise InvalidParameterError("options['reset_mask'] must contain at least one True "
+                                        "(a sub-env to reset), got all False")
         if self._st is None:
             raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
         return mask.to(self.device)
@@ -439,12 +461,83 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self._step_fn = None
 
 
-def torch_vector_env_class(base: type) -> type:
-    """The torch vector-env class for a task's NumPy vector-env class (same ``task_name``)."""
-    name = base.__name__.replace("VectorEnv", "TorchVectorEnv")
+class TorchEnv(gym.Env):
+    """One satellite on the torch backend, NumPy at its boundary: ``gym.make(ID,
+    backend="torch", device=..., dtype=...)``.
+
+    It is the torch vector env at ``num_envs=1`` (autoreset DISABLED) seen as a
+    ``gymnasium.Env``, so Gymnasium's and SB3's env checkers, and every single-env tool, run the
+    torch transition. ``step`` takes an action of ``action_space`` (a NumPy array, or a tensor)
+    and returns an observation of ``observation_space`` (a NumPy array in the env's dtype), a
+    float reward, bool flags and ``info`` of Python scalars, keyed as the NumPy env's (plus
+    ``diverged``). ``reset(seed=s)`` gives the episode of the NumPy env's ``reset(seed=s)``, on
+    CPU in float64 equal to round-off for the same actions. A step after the episode ended
+    raises ``ResetNeeded``. Options: the torch vector env's. For speed, use the vector form:
+    one satellite per torch call is slow.
+    """
+
+    metadata: ClassVar[dict] = {"render_modes": []}
+    vector_class: ClassVar[type]
+
+    def __init__(self, scene=None, **options):
+        for name in ("num_envs", "autoreset_mode"):
+            if name in options:
+                raise TypeError(f"{type(self).__name__} got unexpected option {name!r}: it is "
+                                f"one satellite; use gym.make_vec(ID, backend='torch') for a "
+                                f"batch")
+        self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,
+                                     **options)
+        self.action_space = self.env.single_action_space
+        self.observation_space = self.env.single_observation_space
+        self.metadata = {**type(self).metadata, "render_fps": self.env.metadata["render_fps"]}
+        self.render_mode = None
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._obs(obs), self._info(info)
+
+    def step(self, action):
+        a = action if isinstance(action, torch.Tensor) else \
+            torch.as_tensor(action_array(action, self.action_space.shape))
+        if tuple(a.shape) != self.action_space.shape:
+            raise InvalidParameterError(f"action must have shape {self.action_space.shape}, "
+                                        f"got {tuple(a.shape)}")
+        obs, reward, terminated, truncated, info = self.env.step(a.unsqueeze(0))
+        return (self._obs(obs), float(reward[0]), bool(terminated[0]), bool(truncated[0]),
+                self._info(info))
+
+    def _obs(self, obs: torch.Tensor) -> np.ndarray:
+        return obs[0].cpu().numpy().astype(self.observation_space.dtype, copy=False)
+
+    @staticmethod
+    def _info(info: dict) -> dict:
+        return {key: value[0].item() for key, value in info.items()
+                if not key.startswith("_")}
+
+    def close(self):
+        self.env.close()
+
+
+def _task_class(name: str, parent: type, task_name: str, **attrs) -> type:
+    """``parent`` for one task (``task_name``), made once and kept in this module, so that it
+    pickles by reference."""
     cls = globals().get(name)
-    if cls is None or cls.task_name != base.task_name:
-        cls = type(name, (TorchVectorEnv,), {"task_name": base.task_name,
-                                             "__module__": __name__, "__qualname__": name})
+    if cls is None or cls.task_name != task_name:
+        cls = type(name, (parent,), {"task_name": task_name, "__module__": __name__,
+                                     "__qualname__": name, **attrs})
         globals()[name] = cls
     return cls
+
+
+def torch_vector_env_class(base: type) -> type:
+    """The torch vector-env class for a task's NumPy vector-env class (same ``task_name``)."""
+    return _task_class(base.__name__.replace("VectorEnv", "TorchVectorEnv"), TorchVectorEnv,
+                       base.task_name)
+
+
+def torch_env_class(base: type) -> type:
+    """The torch single-env class for a task's NumPy single-env class (same ``task_name``)."""
+    stem = base.__name__.removesuffix("Env")
+    vector = _task_class(stem + "TorchVectorEnv", TorchVectorEnv, base.task_name)
+    return _task_class(stem + "TorchEnv", TorchEnv, base.task_name, vector_class=vector)

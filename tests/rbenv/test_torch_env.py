@@ -10,6 +10,8 @@ not support is refused by name (checked below). CUDA: skipped here, and said so.
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -136,7 +138,10 @@ def test_float32_runs_and_stays_close_to_float64():
     ("scene", "microsat-100kg", "scene='microsat-100kg'"),
     ("autoreset_mode", AutoresetMode.NEXT_STEP, "autoreset_mode='NEXT_STEP'"),
     ("render_mode", "rgb_array", "render_mode='rgb_array'"),
-    ("dtype", "float16", "dtype must be one of ['float32', 'float64'], got 'float16'"),
+    ("dtype", "float16", "dtype must be one of ['float32', 'float64'] (or the torch dtype), "
+                         "got 'float16'"),
+    ("device", "cuda:7" if not torch.cuda.is_available() else "nope",
+     "device must be a torch device available here"),
     ("backend", "jax", "backend must be 'numpy' or 'torch', got 'jax'")])
 def test_what_is_not_supported_is_refused_by_name(option, value, named):
     kwargs = {"backend": "torch", option: value}
@@ -251,3 +256,71 @@ def test_compile_falls_back_to_eager_with_a_warning(monkeypatch):
         obs = env.step(torch.zeros(2, 12, dtype=torch.float64))[0]
     assert step.fallback is not None and obs.shape == (2, 7)
     assert torch_compile.CompiledStep  # the class the env uses
+
+
+# --- the single form: gym.make(ID, backend="torch") ---------------------------------------------
+
+SINGLE_CASES = sorted({(env_id, scene) for env_id, scene, _ in CASES})
+
+
+def _single_kwargs(scene, scene_path) -> dict:
+    kwargs = _kwargs(scene, "throttle", scene_path)
+    for name in ("max_episode_steps", "autoreset_mode", "action_mode"):
+        kwargs.pop(name)
+    return kwargs
+
+
+@pytest.mark.parametrize(("env_id", "scene"), SINGLE_CASES)
+def test_the_torch_env_passes_gymnasiums_and_sb3s_checkers(env_id, scene, scene_path):
+    """Both checkers on the torch backend's single form, warnings as errors."""
+    from gymnasium.utils.env_checker import check_env
+
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker",
+                                      reason="SB3's checker needs the train extra")
+    kwargs = _single_kwargs(scene, scene_path)
+    with gym.make(env_id, backend="torch", **kwargs) as env:
+        assert type(env.unwrapped).__module__ == "rbenv.torch_env"
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", UserWarning)
+            check_env(env.unwrapped, skip_render_check=True)
+            sb3_checker.check_env(env.unwrapped)
+
+
+@pytest.mark.parametrize(("env_id", "scene"), SINGLE_CASES)
+def test_the_torch_single_env_equals_the_numpy_single_env(env_id, scene, scene_path):
+    """Same seed, same actions, a whole episode: rewards, flags and info to 1e-12, and the
+    observation to the NumPy env's float32 rounding."""
+    kwargs = _single_kwargs(scene, scene_path)
+    env = gym.make(env_id, backend="torch", **kwargs).unwrapped
+    ref = gym.make(env_id, **kwargs).unwrapped
+    rng = np.random.default_rng(7)
+    obs, info = env.reset(seed=11)
+    want, want_info = ref.reset(seed=11)
+    assert obs.dtype == np.float64 and env.observation_space.contains(obs)
+    np.testing.assert_allclose(obs, want, rtol=0, atol=1e-7)
+    assert set(info) - {"diverged"} == set(want_info)
+    for _ in range(ref.plant.scene.episode_steps):
+        a = rng.uniform(-1, 1, ref.action_space.shape).astype(ref.action_space.dtype)
+        obs, reward, term, trunc, info = env.step(a)
+        want, want_reward, want_term, want_trunc, want_info = ref.step(a)
+        np.testing.assert_allclose(obs, want, rtol=0, atol=1e-7)
+        assert abs(reward - want_reward) <= 1e-12 and (term, trunc) == (want_term, want_trunc)
+        for key, value in want_info.items():
+            assert abs(float(info[key]) - float(value)) <= 1e-12 * max(1.0, abs(value)), key
+        if term or trunc:
+            break
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(a)
+
+
+def test_the_torch_single_env_refuses_batch_options_and_bad_actions_by_name():
+    with pytest.raises(TypeError, match=r"num_envs.*make_vec"):
+        gym.make(rbenv.ENV_ID, backend="torch", num_envs=4)
+    with pytest.raises(InvalidParameterError, match="backend must be 'numpy' or 'torch'"):
+        gym.make(rbenv.ENV_ID, backend="jax")
+    env = gym.make(rbenv.ENV_ID, backend="torch").unwrapped
+    env.reset(seed=0)
+    with pytest.raises(InvalidParameterError, match=r"action.*shape \(12,\)"):
+        env.step(np.zeros(3, np.float32))
+    with pytest.raises(InvalidParameterError, match=r"action.*shape \(12,\)"):
+        env.step(torch.zeros(3))
