@@ -16,7 +16,9 @@ Every probe is one call with one bad, extreme or unusual input. It is classified
 
 Rows: ``core API`` (core, inertia, meshes), ``env options`` (``gym.make`` options, ``reset``
 options, actions, ``make_vec``), ``mutated scene TOML`` (random mutations of the shipped scenes,
-loaded and stepped), ``env at numerical extremes``. Seeded and bounded: the same command gives
+loaded and stepped), ``env at numerical extremes``, ``torch backend options`` (``backend="torch"``
+of ``make_vec`` and ``make``: device, dtype, compile, check_every, what it refuses, actions,
+seeds and reset masks; where torch is installed). Seeded and bounded: the same command gives
 the same probes. Run it against any checkout::
 
     python benchmarks/fuzz.py --out benchmarks/results/fuzz_after.json
@@ -46,7 +48,8 @@ import numpy as np  # noqa: E402
 
 COLUMNS = ("clear error", "unclear error", "silently accepted", "non-finite out",
            "hang or crash", "accepted, finite", "valid refused")
-ROWS = ("core API", "env options", "mutated scene TOML", "env at numerical extremes")
+ROWS = ("core API", "env options", "mutated scene TOML", "env at numerical extremes",
+        "torch backend options")
 INVALID, VALID, EITHER = "invalid", "valid", "either"
 
 
@@ -403,6 +406,120 @@ def env_probes():
     return probes
 
 
+def _torch_episode(num_envs=2, steps=2, action=None, reset=None, env_id=None, **kwargs):
+    """A short torch-backend rollout, returned as NumPy (so finiteness is checked)."""
+    import gymnasium as gym
+    import torch
+
+    envs = gym.make_vec(env_id or "rbenv/SatelliteReorient-v0", num_envs=num_envs,
+                        backend="torch", **kwargs)
+    try:
+        out = [envs.reset(**(reset or {"seed": 0}))]
+        for _ in range(steps):
+            a = torch.zeros(envs.action_space.shape, dtype=torch.float64) if action is None \
+                else action() if callable(action) else action
+            out.append(envs.step(a))
+        return [tuple(_numpy(x) for x in o) for o in out]
+    finally:
+        envs.close()
+
+
+def _numpy(x):
+    import torch
+
+    if isinstance(x, torch.Tensor):
+        return x.detach().cpu().numpy()
+    if isinstance(x, dict):
+        return {k: _numpy(v) for k, v in x.items()}
+    return x
+
+
+def torch_probes():
+    """``backend="torch"``: its own options, what it refuses, actions, seeds and masks."""
+    try:
+        import torch
+    except ImportError:
+        return []
+    probes = []
+
+    def add(target, fields, value, expect, fn):
+        probes.append(("torch backend options", target, fields, value, expect, fn))
+
+    for v, e in [("cpu", VALID), (torch.device("cpu"), VALID), ("cuda:7", INVALID),
+                 ("nope", INVALID), (3, INVALID), (None, INVALID)]:
+        add("make_vec device", ("device",), v, e, lambda v=v: _torch_episode(device=v))
+    for v, e in [("float32", VALID), ("float16", INVALID), (torch.float64, VALID),
+                 (torch.float16, INVALID),
+                 ("float", INVALID), (None, INVALID)]:
+        add("make_vec dtype", ("dtype",), v, e, lambda v=v: _torch_episode(dtype=v))
+    for v, e in [("yes", INVALID), (2, INVALID), (None, INVALID)]:
+        add("make_vec compile", ("compile",), v, e, lambda v=v: _torch_episode(compile=v))
+    for v, e in [(0, VALID), (10**9, VALID), (-1, INVALID), (1.5, INVALID), ("1", INVALID),
+                 (True, INVALID)]:
+        add("make_vec check_every", ("check_every",), v, e,
+            lambda v=v: _torch_episode(check_every=v))
+    for v, e in [(1, VALID), (0, INVALID), (-3, INVALID), (2**25, INVALID), (2.5, INVALID)]:
+        add("make_vec num_envs", ("num_envs",), v, e, lambda v=v: _torch_episode(num_envs=v))
+    for key, v in [("integrator", "midpoint"), ("integrator", "splitting"),
+                   ("action_mode", "torque"), ("autoreset_mode", "NextStep"),
+                   ("render_mode", "rgb_array"), ("compiled", True)]:
+        add(f"make_vec {key} (not supported)", (key,), v, INVALID,
+            lambda k=key, v=v: _torch_episode(**{k: v}))
+    add("make_vec scene (randomized)", ("randomiz",), "cubesat-12u-dr", INVALID,
+        lambda: _torch_episode(scene="cubesat-12u-dr"))
+    add("make_vec scene (per-step noise)", ("noise",), "boom-sat", INVALID,
+        lambda: _torch_episode(scene="boom-sat", integrator="rk4"))
+    add("make_vec env id (desaturate)", ("desaturat",), "SatelliteDesaturate-v0", INVALID,
+        lambda: _torch_episode(env_id="rbenv/SatelliteDesaturate-v0"))
+    n = 2
+    for name, v, e in [("numpy array", np.zeros((n, 12)), INVALID),
+                       ("wrong shape", torch.zeros(n, 11), INVALID),
+                       ("one row", torch.zeros(12), INVALID),
+                       ("NaN", torch.full((n, 12), NAN), INVALID),
+                       ("complex", torch.zeros(n, 12, dtype=torch.complex128), INVALID),
+                       ("int", torch.zeros(n, 12, dtype=torch.int64), VALID),
+                       ("bool", torch.zeros(n, 12, dtype=torch.bool), EITHER),
+                       ("inf", torch.full((n, 12), INF), EITHER),
+                       ("float32", torch.zeros(n, 12, dtype=torch.float32), VALID),
+                       ("None", None, INVALID), ("list", [[0.0] * 12] * n, INVALID)]:
+        act = (lambda: None) if v is None else v
+        add("vector step actions", ("action",), name, e,
+            lambda act=act: _torch_episode(num_envs=n, action=act))
+    for name, reset, e in [
+            ("seed -1", {"seed": -1}, INVALID), ("seed 1.5", {"seed": 1.5}, INVALID),
+            ("seed 2**63", {"seed": 2**63}, INVALID), ("seed list short", {"seed": [1]}, INVALID),
+            ("seed list", {"seed": [3, 4]}, VALID), ("seed str", {"seed": "0"}, INVALID),
+            ("reset_mask numpy", {"options": {"reset_mask": np.ones(n, bool)}}, INVALID),
+            ("reset_mask int", {"options": {"reset_mask": torch.ones(n, dtype=torch.int64)}},
+             INVALID),
+            ("reset_mask shape", {"options": {"reset_mask": torch.ones(n + 1, dtype=torch.bool)}},
+             INVALID),
+            ("reset_mask all False", {"options": {"reset_mask": torch.zeros(n, dtype=torch.bool)}},
+             INVALID)]:
+        fields = ("seed",) if "seed" in name else ("reset_mask",)
+        add("vector reset", fields, name, e,
+            lambda reset=reset: _torch_mask_reset(n, reset) if "options" in reset
+            else _torch_episode(num_envs=n, reset=reset))
+    for v, e in [("jax", INVALID), (None, INVALID), ("torch", VALID)]:
+        add("gym.make backend", ("backend",), v, e, lambda v=v: _episode(backend=v))
+    add("gym.make backend=torch num_envs", ("num_envs",), 4, INVALID,
+        lambda: _episode(backend="torch", num_envs=4))
+    return probes
+
+
+def _torch_mask_reset(n, reset):
+    """A DISABLED-autoreset torch env, reset once in full, then with ``reset``'s mask."""
+    import gymnasium as gym
+
+    envs = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n, backend="torch",
+                        autoreset_mode="Disabled")
+    try:
+        envs.reset(seed=0)
+        return _numpy(envs.reset(**reset))
+    finally:
+        envs.close()
+
+
 def extreme_probes():
     """The env at numerical extremes: named error or clean, finite episodes."""
     probes = []
@@ -603,6 +720,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--timeout", type=float, default=5.0, help="seconds per probe")
     parser.add_argument("--memory-gb", type=float, default=4.0, help="address-space cap")
     parser.add_argument("--budget", type=float, default=900.0, help="total seconds, at most")
+    parser.add_argument("--rows", nargs="+", choices=ROWS, default=list(ROWS), metavar="ROW",
+                        help=f"probe groups to run (default: all of {', '.join(ROWS)})")
     args = parser.parse_args(argv)
 
     cap = int(args.memory_gb * 2**30)
@@ -616,8 +735,10 @@ def main(argv=None) -> dict:
         groups = [("core API", lambda: core_probes(tmp)), ("env options", env_probes),
                   ("env at numerical extremes", extreme_probes),
                   ("mutated scene TOML",
-                   lambda: toml_probes(args.toml, args.seed, tmp, args.scenes.split(",")))]
-        counts = {row: dict.fromkeys(COLUMNS, 0) for row in ROWS}
+                   lambda: toml_probes(args.toml, args.seed, tmp, args.scenes.split(","))),
+                  ("torch backend options", torch_probes)]
+        groups = [(row, build) for row, build in groups if row in args.rows]
+        counts = {row: dict.fromkeys(COLUMNS, 0) for row in args.rows}
         records = []
         skipped = 0
         for _, build in groups:
@@ -629,7 +750,7 @@ def main(argv=None) -> dict:
                 counts[row][column] += 1
                 records.append({"row": row, "target": target, "value": _short(value),
                                 "expect": expect, "class": column, "detail": detail})
-    for row in ROWS:
+    for row in counts:
         counts[row] = {"tried": sum(counts[row].values()), **counts[row]}
     result = {
         "command": " ".join([Path(sys.argv[0]).name, *(argv or sys.argv[1:])]),
