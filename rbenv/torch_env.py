@@ -6,6 +6,9 @@
 tensors on its device: obs (N, d) in the env's dtype, reward (N,), terminated and truncated
 (N,) bool, and ``info``, a dict of (N,) tensors with a ``_key`` mask each, as the NumPy env.
 
+``gym.make(ID, backend="torch")`` gives one satellite of it as a ``gymnasium.Env`` with NumPy at
+its boundary (:class:`TorchEnv`), for the env checkers and single-env tools.
+
 The physics is not restated: the plant, actuators, tasks and integrators of
 :mod:`rbenv.transition` run through the torch namespace (:mod:`rbenv.core.torch_backend`), and
 episode starts come from :mod:`rbenv.torch_draws`, the counter-based draws on the device.
