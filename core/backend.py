@@ -56,9 +56,13 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     bit, one sub-env's of a batch.
     """
     if a.shape[0] == 1:
-        return (np.concatenate((a, a)) @ b)[:1]
+        two = np.empty((2, a.shape[1]), a.dtype)
+        two[...] = a
+        return (two @ b)[:1]
     if b.shape[1] == 1:
-        return (a @ np.concatenate((b, b), axis=1))[:, :1]
+        two = np.empty((b.shape[0], 2), b.dtype)
+        two[...] = b
+        return (a @ two)[:, :1]
     return a @ b
 
 

@@ -137,7 +137,7 @@ class Thrusters:
         # one sub-env's to the bit (matmul: BLAS's gemm for both; einsum: NumPy's own loop).
         if st.model is None:  # the scene's matrix, shared by every sub-env
             if xp is FLOAT:  # a list of floats: the kernels index it alike
-                parts = matmul(self.action_matrix.T, u[:, None])[:, 0].tolist()
+                parts = matmul(u[None, :], self.action_matrix)[0].tolist()
             else:
                 parts = tuple(rows(xp).matmul(rows(xp).const(self.action_matrix).T, u.T))
         elif xp is FLOAT:  # this episode's matrix (domain randomization, delays)
