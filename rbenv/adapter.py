@@ -48,6 +48,21 @@ def _as_array(value, shape: tuple, name: str) -> np.ndarray:
                         f"{validation.show(value)} of type {type(value).__name__}") from None
 
 
+def backend_twin(cls: type, backend) -> type | None:
+    """The class an env class's constructor makes for ``backend``: None for "numpy" (``cls``
+    itself), its torch twin for "torch" (:mod:`rbenv.torch_env`, needs torch: the torch vector
+    env for a vector-env class, the torch single env for a single-env class)."""
+    if backend == "torch":
+        from rbenv import torch_env
+
+        vector = issubclass(cls, gym.vector.VectorEnv)
+        return (torch_env.torch_vector_env_class if vector else torch_env.torch_env_class)(cls)
+    if backend != "numpy":
+        raise InvalidParameterError(
+            f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
+    return None
+
+
 class TaskAdapter:
     """Mixin of :class:`rbenv.env.AttitudeEnv` and :class:`rbenv.vector_env.AttitudeVectorEnv`.
 

@@ -14,10 +14,8 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array
-from rbenv.core import validation
+from rbenv.adapter import TaskAdapter, action_array, backend_twin
 from rbenv.core.backend import FLOAT
-from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
@@ -42,14 +40,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
     def __new__(cls, *args, backend="numpy", **kwargs):
         """``backend="torch"`` makes the torch single env instead (:class:`rbenv.torch_env.
         TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
-        if backend == "torch":
-            from rbenv.torch_env import torch_env_class
-
-            return torch_env_class(cls)(*args, **kwargs)
-        if backend != "numpy":
-            raise InvalidParameterError(
-                f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
-        return super().__new__(cls)
+        twin = backend_twin(cls, backend)
+        return super().__new__(cls) if twin is None else twin(*args, **kwargs)
 
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,

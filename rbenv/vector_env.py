@@ -15,7 +15,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array
+from rbenv.adapter import TaskAdapter, action_array, backend_twin
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
@@ -71,14 +71,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     def __new__(cls, *args, backend="numpy", **kwargs):
         """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
         needs torch); "numpy" (default) this one."""
-        if backend == "torch":
-            from rbenv.torch_env import torch_vector_env_class
-
-            return torch_vector_env_class(cls)(*args, **kwargs)
-        if backend != "numpy":
-            raise InvalidParameterError(
-                f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
-        return super().__new__(cls)
+        twin = backend_twin(cls, backend)
+        return super().__new__(cls) if twin is None else twin(*args, **kwargs)
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
