@@ -203,3 +203,15 @@ def table(rows: list[dict], columns: list[str]) -> str:
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     lines += ["| " + " | ".join(fmt(r.get(c, "")) for c in columns) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def no_options(doc: str | None, argv=None) -> None:
+    """The command line of a benchmark that takes no options: ``--help`` prints its docstring
+    and an unknown argument is an error (exit 2), instead of a full run that rewrites the
+    committed results."""
+    import argparse
+    import sys
+
+    parser = argparse.ArgumentParser(description=(doc or "").split("\n\n")[0])
+    parser.parse_args(sys.argv[1:] if argv is None else argv)
+

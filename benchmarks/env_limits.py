@@ -89,6 +89,7 @@ def cases(episodes: int = 20) -> list[dict]:
 
 
 if __name__ == "__main__":
-    from benchmarks.common import table
+    from benchmarks.common import no_options, table
 
+    no_options(__doc__)
     print(table(cases(), ["case", "outcome", "all_finite", "detail"]))

@@ -207,4 +207,7 @@ if __name__ == "__main__":
 
         torch_env_speed.main(sys.argv[1:])
     else:
+        from benchmarks.common import no_options
+
+        no_options(__doc__)
         main()

@@ -125,7 +125,12 @@ def plot(rows: dict):
 
 
 def main(argv=()) -> dict:
-    counted = "--instructions" in argv
+    import argparse
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--instructions", action="store_true",
+                   help="also count single-env instructions with valgrind (minutes)")
+    counted = p.parse_args(argv).instructions
     rows = measure()
     if counted:
         add_instructions(rows)

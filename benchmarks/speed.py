@@ -286,4 +286,7 @@ def main() -> dict:
 
 
 if __name__ == "__main__":
+    from benchmarks.common import no_options
+
+    no_options(__doc__)
     main()

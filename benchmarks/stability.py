@@ -288,4 +288,7 @@ def main(horizon_steps: int = 1_000_000) -> dict:
 
 
 if __name__ == "__main__":
+    from benchmarks.common import no_options
+
+    no_options(__doc__)
     main()
