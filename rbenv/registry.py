@@ -45,10 +45,13 @@ class TaskSpec:
     ``make(plant, reward_weights=, max_initial_angle_deg=, max_initial_rate=, task_options=)``.
     baselines: scripted policy name → ``"module:Class"`` or class with ``from_env``.
     budget: algorithm → training timesteps. scene_budgets: (algorithm, scene) → timesteps,
-    where a scene needs more. hyperparams: algorithm → settings in RL Zoo's format (every
-    algorithm of ``budget`` needs one). env_doc: the env classes' docstring. default_scene:
-    the scene ``gym.make(env_id)`` uses (None: the package's default, cubesat-12u). needs:
-    scene tables the task cannot run without (``("wheels",)``); :meth:`runs_on` checks them.
+    where a scene needs more. scene_env_kwargs: (algorithm, scene) → env options that training
+    adds on that scene (``rbenv train`` and the suite; a reward weight the scene needs, with the
+    evidence beside it); the env's own defaults stay as they are. hyperparams: algorithm →
+    settings in RL Zoo's format (every algorithm of ``budget`` needs one). env_doc: the env
+    classes' docstring. default_scene: the scene ``gym.make(env_id)`` uses (None: the package's
+    default, cubesat-12u). needs: scene tables the task cannot run without (``("wheels",)``);
+    :meth:`runs_on` checks them.
     """
 
     env_id: str
@@ -58,6 +61,7 @@ class TaskSpec:
     budget: Mapping[str, int]
     hyperparams: Mapping[str, dict]
     scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
+    scene_env_kwargs: Mapping[tuple, dict] = field(default_factory=dict)
     max_episode_steps: int = MAX_EPISODE_STEPS
     env_doc: str = ""
     default_scene: str | None = None
@@ -84,6 +88,10 @@ class TaskSpec:
     def timesteps(self, algo: str, scene: str | None = None) -> int:
         """The training budget of ``algo`` (on ``scene``, where it needs more)."""
         return self.scene_budgets.get((algo, scene), self.budget[algo])
+
+    def training_env_kwargs(self, algo: str, scene: str | None = None) -> dict:
+        """Env options that training ``algo`` on ``scene`` adds (a deep copy; {}: none)."""
+        return copy.deepcopy(dict(self.scene_env_kwargs.get((algo, scene), {})))
 
 
 _SPECS: dict[str, TaskSpec] = {}
@@ -116,6 +124,11 @@ def _check(spec: TaskSpec) -> None:
         raise InvalidParameterError(
             f"{where}: budget must give the training timesteps of 'ppo' (the default "
             f"algorithm), got {spec.budget!r}")
+    for key, kwargs in spec.scene_env_kwargs.items():
+        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(kwargs, Mapping)):
+            raise InvalidParameterError(
+                f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
+                f"options, got {key!r}: {kwargs!r}")
     for algo, steps in {**spec.budget, **{a: s for (a, _), s in spec.scene_budgets.items()}
                         }.items():
         if not isinstance(steps, int) or steps <= 0:

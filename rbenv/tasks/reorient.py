@@ -297,6 +297,8 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_re
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
+                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
+                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and reward).
@@ -321,4 +323,5 @@ ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and re
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=make_reorient_v1,
                    baselines=SPEC.baselines, budget={"ppo": 1_000_000, "sac": 200_000},
+                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

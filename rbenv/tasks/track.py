@@ -374,6 +374,7 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
 SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
                 baselines={"pd": "rbenv.agents.baselines.controllers:TrackingPD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
+                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observation and reward).

@@ -179,3 +179,20 @@ def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
                                 run_config={"scene": "cubesat-12u", "env_kwargs": env_kwargs})
         callback.model = model
         assert callback.policy().action == action
+
+
+def test_a_scene_entry_of_the_registry_adds_its_env_options_to_training():
+    """rbenv train on a wheel scene trains with the failure weight the registry gives that
+    scene; the default scene gets none, and the caller's --env-kwargs win."""
+    from rbenv.agents.training.config import TrainConfig
+
+    from rbenv.hyperparams import tuned
+
+    wheels = TrainConfig(algo="ppo", scene="cubesat-6u-rw").resolve()
+    assert wheels.env_kwargs["reward_weights"] == tuned.WHEELS_FAILURE["reward_weights"]
+    assert "reward_weights" not in TrainConfig(algo="ppo").resolve().env_kwargs
+    mine = TrainConfig(algo="ppo", scene="cubesat-6u-rw",
+                       env_kwargs={"reward_weights": {"failure": 50.0}}).resolve()
+    assert mine.env_kwargs["reward_weights"] == {"failure": 50.0}
+    wheels.env_kwargs["reward_weights"]["failure"] = -1.0  # a copy: the registry is untouched
+    assert tuned.WHEELS_FAILURE["reward_weights"]["failure"] == 200.0
