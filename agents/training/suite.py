@@ -180,14 +180,14 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
 
 def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED,
                      env_kwargs: dict | None = None) -> dict:
-    """Success of every checkpoint (mean-throttle action) on ``episodes`` validation episodes
-    of the cell's task and scene; ``env_kwargs``: further gym.make options of the env the run
-    trained in (physics setting, randomization)."""
+    """Success of every checkpoint (:class:`SB3Policy`'s "auto" action) on ``episodes``
+    validation episodes of the cell's task and scene; ``env_kwargs``: further gym.make
+    options of the env the run trained in (physics setting, randomization)."""
     ckpts = sorted(runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None),
                    key=lambda c: c.steps)
     curve = {"timesteps": [], "success_rate": []}
     for ckpt in ckpts:
-        s = evaluate(SB3Policy(ckpt.model, action="mean_throttle"), episodes=episodes,
+        s = evaluate(SB3Policy(ckpt.model, action="auto"), episodes=episodes,
                      seed=seed, scene=cell.scene, env_id=cell.env_id, record=0,
                      env_kwargs=env_kwargs).summary()
         curve["timesteps"].append(ckpt.steps)
@@ -197,15 +197,16 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
 
 def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     """On the same held-out episodes: the checkpoint selected on validation episodes and the
-    final model (both with the mean-throttle action), the final model with SB3's deterministic
-    action clip(μ, 0, 1), and every scripted baseline of the task."""
+    final model (both with "auto": the mean throttle on thruster-only scenes, μ where wheels
+    or rods act), the final model with SB3's deterministic action μ (the env clips it), and
+    every scripted baseline of the task."""
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
     curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES))
     model, steps = select_checkpoint(run, curve)
-    policy = evaluate(SB3Policy(model, action="mean_throttle"), name=cell.algo,
+    policy = evaluate(SB3Policy(model, action="auto"), name=cell.algo,
                       **common).summary()
-    final = evaluate(SB3Policy(run, action="mean_throttle"), name=f"{cell.algo} (final)",
+    final = evaluate(SB3Policy(run, action="auto"), name=f"{cell.algo} (final)",
                      **common).summary()
     clip_mean = evaluate(SB3Policy(run, action="mode"), name=f"{cell.algo} (final, clip(mean))",
                          **common).summary()
@@ -217,7 +218,7 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
 
 def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
                         seed: int = EVAL_SEED) -> list[dict]:
-    """Held-out success and median final error of every checkpoint (mean-throttle action).
+    """Held-out success and median final error of every checkpoint ("auto" action).
 
     The evidence for a cell that misses its target: whether the policy was still improving
     when its budget ran out, and how far from the success thresholds it ends.
@@ -226,7 +227,7 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     ckpts = sorted(runfolder.checkpoints(cell_dir(cell, out) / "run" / runfolder.CHECKPOINTS,
                                     report=lambda _: None), key=lambda c: c.steps)
     for ckpt in ckpts:
-        s = evaluate(SB3Policy(ckpt.model, action="mean_throttle"), episodes=episodes,
+        s = evaluate(SB3Policy(ckpt.model, action="auto"), episodes=episodes,
                      seed=seed, scene=cell.scene, env_id=cell.env_id, record=0).summary()
         rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
                      "final_error_deg_median": s["final_error_deg"]["median"],
@@ -338,10 +339,12 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
     lines = [f"Held-out evaluation: {info['episodes']} episodes seeded {info['seed']} + i, the "
              "same episodes for every policy; learned policies deterministic. Learned rows: "
              "mean ± standard deviation over seeds. The learned policy acts with its mean "
-             "throttle E[clip(μ + σε, 0, 1)]; its row is the checkpoint with the best success "
+             "throttle E[clip(μ + σε, 0, 1)] on thruster-only scenes, with μ where wheels or "
+             "rods act (their actions span [-1, 1]); its row is the checkpoint with the best "
+             "success "
              f"on {VALIDATION_EPISODES} validation episodes (seeded {VALIDATION_SEED} + i, not "
              "the held-out ones). Last columns: the final model's held-out success with the "
-             "mean throttle and with SB3's deterministic action clip(μ, 0, 1).", "",
+             "same action and with SB3's deterministic action μ (clipped by the env).", "",
              "| task | scene | policy | seeds | timesteps | success | fuel (g) | "
              "settle median (s) | train (min) | target | final model | final, clip(μ) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]

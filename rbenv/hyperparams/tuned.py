@@ -41,7 +41,7 @@ CROSSQ = recipe(tau=None, policy_kwargs={"net_arch": [256, 256]})
 # failure weight (25) PPO learns to spin the bus past the rate limit within ~7 steps and end
 # the episode: the weak wheels (3.2 mN·m on cubesat-6u-rw) need 40–80 s for a manoeuvre whose
 # per-step terms cost more than failing. Held out, 0–14 % with 25; with 200: reorient 97.0 %
-# (6u-rw) and 99.8 % (12u-rw), v1 99.8 %, track 100 % (docs/results.md).
+# (6u-rw) and 99.8 % (12u-rw), v1 99.8 %, track 100 %, detumble 100 % (docs/results.md).
 WHEELS_FAILURE = {"reward_weights": {"failure": 200.0}}
 
 # algorithm -> settings: what every shipped task entry points at.

@@ -221,6 +221,9 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_de
                 baselines={"pd": "rbenv.agents.baselines.controllers:RateDamping",
                            "bdot": "rbenv.agents.baselines.controllers:BDot"},
                 budget={"ppo": 300_000, "sac": 100_000},
+                # Rods and wheels at 10 s steps: measured at 1 M steps, failure weight 200.
+                scene_budgets={("ppo", "cubesat-6u-rw"): 1_000_000},
+                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and reward).
