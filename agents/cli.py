@@ -103,9 +103,11 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--env-kwargs", type=flags.json_object, default={},
                    help="JSON of gym.make options")
     e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
-                   help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, 0, "
-                        "1)], mode (SB3's deterministic mu), auto (default): mean_throttle for "
-                        "PPO/A2C in throttle mode, else mode")
+                   help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, "
+                        "low, high)] with the env's clip bounds (thrusters 0..1, wheels and "
+                        "rods -1..1), mode (SB3's deterministic mu), auto (default): "
+                        "mean_throttle for PPO/A2C in throttle mode on a scene with thrusters, "
+                        "else mode")
     e.add_argument("--json", default=None, help="write the summary as JSON to this file")
     e.add_argument("--plot", default=None, metavar="PATH",
                    help="PNG of the first episode (no plot without it, or without --out)")

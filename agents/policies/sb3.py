@@ -124,11 +124,13 @@ class RunPolicy(TrainedOn):
     raw ones a ``gym.make``/``gym.make_vec`` env returns.
 
     action: what ``predict(..., deterministic=True)`` returns. ``"mode"``: SB3's deterministic
-    action (the Gaussian's mean μ; the env clips it). ``"mean_throttle"``: the mean throttle
-    E[clip(μ + σε, 0, 1)] of the stochastic policy that was trained (:func:`expected_throttle`).
-    ``"auto"`` (default): ``mean_throttle`` for an unsquashed Gaussian policy (PPO, A2C) acting
-    in throttle mode, where clip(μ, 0, 1) switches off every thruster whose mean is below zero
-    but which the trained policy fires through its noise, and ``mode`` otherwise.
+    action (the Gaussian's mean μ; the env clips it). ``"mean_throttle"``: the mean action
+    E[clip(μ + σε, low, high)] of the stochastic policy that was trained, each entry between
+    the bounds where the env clips it (a thruster's throttle [0, 1], a wheel's or a rod's
+    [-1, 1]; :func:`expected_throttle`). ``"auto"`` (default): ``mean_throttle`` for an
+    unsquashed Gaussian policy (PPO, A2C) acting in throttle mode on a scene with thrusters,
+    where clip(μ, 0, 1) switches off every thruster whose mean is below zero but which the
+    trained policy fires through its noise, and ``mode`` otherwise.
     """
 
     def __init__(self, model, vecnormalize=None, config: dict | None = None,
@@ -142,7 +144,7 @@ class RunPolicy(TrainedOn):
         gaussian = _is_unsquashed_gaussian(self.model)
         if action == "auto":
             throttle = self.env_kwargs.get("action_mode", "throttle") == "throttle" \
-                and _thrusters_only(self.config)
+                and _has_thrusters(self.config)
             return "mean_throttle" if gaussian and throttle else "mode"
         if action == "mean_throttle" and not gaussian:
             raise InvalidParameterError(
@@ -176,8 +178,26 @@ class RunPolicy(TrainedOn):
             dist = self.model.policy.get_distribution(
                 torch.as_tensor(obs if batch else obs[None])).distribution
             mean, std = dist.mean.numpy(), dist.stddev.numpy()
-        out = expected_throttle(mean, std).astype(np.float32)
+        out = expected_throttle(mean, std, *self._clip_bounds()).astype(np.float32)
         return out if batch else out[0]
+
+    def _clip_bounds(self) -> tuple:
+        """(low, high) per action entry, where the env clips them: the plant's action bounds
+        (thrusters [0, 1], wheels and rods [-1, 1]); (0, 1) for a run of unknown config."""
+        if not hasattr(self, "_bounds"):
+            if self.config is None:
+                self._bounds = (0.0, 1.0)
+            else:
+                try:
+                    env = self.make_env()
+                except ValueError:  # the run's scene file is gone: the thruster default
+                    self._bounds = (0.0, 1.0)
+                    return self._bounds
+                try:
+                    self._bounds = env.unwrapped.plant.action_bounds
+                finally:
+                    env.close()
+        return self._bounds
 
 
 def _is_unsquashed_gaussian(model) -> bool:
@@ -188,17 +208,19 @@ def _is_unsquashed_gaussian(model) -> bool:
         is DiagGaussianDistribution
 
 
-def expected_throttle(mean: np.ndarray, std: np.ndarray) -> np.ndarray:
-    """E[clip(mean + std·ε, 0, 1)], ε ~ N(0, 1): the mean throttle of a clipped Gaussian policy.
+def expected_throttle(mean: np.ndarray, std: np.ndarray, low=0.0, high=1.0) -> np.ndarray:
+    """E[clip(mean + std·ε, low, high)], ε ~ N(0, 1): the mean action of a clipped Gaussian
+    policy (a thruster's throttle by default: ``low, high = 0, 1``).
 
     With the env's ``throttle = clip(a, 0, 1)`` the deterministic action clip(mean, 0, 1) is
     *not* the mean throttle of the stochastic policy: a mean below 0 gives 0, while the policy
-    it was trained as fires that thruster a fraction of the time. mean, std: same shape.
+    it was trained as fires that thruster a fraction of the time. mean, std: same shape; low,
+    high: the env's clip bounds, broadcast against them (a wheel's or a rod's are -1, 1).
     """
     # In float64, as scipy.stats.norm evaluates float32 arguments.
-    lo, hi = (np.asarray(z, np.float64) for z in (-mean / std, (1.0 - mean) / std))
+    lo, hi = (np.asarray(z, np.float64) for z in ((low - mean) / std, (high - mean) / std))
     return (mean * (ndtr(hi) - ndtr(lo)) + std * (_normal_pdf(lo) - _normal_pdf(hi))
-            + ndtr(-hi))
+            + high * ndtr(-hi) + low * ndtr(lo))
 
 
 def _normal_pdf(x):
@@ -206,9 +228,9 @@ def _normal_pdf(x):
     return np.exp(-x ** 2 / 2.0) / np.sqrt(2 * np.pi)
 
 
-def _thrusters_only(config) -> bool:
-    """Whether the run's scene actuates with thrusters alone (then a throttle action is a
-    duty cycle in [0, 1]; a wheel's or a rod's action spans [-1, 1])."""
+def _has_thrusters(config) -> bool:
+    """Whether the run's scene has thrusters (a throttle action is a duty cycle in [0, 1];
+    a wheel's or a rod's action spans [-1, 1])."""
     scene = (config or {}).get("scene")
     if scene is None:
         return True
@@ -216,7 +238,7 @@ def _thrusters_only(config) -> bool:
         sc = rbenv.load_scene(scene)
     except ValueError:  # a scene file that is gone: keep the thruster default
         return True
-    return sc.thrusters is not None and not sc.actuators
+    return sc.thrusters is not None
 
 
 def load_run_policy(path, action: str = "auto", *, trust_pickle: bool = False) -> RunPolicy:

@@ -557,3 +557,21 @@ def test_policy_action_auto_is_mean_throttle_only_for_a_gaussian_policy_in_throt
     assert RunPolicy(sac).action == "mode"
     with pytest.raises(InvalidParameterError, match=r"mean_throttle.*SAC"):
         RunPolicy(sac, action="mean_throttle")
+
+
+def test_the_mean_action_clips_each_entry_where_the_env_clips_it():
+    """On a scene with wheels and thrusters, E[clip(μ + σε, low, high)] uses each entry's own
+    bounds: [-1, 1] for the wheels, [0, 1] for the thrusters (Monte Carlo check)."""
+    from rbenv.agents.policies.sb3 import RunPolicy, expected_throttle
+
+    policy = object.__new__(RunPolicy)
+    policy.config = {"env_id": rbenv.ENV_ID, "scene": "cubesat-12u-rw"}
+    low, high = policy._clip_bounds()
+    assert list(low[:3]) == [-1.0] * 3 and list(low[3:]) == [0.0] * 12
+    assert (high == 1.0).all()
+    rng = np.random.default_rng(3)
+    mean, std = rng.normal(0.0, 0.8, 15), np.full(15, 0.4)
+    draws = np.clip(mean + std * rng.standard_normal((200_000, 15)), low, high).mean(axis=0)
+    np.testing.assert_allclose(expected_throttle(mean, std, low, high), draws, atol=4e-3)
+    assert expected_throttle(mean, std, low, high)[:3].min() < 0.0  # a wheel turns both ways
+    assert np.array_equal(expected_throttle(mean, std), expected_throttle(mean, std, 0.0, 1.0))
