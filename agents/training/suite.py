@@ -197,8 +197,8 @@ def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATIO
 
 def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     """On the same held-out episodes: the checkpoint selected on validation episodes and the
-    final model (both with "auto": the mean throttle on thruster-only scenes, μ where wheels
-    or rods act), the final model with SB3's deterministic action μ (the env clips it), and
+    final model (both with "auto": the mean action on a scene with thrusters, μ on wheels and
+    rods alone), the final model with SB3's deterministic action μ (the env clips it), and
     every scripted baseline of the task."""
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
@@ -338,10 +338,10 @@ def _num(s: dict, spec: str = ".2f") -> str:
 def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
     lines = [f"Held-out evaluation: {info['episodes']} episodes seeded {info['seed']} + i, the "
              "same episodes for every policy; learned policies deterministic. Learned rows: "
-             "mean ± standard deviation over seeds. The learned policy acts with its mean "
-             "throttle E[clip(μ + σε, 0, 1)] on thruster-only scenes, with μ where wheels or "
-             "rods act (their actions span [-1, 1]); its row is the checkpoint with the best "
-             "success "
+             "mean ± standard deviation over seeds. On a scene with thrusters the learned "
+             "policy acts with its mean action E[clip(μ + σε, low, high)] (thrusters 0..1, "
+             "wheels -1..1), on wheels and rods alone with μ; its row is the checkpoint with "
+             "the best success "
              f"on {VALIDATION_EPISODES} validation episodes (seeded {VALIDATION_SEED} + i, not "
              "the held-out ones). Last columns: the final model's held-out success with the "
              "same action and with SB3's deterministic action μ (clipped by the env).", "",
