@@ -363,8 +363,9 @@ def format_markdown(rows: list[dict], missing: list[str], info: dict) -> str:
                      f"{_pct(row['final_clip_mean_success_rate'])} |")
         for name, b in row["baselines"].items():
             settle = "—" if b["settle_median_s"] is None else f"{b['settle_median_s']:.1f}"
+            fuel = "—" if not math.isfinite(b["fuel_g"]) else f"{b['fuel_g']:.2f}"  # no thrusters
             lines.append(f"| {row['task']} | {row['scene']} | {name} (scripted) | | | "
-                         f"{100 * b['success_rate']:.1f} % | {b['fuel_g']:.2f} | {settle} | | "
+                         f"{100 * b['success_rate']:.1f} % | {fuel} | {settle} | | "
                          "| | |")
     if missing:
         lines += ["", f"**Missing cells** ({info['missing']}, not run or not finished): "
