@@ -174,6 +174,15 @@ class TrainConfig(RunConfig):
     normalize: dict | None = None
     """VecNormalize's keyword arguments as a JSON object ({}: no normalisation); unset: the
     shipped settings'."""
+    keep_best: bool | None = None
+    """End on the best validated policy: the run's policy.pt becomes the weights of the periodic
+    evaluation (--eval-every, plus one at the last step) with the highest success rate (then
+    mean return); training.json names the step kept. Unset: on for sac, td3, tqc and crossq,
+    whose policy can collapse late in training; off for ppo."""
+    max_minutes: float | None = None
+    """Stop training after this many minutes of training wall time (over all sessions of the
+    run) and save, evaluate and report the model as at the end of --timesteps; unset: no
+    limit."""
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
@@ -185,6 +194,13 @@ class TrainConfig(RunConfig):
         if self.normalize is None:
             self.normalize = normalize_kwargs(shipped.get("normalize", False))
         self.check_counts(("n_envs",))
+        if self.keep_best is None:
+            self.keep_best = self.algo in OFF_POLICY
+        if self.max_minutes is not None and (
+                isinstance(self.max_minutes, bool)
+                or not isinstance(self.max_minutes, numbers.Real) or not self.max_minutes > 0):
+            raise InvalidParameterError(f"max_minutes must be a number > 0, got "
+                                        f"{self.max_minutes!r}")
         super().resolve()
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},

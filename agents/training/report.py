@@ -42,7 +42,10 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
         "",
         f"- timesteps: {summary['timesteps']:,}; wall time: {summary['wall_time_s'] / 60:.1f} "
         f"min ({trained.setup}, seed {cfg.seed})"
-        + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else ""),
+        + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else "")
+        + ("; stopped by its time limit (--max-minutes)" if summary.get("stopped_by_time_limit")
+           else ""),
+        *kept_lines(summary.get("kept")),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
         "for the scene's hold time",
@@ -59,6 +62,18 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+def kept_lines(kept: dict | None) -> list[str]:
+    """The report's line on which evaluated policy the run kept (--keep-best)."""
+    if not kept:
+        return []
+    last = kept["last"]
+    return [f"- policy kept (--keep-best): the one evaluated at {kept['timesteps']:,} timesteps "
+            f"({100 * kept['success_rate']:.0f} % success in {kept['episodes']} validation "
+            f"episodes, mean return {kept['mean_return']:.3g}); at the last step, "
+            f"{last['timesteps']:,}: {100 * last['success_rate']:.0f} %, "
+            f"{last['mean_return']:.3g}"]
 
 
 def plot_training_curve(run_dir: Path, path: Path) -> Path | None:

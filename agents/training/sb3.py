@@ -14,6 +14,7 @@ is also the fastest for these small MLPs) and the CPU kind.
 from __future__ import annotations
 
 import copy
+import shutil
 import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -94,9 +95,13 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
                             training=False, norm_reward=False)
     # Evaluation before checkpoint: a checkpoint at step N implies the evaluation due at N is
     # logged, so a kill between the two never loses an entry of the history.
-    callbacks = [PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
-                              cfg.eval_episodes, done, run_config=asdict(cfg)),
-                 AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
+    evaluations = PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
+                               cfg.eval_episodes, done, run_config=asdict(cfg),
+                               best_dir=ckpt_dir if cfg.keep_best else None)
+    callbacks = [evaluations, AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
+    limit = TimeLimit(clock, 60.0 * cfg.max_minutes) if cfg.max_minutes else None
+    if limit is not None:
+        callbacks.append(limit)
     if session.progress:
         callbacks.append(RateProgress())
     remaining = max(cfg.timesteps - done, 0)
@@ -112,14 +117,18 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
         save_checkpoint(model, ckpt_dir, steps, clock.total())
     weights.save_model(model, out / runfolder.FINAL_MODEL)
     atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
+    kept = evaluations.keep_best(steps, out) if cfg.keep_best else None
     env.close()
     eval_env.close()
     updates = int(getattr(model, "_n_updates", 0))
     if updates == 0:
         warnings.warn(f"{cfg.algo} took no gradient step in {steps} timesteps: the saved "
                       "policy is untrained", stacklevel=4)
+    extra = {"stopped_by_time_limit": bool(limit and limit.stopped)} if limit else {}
+    if kept is not None:
+        extra["kept"] = kept
     return {**engine.session_summary(cfg, steps, done, clock), "gradient_updates": updates,
-            "trained": updates > 0}
+            "trained": updates > 0, **extra}
 
 
 def _start(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> tuple:
@@ -199,6 +208,19 @@ class AtomicCheckpoint(_Every):
         save_checkpoint(self.model, self.directory, self.num_timesteps, self.clock.total())
 
 
+class TimeLimit(BaseCallback):
+    """Stop ``learn()`` once the run's training wall time reaches ``seconds`` (--max-minutes);
+    the run then ends as at its last timestep: final model, summary, report."""
+
+    def __init__(self, clock: engine.WallClock, seconds: float):
+        super().__init__()
+        self.clock, self.seconds, self.stopped = clock, float(seconds), False
+
+    def _on_step(self) -> bool:
+        self.stopped = self.clock.total() >= self.seconds
+        return not self.stopped
+
+
 class PeriodicEval(_Every):
     """Deterministic evaluation every ``every`` timesteps, logged to ``eval/evaluations.npz``.
 
@@ -209,14 +231,23 @@ class PeriodicEval(_Every):
     the file on resume (entries after the resumed checkpoint are dropped, since those steps are
     trained again) and rewritten atomically after each evaluation, in the format of SB3's
     ``EvalCallback``.
+
+    With ``best_dir`` (--keep-best), the policy of the best evaluation of this session (highest
+    success rate, then mean return; the earlier at a tie) is saved there as ``best_policy.pt``,
+    ``.json`` and ``best_obs_stats.npz``, pickle-free like a checkpoint, and :meth:`keep_best`
+    makes it the run's final policy.
     """
 
+    BEST_MODEL, BEST_STATS = "best_policy.pt", "best_obs_stats.npz"
+
     def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int,
-                 run_config: dict | None = None):
+                 run_config: dict | None = None, best_dir: Path | None = None):
         super().__init__(every)
         self.eval_env, self.log, self.episodes = eval_env, Path(log), episodes
         self.run_config = run_config
         self.history = engine.load_eval_history(self.log, resumed_at)
+        self.best_dir = None if best_dir is None else Path(best_dir)
+        self.best: dict | None = None
 
     def policy(self) -> RunPolicy:
         """The model being trained, acting as a loaded policy would. The eval env normalises
@@ -237,8 +268,42 @@ class PeriodicEval(_Every):
         engine.record_evaluation(self.log, self.history, self.num_timesteps, {
             "results": rewards[:self.episodes], "ep_lengths": lengths[:self.episodes],
             "successes": successes[:self.episodes]})
-        self.logger.record("eval/mean_reward", float(np.mean(rewards)))
-        self.logger.record("eval/success_rate", float(np.mean(successes)) if successes else 0.0)
+        rate = float(np.mean(successes[:self.episodes])) if successes else 0.0
+        mean_return = float(np.mean(rewards[:self.episodes]))
+        self.logger.record("eval/mean_reward", mean_return)
+        self.logger.record("eval/success_rate", rate)
+        if self.best_dir is not None and (
+                self.best is None
+                or (rate, mean_return) > (self.best["success_rate"], self.best["mean_return"])):
+            self.best_dir.mkdir(parents=True, exist_ok=True)
+            weights.save_model(self.model, self.best_dir / self.BEST_MODEL)
+            atomic_write(self.best_dir / self.BEST_STATS,
+                         lambda p: weights.save_stats(self.model.get_vec_normalize_env(), p))
+            self.best = {"timesteps": int(self.num_timesteps), "success_rate": rate,
+                         "mean_return": mean_return}
+
+    def keep_best(self, steps: int, out: Path) -> dict | None:
+        """Make the best evaluated policy the run's final one (``out``'s policy.pt, .json and
+        obs_stats.npz), after evaluating the final model too if no evaluation fell on its
+        step. Returns what was kept (its timesteps and validation scores, and the final
+        model's), or None if nothing was evaluated in this session."""
+        if self.history["timesteps"][-1:] != [steps]:
+            self.num_timesteps = steps
+            self._fire()
+        if self.best is None:
+            return None
+        last = {"timesteps": steps, "success_rate": float(np.mean(self.history["successes"][-1]))
+                if len(self.history["successes"][-1]) else 0.0,
+                "mean_return": float(np.mean(self.history["results"][-1]))}
+        # Copied even when the best is at the last step: an evaluation that the callback ran at
+        # that step saw the weights from before the update that followed it.
+        config = weights.config_path(Path(self.BEST_MODEL)).name
+        for src, dst in ((self.BEST_MODEL, runfolder.FINAL_MODEL),
+                         (config, runfolder.FINAL_CONFIG),
+                         (self.BEST_STATS, runfolder.FINAL_STATS)):
+            atomic_write(out / dst,
+                         lambda p, src=src: shutil.copyfile(self.best_dir / src, p))
+        return {**self.best, "episodes": self.episodes, "last": last}
 
 
 class RateProgress(BaseCallback):

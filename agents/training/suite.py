@@ -122,7 +122,7 @@ def train_config(cell: Cell, run: Path, threads: int):
     return TrainConfig(algo=cell.algo, env_id=cell.env_id, scene=cell.scene, seed=cell.seed,
                        timesteps=cell.timesteps, out=str(run), threads=threads,
                        eval_every=every, checkpoint_every=every,
-                       eval_episodes=CURVE_EPISODES)
+                       eval_episodes=CURVE_EPISODES, keep_best=False)  # select_checkpoint
 
 
 def train_cell(cell: Cell, run: Path, threads: int) -> dict:

@@ -24,9 +24,11 @@ import numpy as np
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl" / "off_policy"
 # Issue 22's targets on SatelliteReorient-v0 and -v1/cubesat-12u (PPO: success, and its
-# propellant at most the PD's on the same episodes).
+# propellant at most the PD's on the same episodes). A run trained with --keep-best is judged
+# on the policy it kept (training.json's "kept" names its step) after its whole wall time.
 TARGET_SUCCESS = {"sac": 0.99, "tqc": 0.95, "td3": 0.95, "crossq": 0.95, "ppo": 0.99}
 TARGET_MINUTES = {"sac": 15.0, "tqc": 30.0, "td3": 30.0, "crossq": 30.0}
+OTHER_TASKS_SUCCESS = 0.95  # the best off-policy learner on Detumble-v1 and Track-v1
 
 
 def _training(run: Path) -> dict:
@@ -98,10 +100,14 @@ def _fmt(value, spec: str, missing: str = "—") -> str:
     return missing if value is None else format(value, spec)
 
 
-def _target(algo: str, result: dict, minutes, pd: dict | None) -> str:
-    """Whether a held-out result meets issue 22's target for ``algo``."""
+def _target(algo: str, result: dict, minutes, pd: dict | None, env_id: str = "") -> str:
+    """Whether a held-out result meets issue 22's target for ``algo`` on ``env_id`` (on
+    Detumble and Track: the best off-policy learner >= 95 %, no time budget)."""
     if algo not in TARGET_SUCCESS:
         return "—"
+    if algo in TARGET_MINUTES and "Reorient" not in env_id:
+        ok = result["success_rate"] >= OTHER_TASKS_SUCCESS
+        return f"{'met' if ok else 'missed'} (>= {OTHER_TASKS_SUCCESS:.0%})"
     ok = result["success_rate"] >= TARGET_SUCCESS[algo]
     rule = f">= {TARGET_SUCCESS[algo]:.0%}"
     if algo in TARGET_MINUTES:
@@ -135,13 +141,18 @@ def _rows(data: dict, baselines: dict) -> list:
         for b in others:
             baselines.setdefault((s["env_id"], b["policy"]), b)
         pd = next((b for b in others if b["policy"] == "pd"), None)
-        rows = [head + f"{_result_cells(trained)} | {_target(algo, trained, minutes, pd)} |"]
+        kept = t.get("kept")  # --keep-best: the policy is the best validated one
+        cells = _result_cells(trained)
+        if kept:
+            cells = cells.replace(" episodes)", f" episodes; policy of step "
+                                  f"{kept['timesteps']:,})", 1)
+        rows = [head + f"{cells} | {_target(algo, trained, minutes, pd, s['env_id'])} |"]
     for c in data.get("held_out_checkpoints", []):
         r, wall = c["result"], c.get("wall_time_s")
         rows.append(f"| {data['name']}, checkpoint {c['timesteps'] // 1000}k | "
                     f"{s['env_id'].split('/')[-1]} | {algo} | {c['timesteps']:,} | "
                     f"{_fmt(wall and wall / 60, '.1f')} | — | — | — | {_result_cells(r)} | "
-                    f"{_target(algo, r, wall and wall / 60, pd)} |")
+                    f"{_target(algo, r, wall and wall / 60, pd, s['env_id'])} |")
     return rows
 
 

@@ -14,6 +14,7 @@ from rbenv.agents.cli import main as cli_main
 from rbenv.agents.policies import load_policy
 from rbenv.agents.training.config import ZOO_KEYS, TrainConfig
 from rbenv.agents.training.sb3 import train
+from rbenv.core.errors import InvalidParameterError
 
 pytest.importorskip("sb3_contrib", reason="sb3-contrib is not installed (train extra)")
 
@@ -77,3 +78,57 @@ def test_unknown_algo_is_refused():
 
     with pytest.raises(InvalidParameterError, match="crossq"):
         TrainConfig(algo="ddpg").resolve()
+
+
+def _evaluations(out) -> list[tuple[float, float, int]]:
+    with np.load(out / "eval" / "evaluations.npz") as d:
+        return [(float(np.mean(s)), float(np.mean(r)), int(t))
+                for s, r, t in zip(d["successes"], d["results"], d["timesteps"], strict=True)]
+
+
+def test_keep_best_ends_on_the_best_validated_policy(tmp_path):
+    out = tmp_path / "sac"
+    cfg = TrainConfig(algo="sac", timesteps=3072, out=str(out), hyperparams=dict(SHORT),
+                      checkpoint_every=1024, eval_every=1024, eval_episodes=4,
+                      report_episodes=4)
+    assert cfg.keep_best is None
+    train(cfg, progress_bar=False, report=True)
+    assert json.loads((out / "config.json").read_text())["keep_best"] is True  # off-policy
+    kept = json.loads((out / "training.json").read_text())["kept"]
+    history = _evaluations(out)
+    assert [t for *_, t in history] == [1024, 2048, 3072]
+    rate, ret, steps = max(history, key=lambda e: (e[0], e[1], -e[2]))
+    assert (kept["timesteps"], kept["success_rate"], kept["mean_return"]) == (steps, rate, ret)
+    assert kept["last"]["timesteps"] == 3072
+    # The run's policy is the kept one: its own step count, and the checkpoint's weights.
+    assert json.loads((out / "policy.json").read_text())["num_timesteps"] == steps
+    assert load_policy(out).model.num_timesteps == steps
+    ckpt_stats = np.load(out / "checkpoints" / f"obs_stats_{steps}.npz")
+    assert np.array_equal(np.load(out / "obs_stats.npz")["obs_mean"], ckpt_stats["obs_mean"])
+    assert f"{steps:,} timesteps" in (out / "report.md").read_text()
+
+
+def test_without_keep_best_the_last_step_is_the_policy(tmp_path):
+    out = tmp_path / "sac"
+    train(TrainConfig(algo="sac", timesteps=2048, out=str(out), hyperparams=dict(SHORT),
+                      eval_every=1000, eval_episodes=4, keep_best=False),
+          progress_bar=False, report=False)
+    assert "kept" not in json.loads((out / "training.json").read_text())
+    assert json.loads((out / "policy.json").read_text())["num_timesteps"] == 2048
+    assert TrainConfig(algo="ppo").resolve().keep_best is False
+
+
+def test_max_minutes_ends_the_run_with_a_final_model(tmp_path):
+    out = tmp_path / "td3"
+    with pytest.warns(UserWarning, match="no gradient step"):  # stopped before learning_starts
+        assert cli_main(["train", "--algo", "td3", "--timesteps", "4096", "--out", str(out),
+                         "--hyperparams", json.dumps(SHORT), "--max-minutes", "1e-9",
+                         "--eval-episodes", "4", "--no-report", "--no-progress"]) == 0
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["stopped_by_time_limit"] is True
+    assert summary["timesteps"] < 4096  # stopped at its first step
+    assert json.loads((out / "policy.json").read_text())["num_timesteps"] == summary["kept"][
+        "timesteps"] == summary["timesteps"]  # evaluated at its last step, the only one
+    for bad in (0, -1.0, True):
+        with pytest.raises(InvalidParameterError, match="max_minutes"):
+            TrainConfig(algo="sac", max_minutes=bad).resolve()
