@@ -16,6 +16,7 @@ ones. Torch and Stable-Baselines3 (the train extra) are imported only when a mod
 
 from __future__ import annotations
 
+import functools
 import pickle
 import zipfile
 from pathlib import Path
@@ -178,26 +179,24 @@ class RunPolicy(TrainedOn):
             dist = self.model.policy.get_distribution(
                 torch.as_tensor(obs if batch else obs[None])).distribution
             mean, std = dist.mean.numpy(), dist.stddev.numpy()
-        out = expected_throttle(mean, std, *self._clip_bounds()).astype(np.float32)
+        out = expected_throttle(mean, std, *self.clip_bounds).astype(np.float32)
         return out if batch else out[0]
 
-    def _clip_bounds(self) -> tuple:
+    @functools.cached_property
+    def clip_bounds(self) -> tuple:
         """(low, high) per action entry, where the env clips them: the plant's action bounds
-        (thrusters [0, 1], wheels and rods [-1, 1]); (0, 1) for a run of unknown config."""
-        if not hasattr(self, "_bounds"):
-            if self.config is None:
-                self._bounds = (0.0, 1.0)
-            else:
-                try:
-                    env = self.make_env()
-                except ValueError:  # the run's scene file is gone: the thruster default
-                    self._bounds = (0.0, 1.0)
-                    return self._bounds
-                try:
-                    self._bounds = env.unwrapped.plant.action_bounds
-                finally:
-                    env.close()
-        return self._bounds
+        (thrusters [0, 1], wheels and rods [-1, 1]); (0, 1) for a run of unknown config or
+        whose scene file is gone."""
+        if self.config is None:
+            return 0.0, 1.0
+        try:
+            env = self.make_env()
+        except ValueError:
+            return 0.0, 1.0
+        try:
+            return env.unwrapped.plant.action_bounds
+        finally:
+            env.close()
 
 
 def _is_unsquashed_gaussian(model) -> bool:

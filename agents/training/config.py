@@ -206,8 +206,8 @@ class TrainConfig(RunConfig):
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
                             **self.hyperparams}
         # The algorithm's env options, then the scene's for it (registry), then the caller's.
-        scene = rbenv.registry.get(self.env_id).training_env_kwargs(self.algo, self.scene)
-        self.env_kwargs = {**shipped.get("env_kwargs", {}), **scene, **self.env_kwargs}
+        scene_kwargs = rbenv.registry.get(self.env_id).training_env_kwargs(self.algo, self.scene)
+        self.env_kwargs = {**shipped.get("env_kwargs", {}), **scene_kwargs, **self.env_kwargs}
         starts = self.hyperparams.get("learning_starts", 0)
         if self.algo in OFF_POLICY and self.timesteps <= starts:
             raise InvalidParameterError(

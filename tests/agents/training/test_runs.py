@@ -566,7 +566,7 @@ def test_the_mean_action_clips_each_entry_where_the_env_clips_it():
 
     policy = object.__new__(RunPolicy)
     policy.config = {"env_id": rbenv.ENV_ID, "scene": "cubesat-12u-rw"}
-    low, high = policy._clip_bounds()
+    low, high = policy.clip_bounds
     assert list(low[:3]) == [-1.0] * 3 and list(low[3:]) == [0.0] * 12
     assert (high == 1.0).all()
     rng = np.random.default_rng(3)
