@@ -501,11 +501,14 @@ class TorchEnv(gym.Env):
         return self._obs(obs), self._info(info)
 
     def step(self, action):
-        a = action if isinstance(action, torch.Tensor) else \
-            torch.as_tensor(action_array(action, self.action_space.shape))
-        if tuple(a.shape) != self.action_space.shape:
-            raise InvalidParameterError(f"action must have shape {self.action_space.shape}, "
-                                        f"got {tuple(a.shape)}")
+        shape = self.action_space.shape
+        if not isinstance(action, torch.Tensor):  # NumPy arrays, lists: the NumPy env's checks
+            a = torch.as_tensor(action_array(action, shape))
+        elif tuple(action.shape) == shape:
+            a = action
+        else:
+            raise InvalidParameterError(f"action must have shape {shape}, got "
+                                        f"{tuple(action.shape)}")
         obs, reward, terminated, truncated, info = self.env.step(a.unsqueeze(0))
         return (self._obs(obs), float(reward[0]), bool(terminated[0]), bool(truncated[0]),
                 self._info(info))

@@ -265,13 +265,17 @@ def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_loc
         lock.release()
 
 
+def _train_command(out, *, timesteps: int, checkpoint_every: int, eval_every: int) -> list:
+    """``rbenv train`` in a child process: a small PPO run on 4 envs, short episodes."""
+    return [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", str(timesteps),
+            "--n-envs", "4", "--out", str(out), "--checkpoint-every", str(checkpoint_every),
+            "--eval-every", str(eval_every), "--hyperparams", json.dumps(SMALL),
+            "--env-kwargs", json.dumps(SHORT), "--no-report", "--no-progress"]
+
+
 def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     out = tmp_path / "shared"
-    cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "2048",
-           "--n-envs", "4",
-           "--out", str(out), "--checkpoint-every", "256", "--eval-every", "100000",
-           "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
-           "--no-report", "--no-progress"]
+    cmd = _train_command(out, timesteps=2048, checkpoint_every=256, eval_every=100000)
     procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for _ in range(2)]
     results = [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in procs]
@@ -452,11 +456,7 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
     import time
 
     out = tmp_path / "run"
-    cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "1536",
-           "--n-envs", "4",
-           "--out", str(out), "--checkpoint-every", "128", "--eval-every", "256",
-           "--hyperparams", json.dumps(SMALL), "--env-kwargs", json.dumps(SHORT),
-           "--no-report", "--no-progress"]
+    cmd = _train_command(out, timesteps=1536, checkpoint_every=128, eval_every=256)
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         if when.endswith("after start"):
