@@ -2,6 +2,7 @@
 
     python -m benchmarks.bounds [--quick] [--out DIR] [--episodes 500] [--seed 1000000]
                                 [--optimal 3]
+    python -m benchmarks.bounds --v1 [--suite DIR] [--run NAME=RUN_FOLDER ...]
 
 On the default scene (cubesat-12u) and the held-out episodes ``seed + i``, computes for each
 episode the lower bounds of :mod:`rbenv.bounds` (settle time; propellant for any successful
@@ -16,6 +17,14 @@ with the
 bounds. Writes ``bounds.json``, ``bounds.md`` and ``bounds.png`` to ``--out`` (default
 ``benchmarks/results/bounds``). ``--quick``: 20 episodes, PPO seed 0 only, one short
 optimisation: a smoke test for CI.
+
+``--v1``: the same ratios for the policies trained on ``rbenv/SatelliteReorient-v1`` (same
+episodes for the same seed, checked): the v1 suite's PPO policies (``benchmarks/results/
+suite_v1/cells/ppo-reorient_v1-cubesat-12u-seed{0,1,2}``, selected as the suite selects them)
+and each ``--run NAME=FOLDER``, an ``rbenv train`` run folder evaluated with the policy it kept
+(``policy.pt``; off-policy runs: the best validated one) in the env options it trained with.
+Writes to ``benchmarks/results/bounds_v1`` by default; no trajectory optimisation (the
+``--v0`` run has it; the bounds do not depend on the policy).
 """
 
 from __future__ import annotations
@@ -32,37 +41,79 @@ import numpy as np
 from benchmarks import common
 
 SCENE = "cubesat-12u"
-SUITE = common.RESULTS / "suite"
-CELL = "ppo-reorient-cubesat-12u-seed{}"
-OUT = common.RESULTS / "bounds"
+V0, V1 = "rbenv/SatelliteReorient-v0", "rbenv/SatelliteReorient-v1"
+# Per env id: the suite folder of its PPO policies, their cell name, the default output.
+SUITE = {V0: common.RESULTS / "suite", V1: common.RESULTS / "suite_v1"}
+CELL = {V0: "ppo-reorient-cubesat-12u-seed{}", V1: "ppo-reorient_v1-cubesat-12u-seed{}"}
+OUT = {V0: common.RESULTS / "bounds", V1: common.RESULTS / "bounds_v1"}
 QUICK = {"episodes": 20, "ppo_seeds": (0,), "optimal": 1, "maxiter": 40}
 
 
-def ppo_policy(seed: int, suite: Path = SUITE):
-    """The suite's PPO policy for reorient/cubesat-12u ``seed``, as the suite evaluates it: the
-    checkpoint it selected on validation episodes, acting with its mean throttle."""
-    from rbenv.agents.policies.runfolder import read_json
+def ppo_policy(seed: int, suite: Path | None = None, env_id: str = V0):
+    """The suite's PPO policy for ``env_id``/cubesat-12u ``seed``, as the suite evaluates it:
+    the checkpoint it selected on validation episodes, acting with its mean throttle.
+    Returns (policy, facts, gym.make options of the env it trained in)."""
+    from rbenv.agents.policies.runfolder import read_config, read_json
     from rbenv.agents.policies.sb3 import SB3Policy
     from rbenv.agents.training.suite import select_checkpoint
 
-    folder = Path(suite) / "cells" / CELL.format(seed)
+    folder = Path(suite or SUITE[env_id]) / "cells" / CELL[env_id].format(seed)
     result = read_json(folder / "result.json", "suite cell result")
     model, steps = select_checkpoint(folder / "run", result["learning_curve"])
     meta = {"model": model.name, "timesteps": steps,
             "suite_success_rate": result["policy"]["success_rate"],
             "suite_fuel_mean_g": 1000 * result["policy"]["fuel"]["mean"]}
-    return SB3Policy(model, action="mean_throttle"), meta
+    env_kwargs = dict(read_config(folder / "run").get("env_kwargs") or {})
+    return SB3Policy(model, action="mean_throttle"), meta, env_kwargs
 
 
-def trained_seeds(seeds, suite: Path = SUITE) -> list[int]:
+def trained_seeds(seeds, suite: Path | None = None, env_id: str = V0) -> list[int]:
     """The seeds of ``seeds`` whose suite run folder is present (trained models are not
     committed: a fresh clone has the suite's JSON, not its policies)."""
-    present = [s for s in seeds if (Path(suite) / "cells" / CELL.format(s) / "run").is_dir()]
+    suite = Path(suite or SUITE[env_id])
+    cell = CELL[env_id]
+    present = [s for s in seeds if (suite / "cells" / cell.format(s) / "run").is_dir()]
+    task = cell.split("-")[1]
     for s in sorted(set(seeds) - set(present)):
-        print(f"ppo seed {s}: no trained policy in {Path(suite) / 'cells' / CELL.format(s)}; "
-              "skipped (train it with: python -m rbenv suite --tasks reorient --scenes "
+        print(f"ppo seed {s}: no trained policy in {suite / 'cells' / cell.format(s)}; "
+              f"skipped (train it with: python -m rbenv suite --tasks {task} --scenes "
               f"{SCENE} --out {suite})", flush=True)
     return present
+
+
+def run_policy(name: str, folder) -> tuple:
+    """An ``rbenv train`` run folder's kept policy (its ``policy.pt``), with facts from its
+    ``training.json`` and the env options it trained with (its ``env_id`` must be v1)."""
+    from rbenv.agents.policies.load import load_policy
+    from rbenv.agents.policies.runfolder import read_json
+
+    folder = Path(folder)
+    if not (folder / "policy.pt").is_file():
+        raise FileNotFoundError(f"--run {name}={folder}: no policy.pt in that folder (an "
+                                "rbenv train run folder, trained to its end, is needed)")
+    policy = load_policy(folder)
+    if policy.env_id != V1:
+        raise ValueError(f"--run {name}={folder}: trained on {policy.env_id!r}; --v1 "
+                         f"compares policies of {V1!r}")
+    summary = read_json(folder / "training.json", "training summary")
+    kept = summary.get("kept") or {}
+    meta = {"run": str(folder), "algo": policy.config.get("algo"),
+            "timesteps": summary.get("timesteps"), "kept_timesteps": kept.get("timesteps"),
+            "wall_time_s": summary.get("wall_time_s")}
+    return policy, meta, dict(policy.env_kwargs)
+
+
+def parse_runs(items) -> dict[str, Path]:
+    """``NAME=FOLDER`` strings as {name: folder}; a malformed or repeated name is an error."""
+    runs: dict[str, Path] = {}
+    for item in items or ():
+        name, sep, folder = item.partition("=")
+        if not sep or not name or not folder:
+            raise ValueError(f"--run must be NAME=RUN_FOLDER, got {item!r}")
+        if name in runs or name in ("pd", "bangbang"):
+            raise ValueError(f"--run name {name!r} is used twice (or is a baseline's name)")
+        runs[name] = Path(folder)
+    return runs
 
 
 def quartiles(x) -> dict:
@@ -179,6 +230,11 @@ def markdown(data: dict) -> str:
         "(selected checkpoint, mean throttle).", "",
         f"Bounds over the episodes: settle time {_cell(b['settle_s'], '.1f')} s; propellant "
         f"{_cell(b['fuel_g'], '.3f')} g.", "",
+        *([f"Policies of {data['env_id']} (the same episodes as {V0}'s for the same seeds, "
+           "checked). PPO rows: the v1 suite's; the other learned rows: `rbenv train` runs "
+           "with the policy each kept (the best validated one for off-policy learners), "
+           "acting deterministically in the env options they trained with (torque actions, "
+           "pinv allocation).", ""] if data.get("env_id", V0) != V0 else []),
         "| policy | success | settle time (s) | settle / bound | fuel (g) | fuel / bound (any "
         "policy) | fuel / bound (own time) | least ratio (settle, fuel) |",
         "|---|---|---|---|---|---|---|---|"]
@@ -253,7 +309,8 @@ def plot(data: dict, per_episode: dict, path: Path) -> Path:
 
 
 def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
-        quick: bool = False) -> tuple[dict, dict]:
+        quick: bool = False, env_id: str = V0, suite: Path | None = None,
+        runs: dict[str, Path] | None = None) -> tuple[dict, dict]:
     from rbenv.agents.policies.evaluate import evaluate
     from rbenv.agents.training.sb3 import set_threads
 
@@ -262,20 +319,26 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
     set_threads(1)
     limits = rb.scene_limits(SCENE)
     starts = rb.episode_starts(episodes, seed, SCENE)
+    if env_id != V0:
+        check_same_episodes(starts, rb.episode_starts(episodes, seed, SCENE, env_id=env_id),
+                            env_id)
     settle = rb.settle_time_bound(limits, starts["angle"], starts["omega_B"], starts["bias_B"])
     fuel = rb.fuel_bound(limits, starts["angle"], starts["omega_B"], starts["bias_B"])
     bounds = {**starts, "settle_s": settle["sampled"], "settle_continuous_s":
               settle["continuous"], "fuel_kg": fuel["kg"], "kappa": fuel["kappa"]}
-    policies: dict = {"pd": ("pd", {}), "bangbang": ("bangbang", {})}
-    trained = trained_seeds(ppo_seeds)
+    policies: dict = {"pd": ("pd", {}, {}), "bangbang": ("bangbang", {}, {})}
+    trained = trained_seeds(ppo_seeds, suite, env_id)
     missing = sorted(set(ppo_seeds) - set(trained))
     ppo_seeds = trained
     for s in ppo_seeds:
-        policies[f"ppo seed {s}"] = ppo_policy(s)
+        policies[f"ppo seed {s}"] = ppo_policy(s, suite, env_id)
+    for name, folder in (runs or {}).items():
+        policies[name] = run_policy(name, folder)
     results, per_episode = {}, {}
-    for name, (policy, meta) in policies.items():
+    for name, (policy, meta, env_kwargs) in policies.items():
         started = time.perf_counter()
-        ev = evaluate(policy, episodes=episodes, seed=seed, scene=SCENE, name=name, record=0)
+        ev = evaluate(policy, episodes=episodes, seed=seed, scene=SCENE, name=name, record=0,
+                      env_id=env_id, env_kwargs=env_kwargs)
         r = ratios(ev, bounds, limits)
         per_episode[name] = r.pop("per_episode")
         results[name] = {**r, **meta, "eval_wall_s": time.perf_counter() - started}
@@ -302,7 +365,8 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
                                      ("fuel_optimal", "fuel_g", "fuel_bound_g")):
             if key in o:
                 o[key]["ratio_to_bound"] = o[key][achieved] / o[bound] if o[bound] else None
-    data = {"scene": SCENE, "episodes": episodes, "seed": seed, "limits": limits.summary(),
+    data = {"env_id": env_id, "scene": SCENE, "episodes": episodes, "seed": seed,
+            "limits": limits.summary(),
             "bounds": {"settle_s": quartiles(bounds["settle_s"]),
                        "settle_continuous_s": quartiles(bounds["settle_continuous_s"]),
                        "fuel_g": quartiles(1000 * bounds["fuel_kg"]),
@@ -318,6 +382,15 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
     return data, per_episode
 
 
+def check_same_episodes(v0: dict, other: dict, env_id: str) -> None:
+    """Refuse to compare with the bounds of v0's episodes unless ``env_id`` starts the same
+    episodes for the same seeds (attitude, target, rate and bias, to the bit)."""
+    for key, value in v0.items():
+        if not np.array_equal(value, other[key]):
+            raise ValueError(f"{env_id} starts other episodes than {V0} for the same seeds "
+                             f"({key} differs): its policies cannot use these bounds")
+
+
 def _rounded(tree):
     """Arrays in a nested dict as lists of floats to 5 significant digits (NaN: None)."""
     if isinstance(tree, dict):
@@ -331,25 +404,44 @@ def _rounded(tree):
 def main(argv=()) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="smoke form: " + json.dumps(QUICK))
-    p.add_argument("--out", default=None, help=f"output folder (default {OUT})")
+    p.add_argument("--v1", action="store_true",
+                   help=f"the policies of {V1} (the suite's PPO and --run folders)")
+    p.add_argument("--suite", default=None,
+                   help="the suite folder with the PPO run folders (default: the committed "
+                        f"suite's, {SUITE[V0]} or with --v1 {SUITE[V1]})")
+    p.add_argument("--run", action="append", default=[], metavar="NAME=RUN_FOLDER",
+                   help="with --v1: an rbenv train run folder to evaluate (repeatable)")
+    p.add_argument("--out", default=None, help=f"output folder (default {OUT[V0]} or with "
+                                               f"--v1 {OUT[V1]})")
     p.add_argument("--episodes", type=int, default=500)
     p.add_argument("--seed", type=int, default=1_000_000)
     p.add_argument("--optimal", type=int, default=None,
-                   help="episodes to optimise trajectories for (0: none; default 3, quick 1)")
+                   help="episodes to optimise trajectories for (0: none; default 3, quick 1, "
+                        "--v1 0)")
     p.add_argument("--maxiter", type=int, default=150, help="SLSQP iterations per solve")
     args = p.parse_args(argv)
+    env_id = V1 if args.v1 else V0
+    if args.run and not args.v1:
+        p.error("--run needs --v1 (v0's learned rows are the suite's PPO policies)")
+    try:
+        runs = parse_runs(args.run)
+    except ValueError as exc:
+        p.error(str(exc))
     started = time.perf_counter()
+    common_args = {"env_id": env_id, "suite": args.suite, "runs": runs}
     if args.quick:
         count = QUICK["optimal"] if args.optimal is None else args.optimal
-        data, per_episode = run(QUICK["episodes"], args.seed, QUICK["ppo_seeds"], count,
-                                QUICK["maxiter"], quick=True)
+        data, per_episode = run(QUICK["episodes"], args.seed, QUICK["ppo_seeds"],
+                                0 if args.v1 else count, QUICK["maxiter"], quick=True,
+                                **common_args)
     else:
-        count = 3 if args.optimal is None else args.optimal
-        data, per_episode = run(args.episodes, args.seed, (0, 1, 2), count, args.maxiter)
-    data["command"] = "python -m benchmarks.bounds" + (" --quick" if args.quick else "")
+        count = (0 if args.v1 else 3) if args.optimal is None else args.optimal
+        data, per_episode = run(args.episodes, args.seed, (0, 1, 2), count, args.maxiter,
+                                **common_args)
+    data["command"] = " ".join(["python -m benchmarks.bounds", *argv])
     data["wall_time_s"] = time.perf_counter() - started
     data["machine"] = common.machine()
-    out = Path(args.out) if args.out else OUT
+    out = Path(args.out) if args.out else OUT[env_id]
     out.mkdir(parents=True, exist_ok=True)
     (out / "bounds.json").write_text(json.dumps(common._jsonable(data), indent=1) + "\n")
     table = markdown(data)

@@ -345,8 +345,10 @@ def fuel_bound(limits: SceneLimits, angle0, omega0_B, bias_B=None, time_s=None,
 
 # --------------------------------------------------------------------------- episodes
 
-def episode_starts(episodes: int, seed: int, scene=None, **env_kwargs) -> dict:
-    """The starts of episodes ``seed + i`` of the reorientation vector env, as evaluated.
+def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = None,
+                   **env_kwargs) -> dict:
+    """The starts of episodes ``seed + i`` of the reorientation vector env, as evaluated
+    (``env_id``: a reorientation id, default ``rbenv.ENV_ID``).
 
     Returns ``angle`` (N,) rad, ``q`` and ``q_target`` (N, 4) (scalar first, body → world),
     ``omega_B`` (N, 3) rad/s, ``bias_B`` (N, 3) N·m (zeros when the scene has no random bias):
@@ -362,8 +364,8 @@ def episode_starts(episodes: int, seed: int, scene=None, **env_kwargs) -> dict:
     from rbenv import transition
     from rbenv.draws import EpisodeDraws
 
-    envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
-                        **kwargs)
+    envs = gym.make_vec(env_id or rbenv.ENV_ID, num_envs=episodes,
+                        vectorization_mode="vector_entry_point", **kwargs)
     try:
         env = envs.unwrapped
         seeds = np.arange(seed, seed + episodes, dtype=np.uint64)
