@@ -400,4 +400,5 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteTrack-v1", task=TrackV1, make=make_track_v1,
                    baselines=SPEC.baselines, budget={"ppo": 1_000_000, "sac": 200_000},
+                   scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

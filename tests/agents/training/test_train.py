@@ -196,3 +196,17 @@ def test_a_scene_entry_of_the_registry_adds_its_env_options_to_training():
     assert mine.env_kwargs["reward_weights"] == {"failure": 50.0}
     wheels.env_kwargs["reward_weights"]["failure"] = -1.0  # a copy: the registry is untouched
     assert tuned.WHEELS_FAILURE["reward_weights"]["failure"] == 200.0
+
+
+def test_track_v1_on_boom_sat_trains_with_the_lower_fuel_weight_and_only_there():
+    from rbenv.agents.training.config import TrainConfig
+
+    from rbenv.hyperparams import tuned
+
+    track = "rbenv/SatelliteTrack-v1"
+    boom = TrainConfig(algo="ppo", env_id=track, scene="boom-sat").resolve()
+    assert boom.env_kwargs["reward_weights"] == tuned.BOOM_TRACK_FUEL["reward_weights"]
+    for env_id, scene in ((track, "cubesat-12u"), ("rbenv/SatelliteTrack-v0", "boom-sat"),
+                          ("rbenv/SatelliteReorient-v1", "boom-sat")):
+        cfg = TrainConfig(algo="ppo", env_id=env_id, scene=scene).resolve()
+        assert "reward_weights" not in cfg.env_kwargs, (env_id, scene)
