@@ -210,3 +210,12 @@ def test_track_v1_on_boom_sat_trains_with_the_lower_fuel_weight_and_only_there()
                           ("rbenv/SatelliteReorient-v1", "boom-sat")):
         cfg = TrainConfig(algo="ppo", env_id=env_id, scene=scene).resolve()
         assert "reward_weights" not in cfg.env_kwargs, (env_id, scene)
+
+
+def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
+    from rbenv.agents.training.suite import default_timesteps
+
+    v1 = "rbenv/SatelliteReorient-v1"
+    assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
+    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_000_000
+    assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
