@@ -214,8 +214,10 @@ class Validation:
         return self.model.predict(self.normalise(obs), deterministic=True)[0]
 
     def __call__(self, steps: int) -> None:
+        began = time.perf_counter()
         res = run_episodes(self.predict, self.seeds, self.env_kwargs)
         point = {"timesteps": int(steps), "wall_time_s": time.perf_counter() - self.clock_start,
+                 "validation_s": time.perf_counter() - began,
                  "success_rate": float(np.mean(res["success"])),
                  "mean_return": float(np.mean(res["return"])),
                  "final_error_deg_median": float(np.median(res["final_error_deg"])),
@@ -352,6 +354,7 @@ def train(args) -> dict:
                                   "deterministic": True}},
         "versions": versions(),
         "training": {"timesteps": steps, "wall_time_s": wall, "steps_per_s": steps / wall,
+                     "validation_time_s": sum(p["validation_s"] for p in validation.curve),
                      "gradient_updates": int(getattr(model, "_n_updates", 0)),
                      "stopped_by_time_limit": bool(callback.stopped),
                      "kept": {**validation.best, "episodes": val_episodes, "last": last}},
@@ -389,9 +392,9 @@ def summary(directory: Path) -> Path:
     """``summary.md`` from every JSON in ``directory``."""
     directory = Path(directory)
     runs = [json.loads(p.read_text()) for p in sorted(directory.glob("*.json"))]
-    lines = ["| run | algo | env steps | wall (min) | env-steps/s (load 1-min mean) | "
-             "kept step | held-out success | fuel mean (g) | settle median (s) | "
-             "final error median (deg) |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| run | algo | env steps | wall (min; of it validation) | "
+             "env-steps/s (load 1-min mean) | kept step | held-out success | fuel mean (g) | "
+             "settle median (s) | final error median (deg) |", "|---" * 10 + "|"]
     pds = {}
     for d in runs:
         s, t = d["settings"], d["training"]
@@ -399,7 +402,8 @@ def summary(directory: Path) -> Path:
         trained, pd = d["held_out"]
         pds.setdefault((pd["episodes"], pd["seed"]), pd)
         lines.append(f"| {d['name']} | {s['algo']}+HER | {t['timesteps']:,} | "
-                     f"{t['wall_time_s'] / 60:.1f} | {t['steps_per_s']:.0f} "
+                     f"{t['wall_time_s'] / 60:.1f} ({t['validation_time_s'] / 60:.1f}) | "
+                     f"{t['steps_per_s']:.0f} "
                      f"({load['load1_mean']:.1f}) | {t['kept']['timesteps']:,} | "
                      f"{_cells(trained)} |")
     for (episodes, seed), pd in pds.items():
