@@ -43,6 +43,8 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from rbenv.goal import GOAL_ID
+
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl" / "her"
 PLAIN_ID = "rbenv/SatelliteReorient-v1"
 SCENE = "cubesat-12u"
@@ -98,8 +100,6 @@ def run_episodes(predict, seeds, env_kwargs: dict, batch: int = 100) -> dict:
     ``predict(obs_dict) -> actions``; per-episode arrays: success, settle time (s; NaN if not
     successful, as :func:`rbenv.agents.policies.evaluate.evaluate`), fuel (kg), final
     attitude error (deg) and return."""
-    from rbenv.goal import GOAL_ID
-
     keys = ("success", "settle_time_s", "fuel_kg", "final_error_deg", "return")
     out = {k: [] for k in keys}
     seeds = [int(s) for s in seeds]
@@ -173,8 +173,6 @@ def make_env(args, n_envs: int, env_kwargs: dict):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    from rbenv.goal import GOAL_ID
-
     venv = make_vec_env(GOAL_ID, n_envs=n_envs, seed=args.seed, vec_env_cls=DummyVecEnv,
                         env_kwargs={"scene": SCENE, **env_kwargs},
                         monitor_kwargs={"info_keywords": ("is_success",)})
@@ -182,6 +180,39 @@ def make_env(args, n_envs: int, env_kwargs: dict):
         return VecNormalize(venv, norm_obs=True, norm_reward=False,
                             norm_obs_keys=["observation"])
     return venv
+
+
+def goal_error_extractor(success_angle: float):
+    """An SB3 features extractor (class, keyword arguments) that feeds the networks what
+    Reorient-v1 observes, computed from the goals: ``observation``, then the error rotation
+    R_dᵀR_a as rot6 (v1's ``rot6_err``) and the error's axis-angle vector θ·axis scaled by
+    1/(θ_s + θ) (v1's ``attitude_fine``). No parameters; a function of the goals only, so
+    it stays right for the goals HER substitutes."""
+    import torch
+    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+    def matrix(r6):  # rot6 → rotation (Gram–Schmidt), as rbenv.goal._matrix
+        c0 = r6[..., 0:3] / torch.linalg.vector_norm(r6[..., 0:3], dim=-1, keepdim=True)
+        c1 = r6[..., 3:6] - (c0 * r6[..., 3:6]).sum(-1, keepdim=True) * c0
+        c1 = c1 / torch.linalg.vector_norm(c1, dim=-1, keepdim=True)
+        return torch.stack([c0, c1, torch.linalg.cross(c0, c1)], dim=-1)
+
+    class GoalErrorFeatures(BaseFeaturesExtractor):
+        def __init__(self, observation_space, success_angle: float):
+            super().__init__(observation_space,
+                             features_dim=observation_space["observation"].shape[0] + 9)
+            self.success_angle = float(success_angle)
+
+        def forward(self, obs: dict):
+            m = matrix(obs["desired_goal"]).transpose(-1, -2) @ matrix(obs["achieved_goal"])
+            vee = torch.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
+                               m[..., 1, 0] - m[..., 0, 1]], dim=-1)
+            s = torch.linalg.vector_norm(vee, dim=-1, keepdim=True)  # 2 sin θ
+            theta = torch.atan2(s, m.diagonal(dim1=-2, dim2=-1).sum(-1, keepdim=True) - 1.0)
+            fine = vee * (theta / s.clamp_min(1e-12)) / (self.success_angle + theta)
+            return torch.cat([obs["observation"], m[..., :, 0], m[..., :, 1], fine], dim=-1)
+
+    return GoalErrorFeatures, {"success_angle": success_angle}
 
 
 def model_class(algo: str):
@@ -281,8 +312,6 @@ def train(args) -> dict:
     from stable_baselines3 import HerReplayBuffer
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from rbenv.goal import GOAL_ID
-
     torch.set_num_threads(args.threads)
     quick = args.quick
     n_envs = QUICK["n_envs"] if quick else args.n_envs
@@ -300,10 +329,16 @@ def train(args) -> dict:
 
     clock_start = time.perf_counter()
     env = make_env(args, n_envs, env_kwargs)
-    model = model_class(args.algo)(  # (SB3 adds keys to the policy_kwargs it is given)
+    kwargs = copy.deepcopy(settings)  # (SB3 adds keys to the policy_kwargs it is given)
+    if args.features == "goal-error":
+        angle = env.get_attr("task", [0])[0].success_angle
+        extractor, extractor_kwargs = goal_error_extractor(angle)
+        kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}),
+                                   "features_extractor_class": extractor,
+                                   "features_extractor_kwargs": extractor_kwargs}
+    model = model_class(args.algo)(
         "MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
-        replay_buffer_kwargs=dict(her), seed=args.seed, device="cpu", verbose=0,
-        **copy.deepcopy(settings))
+        replay_buffer_kwargs=dict(her), seed=args.seed, device="cpu", verbose=0, **kwargs)
     validation = Validation(model, env, range(VALIDATION_SEED, VALIDATION_SEED + val_episodes),
                             env_kwargs, clock_start, run_dir)
     limit_s = 60.0 * max_minutes
@@ -348,6 +383,7 @@ def train(args) -> dict:
                      "quick": quick, "threads": args.threads, "model": settings,
                      "replay_buffer_class": "HerReplayBuffer", "her": her,
                      "vec_env": "DummyVecEnv", "normalize": args.normalize,
+                     "features": args.features,
                      "env_kwargs": env_kwargs, "eval_every": every,
                      "validation": {"episodes": val_episodes, "seed": VALIDATION_SEED},
                      "held_out": {"episodes": held_out, "seed": HELD_OUT_SEED,
@@ -382,6 +418,10 @@ def _fmt(value, spec: str) -> str:
     return "—" if value is None else format(value, spec)
 
 
+def _steps(n: int) -> str:
+    return f"{n / 1000:.0f}k" if n >= 1000 else str(n)
+
+
 def _cells(r: dict) -> str:
     return (f"{100 * r['success_rate']:.1f} % | {1e3 * r['fuel']['mean']:.2f} | "
             f"{_fmt(r['settle_time_s']['median'], '.1f')} | "
@@ -413,7 +453,7 @@ def summary(directory: Path) -> Path:
               "not the held-out set): success, and median final error (deg).", "",
               "| run | validation |", "|---|---|"]
     for d in runs:
-        points = ", ".join(f"{p['timesteps'] / 1000:g}k: {100 * p['success_rate']:.0f} % "
+        points = ", ".join(f"{_steps(p['timesteps'])}: {100 * p['success_rate']:.0f} % "
                            f"({p['final_error_deg_median']:.2g}°)" for p in d["curve"])
         lines.append(f"| {d['name']} | {points} |")
     lines += ["", "Commands: the `command` field of each JSON. Generated by "
@@ -445,6 +485,9 @@ def main(argv=None) -> None:
                    default="future")
     p.add_argument("--normalize", choices=("observation", "none"), default="observation",
                    help="VecNormalize on the 'observation' entry only, or no normalisation")
+    p.add_argument("--features", choices=("flat", "goal-error"), default="flat",
+                   help="flat: SB3's CombinedExtractor (the three entries concatenated); "
+                        "goal-error: also v1's error features computed from the goals")
     p.add_argument("--learning-starts", type=int, default=None,
                    help="override the recipe's learning_starts")
     p.add_argument("--gradient-steps", type=int, default=None,

@@ -80,3 +80,31 @@ def test_run_episodes_meets_the_pd_episodes_seed_for_seed():
             done = term or trunc
         assert final == info["attitude_error_deg"]
     assert res["success"].tolist() == [0.0, 0.0] and np.isnan(res["settle_time_s"]).all()
+
+
+def test_goal_error_features_are_the_v1_error_observation():
+    """--features goal-error: from the goals, v1's rot6_err and attitude_fine of the same
+    state, step by step (so HER's substituted goals get their own error)."""
+    import gymnasium as gym
+    import numpy as np
+    import torch
+
+    goal = gym.make(her.GOAL_ID, scene=her.SCENE)
+    plain = gym.make(her.PLAIN_ID, scene=her.SCENE)
+    extractor, kwargs = her.goal_error_extractor(goal.unwrapped.task.success_angle)
+    features = extractor(goal.observation_space, **kwargs)
+    obs, _ = goal.reset(seed=7)
+    v1, _ = plain.reset(seed=7)
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        batch = {k: torch.as_tensor(v[None]) for k, v in obs.items()}
+        got = features(batch)[0].numpy()
+        assert got.shape == (12 + 9,)
+        np.testing.assert_array_equal(got[:12], obs["observation"])
+        np.testing.assert_allclose(got[12:], v1[:9], atol=2e-5)
+        action = rng.uniform(-1, 1, goal.action_space.shape).astype(np.float32)
+        obs, _, term, trunc, _ = goal.step(action)
+        v1, _, term_v1, _, _ = plain.step(action)
+        assert term == term_v1
+        if term or trunc:
+            break
