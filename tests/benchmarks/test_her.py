@@ -21,6 +21,7 @@ def one_thread(request):
     request.addfinalizer(lambda: torch.set_num_threads(threads))
 
 
+@pytest.mark.slow  # 4 s on an idle machine, over a minute beside two trainings
 def test_quick_run_writes_the_json_and_summary(tmp_path, one_thread):
     her.main(["--quick", "--out", str(tmp_path), "--name", "probe"])
     data = json.loads((tmp_path / "probe.json").read_text())
@@ -32,7 +33,8 @@ def test_quick_run_writes_the_json_and_summary(tmp_path, one_thread):
     assert s["env_kwargs"] == {"action_mode": "torque", "allocator": "pinv"}
     assert s["normalize"] == "observation" and s["threads"] == 1
     assert "use_sde" not in s["model"]["policy_kwargs"]  # the settings given, not SB3's copy
-    # The quick budget: 600 env steps (its cap), trained after learning_starts.
+    # The quick budget: 600 env steps (its cap; its clock limit is far), trained after
+    # learning_starts.
     assert t["timesteps"] == her.QUICK["timesteps"]
     assert t["gradient_updates"] > 0 and t["steps_per_s"] > 0
     curve = data["curve"]
