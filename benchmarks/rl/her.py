@@ -215,6 +215,36 @@ def goal_error_extractor(success_angle: float):
     return GoalErrorFeatures, {"success_angle": success_angle}
 
 
+def reached_her_buffer():
+    """``HerReplayBuffer`` whose relabelled transitions end where the task would: a goal the
+    task reaches ends its episode (Reorient-v1 stops on success), so a transition whose
+    substituted goal is reached (``GoalReorientEnv.goal_reached``) is terminal, and one that
+    ended the real episode by its success is not, unless the new goal is reached too (a
+    failure, the rate limit, stays terminal). SB3's buffer copies the real ``done``, so a
+    substituted goal reached at rest pays the success on every later step instead of once."""
+    from stable_baselines3 import HerReplayBuffer
+
+    class ReachedHerReplayBuffer(HerReplayBuffer):
+        def _sample_goals(self, batch_indices, env_indices):
+            goals = super()._sample_goals(batch_indices, env_indices)
+            self._relabelled = (batch_indices, env_indices, goals)
+            return goals
+
+        def _get_virtual_samples(self, batch_indices, env_indices, env=None):
+            data = super()._get_virtual_samples(batch_indices, env_indices, env)
+            b, e, goals = self._relabelled
+            infos = self.infos[b, e]
+            reached = self.env.env_method("goal_reached",
+                                          self.next_observations["achieved_goal"][b, e], goals,
+                                          infos, indices=[0])[0]
+            ended = self.dones[b, e] * (1 - self.timeouts[b, e]) > 0
+            success = np.array([bool(i.get("is_success", False)) for i in infos])
+            done = (ended & ~success) | np.asarray(reached, bool)
+            return data._replace(dones=self.to_torch(done.astype(np.float32)).reshape(-1, 1))
+
+    return ReachedHerReplayBuffer
+
+
 def model_class(algo: str):
     if algo == "tqc":
         from sb3_contrib import TQC
@@ -336,8 +366,9 @@ def train(args) -> dict:
         kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}),
                                    "features_extractor_class": extractor,
                                    "features_extractor_kwargs": extractor_kwargs}
+    buffer = reached_her_buffer() if args.relabel_done == "reached" else HerReplayBuffer
     model = model_class(args.algo)(
-        "MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
+        "MultiInputPolicy", env, replay_buffer_class=buffer,
         replay_buffer_kwargs=dict(her), seed=args.seed, device="cpu", verbose=0, **kwargs)
     validation = Validation(model, env, range(VALIDATION_SEED, VALIDATION_SEED + val_episodes),
                             env_kwargs, clock_start, run_dir)
@@ -381,7 +412,8 @@ def train(args) -> dict:
         "settings": {"algo": args.algo, "env_id": GOAL_ID, "scene": SCENE, "seed": args.seed,
                      "n_envs": n_envs, "timesteps": timesteps, "max_minutes": max_minutes,
                      "quick": quick, "threads": args.threads, "model": settings,
-                     "replay_buffer_class": "HerReplayBuffer", "her": her,
+                     "replay_buffer_class": buffer.__name__, "her": her,
+                     "relabel_done": args.relabel_done,
                      "vec_env": "DummyVecEnv", "normalize": args.normalize,
                      "features": args.features,
                      "env_kwargs": env_kwargs, "eval_every": every,
@@ -488,6 +520,9 @@ def main(argv=None) -> None:
     p.add_argument("--features", choices=("flat", "goal-error"), default="flat",
                    help="flat: SB3's CombinedExtractor (the three entries concatenated); "
                         "goal-error: also v1's error features computed from the goals")
+    p.add_argument("--relabel-done", choices=("copy", "reached"), default="copy",
+                   help="a relabelled transition's done: copy the real one (SB3), or end it "
+                        "where the substituted goal is reached (ReachedHerReplayBuffer)")
     p.add_argument("--learning-starts", type=int, default=None,
                    help="override the recipe's learning_starts")
     p.add_argument("--gradient-steps", type=int, default=None,

@@ -110,3 +110,38 @@ def test_goal_error_features_are_the_v1_error_observation():
         assert term == term_v1
         if term or trunc:
             break
+
+
+def test_reached_buffer_ends_relabelled_transitions_whose_goal_is_reached():
+    """A satellite at rest far from its target: the real episode goes on (SB3's buffer: every
+    done 0), but goals relabelled from its own attitude are reached after the hold, so the
+    relabelled transitions from then on are terminal."""
+    import gymnasium as gym
+    import numpy as np
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    venv = DummyVecEnv([lambda: gym.make(her.GOAL_ID, scene=her.SCENE)])
+    raw = gym.make(her.GOAL_ID, scene=her.SCENE)
+    hold = raw.unwrapped.hold
+    buffer = her.reached_her_buffer()(40, raw.observation_space, raw.action_space, env=venv,
+                                      n_sampled_goal=4, goal_selection_strategy="future",
+                                      copy_info_dict=True)
+    obs, _ = raw.reset(seed=0, options={"q": [1.0, 0, 0, 0], "q_target": [0.0, 1.0, 0, 0],
+                                        "omega_B": np.zeros(3)})
+    off = -np.ones(raw.action_space.shape, np.float32)
+    steps = 3 * hold
+    for k in range(steps):
+        nxt, reward, term, _, info = raw.step(off)
+        assert not term
+        last = k == steps - 1
+        info = {**info, "TimeLimit.truncated": last}  # the episode cut short here
+        buffer.add({key: v[None] for key, v in obs.items()},
+                   {key: v[None] for key, v in nxt.items()}, off[None], np.array([reward]),
+                   np.array([last]), [info])
+        obs = nxt
+    data = buffer.sample(500)
+    n_virtual = int(buffer.her_ratio * 500)
+    real, virtual = data.dones[:500 - n_virtual], data.dones[500 - n_virtual:]
+    assert real.sum() == 0  # the timeout is not a termination
+    assert 0 < virtual.mean() < 1  # reached after the hold, not before
+
