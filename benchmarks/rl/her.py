@@ -464,23 +464,25 @@ def summary(directory: Path) -> Path:
     """``summary.md`` from every JSON in ``directory``."""
     directory = Path(directory)
     runs = [json.loads(p.read_text()) for p in sorted(directory.glob("*.json"))]
-    lines = ["| run | algo | env steps | wall (min; of it validation) | "
+    lines = ["| run | algo | input (--features) | relabelled done | env steps | "
+             "wall (min; of it validation) | "
              "env-steps/s (load 1-min mean) | kept step | held-out success | fuel mean (g) | "
-             "settle median (s) | final error median (deg) |", "|---" * 10 + "|"]
+             "settle median (s) | final error median (deg) |", "|---" * 12 + "|"]
     pds = {}
     for d in runs:
         s, t = d["settings"], d["training"]
         load = d["load_average_during_training"]
         trained, pd = d["held_out"]
         pds.setdefault((pd["episodes"], pd["seed"]), pd)
-        lines.append(f"| {d['name']} | {s['algo']}+HER | {t['timesteps']:,} | "
+        lines.append(f"| {d['name']} | {s['algo']}+HER | {s.get('features', 'flat')} | "
+                     f"{s.get('relabel_done', 'copy')} | {t['timesteps']:,} | "
                      f"{t['wall_time_s'] / 60:.1f} ({t['validation_time_s'] / 60:.1f}) | "
                      f"{t['steps_per_s']:.0f} "
                      f"({load['load1_mean']:.1f}) | {t['kept']['timesteps']:,} | "
                      f"{_cells(trained)} |")
     for (episodes, seed), pd in pds.items():
         lines.append(f"| PD, Reorient-v1 (same {episodes} episodes, seeds {seed:,} + i) | — | — "
-                     f"| — | — | — | {_cells(pd)} |")
+                     f"| — | — | — | — | — | {_cells(pd)} |")
     lines += ["", "Validation during training (deterministic, episodes seeded 2,000,000 + i; "
               "not the held-out set): success, and median final error (deg).", "",
               "| run | validation |", "|---|---|"]

@@ -54,7 +54,8 @@ def test_quick_run_writes_the_json_and_summary(tmp_path, one_thread):
     assert data["versions"]["stable_baselines3"]
     assert data["command"].startswith("python -m benchmarks.rl.her --quick")
     table = (tmp_path / "summary.md").read_text()
-    assert "| probe | sac+HER | 600 |" in table and "| PD, Reorient-v1 (same 6 episodes" in table
+    assert "| probe | sac+HER | flat | copy | 600 |" in table
+    assert "| PD, Reorient-v1 (same 6 episodes" in table
 
 
 def test_unknown_arguments_and_quick_without_out_are_refused(capsys):
