@@ -8,6 +8,12 @@ strategy, 4 sampled goals and ``copy_info_dict=True`` (the env's ``compute_rewar
 step's info), for a wall-clock budget. SB3's ``DummyVecEnv`` runs the Dict-observation envs;
 ``VecNormalize`` normalises the ``observation`` entry only (``--normalize none``: nothing).
 
+``--features goal-error`` adds to the networks' input Reorient-v1's error features computed
+from the goals (:func:`goal_error_extractor`; SB3's default input, ``flat``, has only the two
+absolute attitudes), and ``--relabel-done reached`` ends a relabelled transition where its
+substituted goal is reached (:func:`reached_her_buffer`; SB3 copies the real ``done``).
+``docs/off-policy.md`` (its HER section) has the runs.
+
 Every ``--eval-every`` env steps the deterministic policy is validated on 100 episodes seeded
 2,000,000 + i (never the held-out seeds); the best validated policy (success rate, then mean
 return, the earlier at a tie) is kept, as ``rbenv train --keep-best`` does, and judged on the
