@@ -123,28 +123,41 @@ class GoalReorientEnv(gym.Env):
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
         """v1's reward for goals (N, ·) or (·,) and infos (a dict or a sequence of N): the
         goal terms from :func:`rbenv.tasks.v1.terms`, plus the goal-free terms of ``info``."""
-        achieved = np.asarray(achieved_goal, dtype=float)
-        single = achieved.ndim == 1
-        achieved = np.atleast_2d(achieved)
-        desired = np.atleast_2d(np.asarray(desired_goal, dtype=float))
-        infos = [info] if isinstance(info, dict) else list(info)
-        task, n = self.task, len(achieved)
-        history = _info_values(infos, "goal_history")  # (N, 6·(n − 1) + K)
-        att = np.concatenate([achieved[:, None, :],
-                              history[:, :6 * (self.n - 1)].reshape(n, self.n - 1, 6)], axis=1)
-        theta = _angle(att, desired[:, None, :])  # (N, n): angle of attitude k to the goal
-        inside = (theta[:, :self.hold] < task.success_angle) & \
-            (history[:, 6 * (self.n - 1):] > 0.5)
+        single, infos, theta, reached = self._goal_angles(achieved_goal, desired_goal, info)
+        task = self.task
         zero = 0.0 * theta[:, 0]
         goal = v1.terms(task.weights,
                         v1.log_scale_drop(theta[:, 1], theta[:, 0], task.success_angle,
                                           math.pi, np),
                         v1.log_scale(theta[:, 0], task.success_angle, math.pi, np),
-                        zero, zero, np.all(inside, axis=1), zero > 0)
+                        zero, zero, reached, zero > 0)
         reward = sum(goal[1:], goal[0])
         for key in GOAL_FREE:
             reward = reward + _info_values(infos, key)
         return reward[0] if single else reward
+
+    def goal_reached(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """Whether the hold on each desired goal is complete (the task's success, which ends
+        the episode, for that goal), in :meth:`compute_reward`'s shapes: what a replay buffer
+        needs to end relabelled episodes where the task would."""
+        single, _, _, reached = self._goal_angles(achieved_goal, desired_goal, info)
+        return reached[0] if single else reached
+
+    def _goal_angles(self, achieved_goal, desired_goal, info) -> tuple:
+        """(single, infos, θ (N, n): angle of attitude k back to the goal, reached (N,))."""
+        achieved = np.asarray(achieved_goal, dtype=float)
+        single = achieved.ndim == 1
+        achieved = np.atleast_2d(achieved)
+        desired = np.atleast_2d(np.asarray(desired_goal, dtype=float))
+        infos = [info] if isinstance(info, dict) else list(info)
+        n = len(achieved)
+        history = _info_values(infos, "goal_history")  # (N, 6·(n − 1) + K)
+        att = np.concatenate([achieved[:, None, :],
+                              history[:, :6 * (self.n - 1)].reshape(n, self.n - 1, 6)], axis=1)
+        theta = _angle(att, desired[:, None, :])  # (N, n): angle of attitude k to the goal
+        inside = (theta[:, :self.hold] < self.task.success_angle) & \
+            (history[:, 6 * (self.n - 1):] > 0.5)
+        return single, infos, theta, np.all(inside, axis=1)
 
     def close(self):
         self.env.close()

@@ -105,3 +105,26 @@ def test_her_sac_learns_on_it_for_a_few_steps(request):
     with pytest.raises(ValueError, match="copy_info_dict"):
         venv.env_method("compute_reward", np.zeros((2, 6)), np.zeros((2, 6)), [{}, {}],
                         indices=[0])
+
+
+def test_goal_reached_is_the_success_of_the_goal_given():
+    env = gym.make(GOAL_ID)
+    u = env.unwrapped
+    q = np.array([0.5, 0.5, 0.5, 0.5])
+    env.reset(seed=0, options={"q": q, "q_target": q, "omega_B": np.zeros(3)})
+    off = -np.ones(env.action_space.shape, np.float32)
+    rows = []
+    for _ in range(u.hold + 1):
+        obs, _, term, _, info = env.step(off)
+        rows.append((obs, info))
+        if term:
+            break
+    achieved = np.array([o["achieved_goal"] for o, _ in rows])
+    infos = [i for _, i in rows]
+    reached = u.goal_reached(achieved, np.array([o["desired_goal"] for o, _ in rows]), infos)
+    assert reached.tolist() == [i["is_success"] for i in infos] == [False] * (u.hold - 1) + [True]
+    assert u.goal_reached(achieved[-1], rows[-1][0]["desired_goal"], infos[-1])
+    # Another goal (30° away) is not reached by the same steps.
+    far = gym.make(GOAL_ID).reset(seed=0, options={"q_target": [math.cos(0.26), math.sin(0.26),
+                                                              0.0, 0.0]})[0]["desired_goal"]
+    assert not u.goal_reached(achieved, np.repeat(far[None], len(rows), 0), infos).any()
