@@ -126,13 +126,11 @@ def main(argv=None) -> dict:
                "meets_target"]
     print(table([{k: r[k] for k in columns} for r in rows], columns))
     out = "sbx_speed_quick" if quick else "sbx_speed"
-    import jax
-    import sbx as sbx_module
+    from rbenv.agents.training.engine import versions
 
     write_json(out, {"command": "python -m benchmarks.sbx_speed" + (" --quick" if quick else ""),
-                     "xla_flags": os.environ.get("XLA_FLAGS"), "versions": {
-                         "sbx": sbx_module.__version__, "jax": jax.__version__,
-                         "torch": torch.__version__},
+                     "xla_flags": os.environ.get("XLA_FLAGS"),
+                     "versions": versions(("sbx", "jax", "torch", "stable_baselines3")),
                      "updates_per_measurement": 16 if quick else UPDATES,
                      "rounds": 1 if quick else ROUNDS, "load_average_before": load_before,
                      "load_average_after": os.getloadavg(), "rows": rows})

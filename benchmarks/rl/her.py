@@ -38,7 +38,6 @@ import argparse
 import copy
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
@@ -327,20 +326,16 @@ def save_policy(run_dir: Path, state: dict, rms, steps: int) -> None:
 
 
 def versions() -> dict:
-    import sb3_contrib
-    import stable_baselines3
-    import torch
+    """What ``rbenv train`` records of a run's software and CPU, and the source commit."""
+    from rbenv.agents.training.engine import versions as run_versions
 
     try:
         commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=Path(__file__).parent,
                                 capture_output=True, text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         commit = None
-    return {"python": platform.python_version(), "numpy": np.__version__,
-            "gymnasium": gym.__version__, "torch": torch.__version__,
-            "stable_baselines3": stable_baselines3.__version__,
-            "sb3_contrib": sb3_contrib.__version__, "git_commit": commit,
-            "machine": platform.machine(), "cpus": os.cpu_count()}
+    return {**run_versions(("torch", "stable_baselines3", "sb3_contrib")),
+            "git_commit": commit}
 
 
 def train(args) -> dict:
