@@ -39,9 +39,10 @@ from benchmarks.train_speed import (
 )
 
 UPDATES, ROUNDS = 160, 2
-# SB3 model arguments SBX's classes take (the rest: SB3-only options such as monitor_kwargs).
+# SB3 model attributes passed to SBX's class as they are (train_freq and policy_kwargs are
+# rebuilt; the rest are SB3-only options such as monitor_kwargs).
 SBX_ARGS = ("learning_rate", "buffer_size", "learning_starts", "batch_size", "tau", "gamma",
-            "train_freq", "gradient_steps", "policy_kwargs", "action_noise")
+            "gradient_steps", "action_noise")
 
 
 def configs(quick: bool) -> list[dict]:
@@ -63,8 +64,7 @@ def _sbx_model(sb3_model, algo: str):
     cls = {"sac": sbx.SAC, "td3": sbx.TD3, "tqc": sbx.TQC, "crossq": sbx.CrossQ}[algo]
     accepted = inspect.signature(cls).parameters  # SBX's CrossQ, as sb3-contrib's, has no tau
     kwargs = {k: getattr(sb3_model, k) for k in SBX_ARGS
-              if k not in ("policy_kwargs", "train_freq") and k in accepted
-              and hasattr(sb3_model, k)}
+              if k in accepted and hasattr(sb3_model, k)}
     kwargs["train_freq"] = sb3_model.train_freq.frequency
     kwargs["policy_kwargs"] = {"net_arch": sb3_model.policy_kwargs["net_arch"]}
     return cls("MlpPolicy", sb3_model.get_env(), seed=0, **kwargs)
