@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import json
 import os
 import subprocess
 import sys
@@ -30,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from benchmarks.common import pyplot, save_figure, table, write_json
+from benchmarks.common import RESULTS, pyplot, save_figure, table, write_json
 
 ROUNDS = 3
 ROLLOUTS = 3  # per measurement: 3 x 64 envs x 64 steps = 12,288 timesteps
@@ -242,7 +243,8 @@ def measure_off_policy(quick: bool = False) -> list[dict]:
 
 
 def plot_off_policy(rows: list[dict], ax) -> None:
-    names = [f"{r['name']} ({r['updates_per_env_step']:g} upd/step)" for r in rows]
+    names = [r["name"] if "/step)" in r["name"] else
+             f"{r['name']} ({r['updates_per_env_step']:g} upd/step)" for r in rows]
     values = [r["env_steps_per_s"] for r in rows]
     colors = ["C2" if r["meets_target"] else
               ("C0" if r["updates_per_env_step"] >= TARGET_UPDATES_PER_STEP else "C7")
@@ -259,7 +261,21 @@ def plot_off_policy(rows: list[dict], ax) -> None:
                      f"{TARGET_UPDATES_PER_STEP} updates/step")
     ax.set_xscale("log")
     ax.set_xlabel("env-steps/s, learn() end to end (grey: fewer updates/step than the target)")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.set_ylim(-0.7, len(rows) + 1.0)  # room for the legend above the first row
+    ax.legend(loc="upper right", fontsize=8)
+
+
+def draw(data: dict, name: str) -> None:
+    """The PNG of a written JSON: PPO's bars above, the off-policy rows below."""
+    plt = pyplot()
+    fig = plt.figure(figsize=(9, 8.5))
+    top, bottom = fig.add_gridspec(2, 1, height_ratios=(1, 1.6)).subplots()
+    plt.close(plot(data["rows"], top))
+    plot_off_policy(data["off_policy"]["rows"], bottom)
+    bottom.set_title(f"off-policy, shipped settings and SAC variants (1 thread unless named; "
+                     f"load {data['load_average_before'][0]:.1f} before)", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, name)
 
 
 def main(quick: bool = False) -> dict:
@@ -284,23 +300,16 @@ def main(quick: bool = False) -> dict:
     load_after = os.getloadavg()
     name = "train_speed_quick" if quick else "train_speed"
     command = "python -m benchmarks.train_speed" + (" --quick" if quick else "")
-    write_json(name, {"command": command, "rounds": 1 if quick else ROUNDS,
-                      "timesteps_per_measurement": (1 if quick else ROLLOUTS) * 64 * 64,
-                      "load_average_before": load_before, "load_average_after": load_after,
-                      "rows": rows, "ratios": ratios,
-                      "off_policy": {"target_env_steps_per_s": TARGET_STEPS_PER_S,
-                                     "target_updates_per_env_step": TARGET_UPDATES_PER_STEP,
-                                     "updates_per_measurement": 16 if quick else UPDATES,
-                                     "rounds": 1 if quick else OFF_ROUNDS, "rows": off}})
-    plt = pyplot()
-    fig = plt.figure(figsize=(9, 8.5))
-    top, bottom = fig.add_gridspec(2, 1, height_ratios=(1, 1.6)).subplots()
-    plt.close(plot(rows, top))
-    plot_off_policy(off, bottom)
-    bottom.set_title(f"off-policy, shipped settings and SAC variants (1 thread unless named; "
-                     f"load {load_before[0]:.1f} before)", fontsize=9)
-    fig.tight_layout()
-    save_figure(fig, name)
+    data = {"command": command, "rounds": 1 if quick else ROUNDS,
+            "timesteps_per_measurement": (1 if quick else ROLLOUTS) * 64 * 64,
+            "load_average_before": load_before, "load_average_after": load_after,
+            "rows": rows, "ratios": ratios,
+            "off_policy": {"target_env_steps_per_s": TARGET_STEPS_PER_S,
+                           "target_updates_per_env_step": TARGET_UPDATES_PER_STEP,
+                           "updates_per_measurement": 16 if quick else UPDATES,
+                           "rounds": 1 if quick else OFF_ROUNDS, "rows": off}}
+    write_json(name, data)
+    draw(data, name)
     return {"rows": rows, "ratios": ratios, "off_policy": off}
 
 
@@ -308,4 +317,11 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true",
                         help="smoke form: 1 PPO rollout per condition, SAC only, 16 updates")
-    main(quick=parser.parse_args().quick)
+    parser.add_argument("--plot-only", action="store_true",
+                        help="redraw the PNG from the JSON already written; measure nothing")
+    args = parser.parse_args()
+    if args.plot_only:
+        name = "train_speed_quick" if args.quick else "train_speed"
+        draw(json.loads((RESULTS / f"{name}.json").read_text()), name)
+    else:
+        main(quick=args.quick)
