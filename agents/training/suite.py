@@ -178,6 +178,13 @@ def select_checkpoint(run: Path, curve: dict) -> tuple[Path, int]:
     return run / runfolder.FINAL_MODEL, int(summary["timesteps"])
 
 
+def run_env_kwargs(run: Path) -> dict:
+    """The gym.make options the run trained with (its config.json), which its policies are
+    evaluated in: they fix the action space (the off-policy recipe's ``action_mode="torque"``)
+    as ``rbenv train``'s own report does."""
+    return dict(runfolder.read_config(run).get("env_kwargs") or {})
+
+
 def validation_curve(cell: Cell, run: Path, episodes: int, seed: int = VALIDATION_SEED,
                      env_kwargs: dict | None = None) -> dict:
     """Success of every checkpoint (:class:`SB3Policy`'s "auto" action) on ``episodes``
@@ -202,14 +209,16 @@ def evaluate_cell(cell: Cell, run: Path, episodes: int, seed: int) -> dict:
     every scripted baseline of the task."""
     common = {"episodes": episodes, "seed": seed, "scene": cell.scene, "env_id": cell.env_id,
               "record": 0}
-    curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES))
+    trained_in = {**common, "env_kwargs": run_env_kwargs(run)}
+    curve = validation_curve(cell, run, min(episodes, VALIDATION_EPISODES),
+                             env_kwargs=trained_in["env_kwargs"])
     model, steps = select_checkpoint(run, curve)
     policy = evaluate(SB3Policy(model, action="auto"), name=cell.algo,
-                      **common).summary()
+                      **trained_in).summary()
     final = evaluate(SB3Policy(run, action="auto"), name=f"{cell.algo} (final)",
-                     **common).summary()
+                     **trained_in).summary()
     clip_mean = evaluate(SB3Policy(run, action="mode"), name=f"{cell.algo} (final, clip(mean))",
-                         **common).summary()
+                         **trained_in).summary()
     baselines = {name: evaluate(name, **common).summary()
                  for name in applicable_baselines(cell.env_id, cell.scene)}
     return {"policy": {**policy, "timesteps": steps}, "final": final,
@@ -224,11 +233,13 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     when its budget ran out, and how far from the success thresholds it ends.
     """
     rows = []
-    ckpts = sorted(runfolder.checkpoints(cell_dir(cell, out) / "run" / runfolder.CHECKPOINTS,
-                                    report=lambda _: None), key=lambda c: c.steps)
+    run = cell_dir(cell, out) / "run"
+    ckpts = sorted(runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None),
+                   key=lambda c: c.steps)
     for ckpt in ckpts:
         s = evaluate(SB3Policy(ckpt.model, action="auto"), episodes=episodes,
-                     seed=seed, scene=cell.scene, env_id=cell.env_id, record=0).summary()
+                     seed=seed, scene=cell.scene, env_id=cell.env_id, record=0,
+                     env_kwargs=run_env_kwargs(run)).summary()
         rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
                      "final_error_deg_median": s["final_error_deg"]["median"],
                      "fuel_g": 1000 * s["fuel"]["mean"]})

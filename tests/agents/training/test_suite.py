@@ -191,3 +191,18 @@ def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite)
     monte_carlo = np.clip(samples, 0, 1).mean(axis=0)
     assert expected.shape == (1, 12)
     assert np.max(np.abs(expected[0] - monte_carlo)) < 0.01
+
+
+@pytest.mark.slow  # trains
+def test_an_off_policy_cell_is_evaluated_in_the_env_it_trained_in(tmp_path):
+    """SAC trains with torque actions (3, the recipe's env_kwargs); the suite once evaluated
+    its checkpoints in the default throttle env (12 actions) and failed on the shape."""
+    cell = Cell("sac", rbenv.registry.get("rbenv/SatelliteDetumble-v1").env_id, "cubesat-12u",
+                0, 10_304)  # just past SAC's learning_starts (10k): two vector steps of updates
+    result = run_cell(cell, tmp_path, eval_episodes=4, eval_seed=suite.EVAL_SEED)
+    run = tmp_path / "cells" / cell.name / "run"
+    assert suite.run_env_kwargs(run)["action_mode"] == "torque"
+    for summary in (result["policy"], result["final"], result["final_clip_mean"]):
+        assert summary["episodes"] == 4
+    # The PD runs in its own default env, as in every other cell (12 throttles).
+    assert result["baselines"]["pd"]["success_rate"] == 1.0
