@@ -29,6 +29,12 @@ from rbenv.rendering import save_video
 SCRIPTED = ("pd", "bangbang", "zero", "random")
 
 
+def settle_time_s(end_time_s, hold_s: float, control_dt_s: float):
+    """When a successful episode's hold began (s): the step that ended it (``time_s`` of its
+    info, s) less the hold, plus the one control step the hold's count includes."""
+    return end_time_s - hold_s + control_dt_s
+
+
 @dataclass
 class EvalResult:
     """Per-episode outcomes (arrays of length ``episodes``) and recorded traces."""
@@ -154,7 +160,7 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
                 out["energy_J"][idx] = sum(energy[1:], energy[0])
             out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
-            out["settle_time_s"][ok] = out["episode_time_s"][ok] - hold + dt
+            out["settle_time_s"][ok] = settle_time_s(out["episode_time_s"][ok], hold, dt)
             alive[idx] = False
     envs.close()
     return {"success": success, "traces": traces, "scene": plant.scene.name, **out}

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.policies.evaluate import EvalResult, settle_time_s
 
 from rbenv.goal import GOAL_ID
 
@@ -105,7 +106,8 @@ def run_episodes(predict, seeds, env_kwargs: dict, batch: int = 100) -> dict:
     ``predict(obs_dict) -> actions``; per-episode arrays: success, settle time (s; NaN if not
     successful, as :func:`rbenv.agents.policies.evaluate.evaluate`), fuel (kg), final
     attitude error (deg) and return."""
-    keys = ("success", "settle_time_s", "fuel_kg", "final_error_deg", "return")
+    keys = ("success", "settle_time_s", "fuel_kg", "final_error_deg", "episode_time_s",
+            "return")
     out = {k: [] for k in keys}
     seeds = [int(s) for s in seeds]
     for start in range(0, len(seeds), batch):
@@ -130,8 +132,9 @@ def run_episodes(predict, seeds, env_kwargs: dict, batch: int = 100) -> dict:
                     res["success"][i] = float(info["is_success"])
                     res["fuel_kg"][i] = info["fuel_kg"]
                     res["final_error_deg"][i] = info["attitude_error_deg"]
+                    res["episode_time_s"][i] = info["time_s"]
                     if info["is_success"]:
-                        res["settle_time_s"][i] = info["time_s"] - hold + dt
+                        res["settle_time_s"][i] = settle_time_s(info["time_s"], hold, dt)
         for e in envs:
             e.close()
         for k in keys:
@@ -140,16 +143,12 @@ def run_episodes(predict, seeds, env_kwargs: dict, batch: int = 100) -> dict:
 
 
 def summarise(policy: str, seed: int, res: dict) -> dict:
-    """``rbenv evaluate --json``'s summary fields (fuel in kg) of :func:`run_episodes`."""
-    settled = res["settle_time_s"][np.isfinite(res["settle_time_s"])]
-    def q(p):
-        return float(np.percentile(settled, p)) if len(settled) else None
-    return {"policy": policy, "scene": SCENE, "seed": seed, "episodes": len(res["success"]),
-            "success_rate": float(np.mean(res["success"])),
-            "settle_time_s": {"median": q(50), "p90": q(90)},
-            "fuel": {"mean": float(np.mean(res["fuel_kg"])), "unit": "kg"},
-            "final_error_deg": {"median": float(np.median(res["final_error_deg"]))},
-            "mean_return": float(np.mean(res["return"]))}
+    """``rbenv evaluate --json``'s summary (:meth:`EvalResult.summary`; fuel in kg) of
+    :func:`run_episodes`, with the mean return."""
+    fields = {k: res[k] for k in ("success", "settle_time_s", "fuel_kg", "final_error_deg",
+                                  "episode_time_s")}
+    result = EvalResult(policy=policy, scene=SCENE, seed=seed, **fields)
+    return {**result.summary(), "mean_return": float(np.mean(res["return"]))}
 
 
 def pd_baseline(episodes: int) -> dict:
