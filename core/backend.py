@@ -28,20 +28,44 @@ for NumPy, a cached device copy for torch, :mod:`rbenv.core.torch_backend`).
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
-__all__ = ["FLOAT", "NUMPY", "matmul", "namespace"]
+__all__ = ["FLOAT", "NUMPY", "matmul", "namespace", "row_product"]
+
+
+class _Scratch(threading.local):
+    """Each thread's one-entry float64 arrays: two inputs and an output for
+    :func:`_numpy_scalar` (a ufunc on them skips the conversions of Python floats to NumPy
+    scalars and back, a quarter of the call)."""
+
+    def __init__(self):
+        self.arrays = (np.empty(1), np.empty(1), np.empty(1))
+
+
+_SCRATCH = _Scratch()
 
 
 def _numpy_scalar(ufunc):
-    """``ufunc`` on Python floats, returning a Python float: NumPy's value, bit for bit.
+    """``ufunc`` (one or two inputs) on Python floats, returning a Python float: NumPy's value,
+    bit for bit.
 
-    NumPy gives a scalar the same value as the same number inside an array of any length
-    (tests/core/test_backend.py checks it), so FLOAT and NUMPY agree to the bit.
+    NumPy computes a number the same way in an array of any length (tests/core/test_backend.py
+    checks it), so FLOAT and NUMPY agree to the bit. The numbers go through the calling
+    thread's one-entry arrays (:class:`_Scratch`).
     """
-    def f(*args: float) -> float:
-        return float(ufunc(*args))
+    if ufunc.nin == 1:
+        def f(x: float) -> float:
+            a, _, out = _SCRATCH.arrays
+            a[0] = x
+            return ufunc(a, out).item()
+    else:
+        def f(x: float, y: float) -> float:
+            a, b, out = _SCRATCH.arrays
+            a[0] = x
+            b[0] = y
+            return ufunc(a, b, out).item()
 
     f.__name__ = f.__qualname__ = ufunc.__name__
     return f
@@ -64,6 +88,20 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         two[...] = b
         return (a @ two)[:, :1]
     return a @ b
+
+
+def row_product(u: np.ndarray, matrix: np.ndarray) -> list:
+    """``u @ matrix`` for one row u (n,) float64 and a C-contiguous float64 matrix (n, k ≥ 2),
+    as k Python floats: each the bits :func:`matmul` gives that row in a batch of any size.
+
+    :func:`matmul`'s two-row pad, multiplied by ``ndarray.dot``: for two C-contiguous float64
+    matrices it makes the same BLAS gemm call as ``@``, without the ufunc and array-function
+    dispatch that cost one satellite more than the product (tests/core/test_backend.py holds
+    it to the bit).
+    """
+    two = np.empty((2, u.shape[0]))
+    two[...] = u
+    return two.dot(matrix)[0].tolist()
 
 
 class FloatNamespace:

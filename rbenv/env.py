@@ -22,7 +22,7 @@ from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
 
 RENDER_MODES = ("human", "rgb_array")
-_FLOATS = frozenset((np.dtype(np.float32), np.dtype(np.float64)))
+_F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
 
 
 def unknown_options(owner: str, unknown: dict, valid) -> None:
@@ -92,9 +92,9 @@ class AttitudeEnv(TaskAdapter, gym.Env):
                 "the last step diverged (or raised for a NaN action): call reset() before step()"
                 if self._diverged else "call reset() before step()")
         plant = self.plant
-        if type(action) is np.ndarray and action.dtype in _FLOATS \
-                and action.shape == plant.action_shape:  # the common case, one lookup
-            a = np.asarray(action, dtype=np.float64)
+        dtype = action.dtype if type(action) is np.ndarray else None
+        if (dtype is _F32 or dtype is _F64) and action.shape == plant.action_shape:
+            a = action  # the common case, as it is: each actuator's command makes float64
         else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
             a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE

@@ -49,8 +49,9 @@ def layout(plant: Plant, task) -> Layout:
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
          own_action: bool = False, donate: bool = False) -> tuple:
-    """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64,
-    validated shape). ``st`` is not changed, unless donated.
+    """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64 or
+    float32, validated shape; the actuators' commands clip it into float64 arrays or floats).
+    ``st`` is not changed, unless donated.
 
     own_action: the caller made ``action`` for this call, so it may be clipped in place.
     donate: the caller gives ``st`` up (it keeps only the new state), so the step updates it

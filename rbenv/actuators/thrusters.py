@@ -22,7 +22,7 @@ import numpy as np
 
 from rbenv.actuators.base import Contribution, nan_action_error
 from rbenv.core import validation
-from rbenv.core.backend import FLOAT, NUMPY, matmul, rows
+from rbenv.core.backend import FLOAT, NUMPY, row_product, rows
 from rbenv.scene import G0
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
@@ -134,10 +134,11 @@ class Thrusters:
             u = self._faults_and_delay(st, u, noise.faults, rows(xp))
         st.throttle = u
         # Each product is taken as the batch takes it, so that one satellite's wrench equals
-        # one sub-env's to the bit (matmul: BLAS's gemm for both; einsum: NumPy's own loop).
+        # one sub-env's to the bit (row_product and matmul: BLAS's gemm for both; einsum:
+        # NumPy's own loop).
         if st.model is None:  # the scene's matrix, shared by every sub-env
             if xp is FLOAT:  # a list of floats: the kernels index it alike
-                parts = matmul(u[None, :], self.action_matrix)[0].tolist()
+                parts = row_product(u, self.action_matrix)
             else:
                 parts = tuple(rows(xp).matmul(rows(xp).const(self.action_matrix).T, u.T))
         elif xp is FLOAT:  # this episode's matrix (domain randomization, delays)

@@ -7,9 +7,12 @@ where a function or a product is evaluated differently for a float than for an a
 
 from __future__ import annotations
 
+import sys
+import threading
+
 import numpy as np
 import pytest
-from rbenv.core.backend import FLOAT, NUMPY, matmul
+from rbenv.core.backend import FLOAT, NUMPY, matmul, row_product
 
 RNG = np.random.default_rng(19)
 X = RNG.uniform(-4.0, 4.0, 20_000)
@@ -39,6 +42,32 @@ def test_atan2_of_floats_equals_the_batch_row_also_near_the_goal():
         assert np.array_equal(single, NUMPY.atan2(y, x))
 
 
+def test_float_functions_are_right_in_concurrent_threads():
+    """FLOAT's functions pass their numbers through scratch arrays: each thread has its own, so
+    threads switching every microsecond still get their own values."""
+    def run(k, results):
+        xs, ys = X[k::4], Y[k::4]
+        results[k] = (np.array([FLOAT.sin(x) for x in xs.tolist()]),
+                      np.array([FLOAT.atan2(y, x) for y, x in zip(ys.tolist(), xs.tolist(),
+                                                                   strict=True)]))
+
+    results = {}
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=run, args=(k, results)) for k in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(interval)
+    for k in range(4):
+        assert np.array_equal(results[k][0], NUMPY.sin(X[k::4]))
+        assert np.array_equal(results[k][1], NUMPY.atan2(Y[k::4], X[k::4]))
+    assert type(FLOAT.atan2(0.5, 1.0)) is float and type(FLOAT.power(2.0, 0.5)) is float
+
+
 @pytest.mark.parametrize("n", [1, 2, 3, 7, 64, 4096])
 def test_matmul_rows_do_not_depend_on_how_many_there_are(n):
     """A thruster-sized product (12 throttles → 4 wrench parts): each row of the batch, in
@@ -50,6 +79,22 @@ def test_matmul_rows_do_not_depend_on_how_many_there_are(n):
     alone = np.array([matmul(u[None, :], M)[0] for u in U])
     assert np.array_equal(batch_rows, alone)
     assert np.array_equal(batch_cols.T, alone)
+
+
+@pytest.mark.parametrize("thrusters", [1, 8, 12])
+@pytest.mark.parametrize("parts", [4, 7])
+def test_row_product_equals_the_batch_row(thrusters, parts):
+    """The single env's wrench (row_product) equals each row of the batch's, in either
+    orientation and at any batch size, to the bit; some throttles are off (exact zeros)."""
+    M = np.ascontiguousarray(RNG.normal(size=(thrusters, parts)))
+    for n in (1, 5, 4096):
+        U = RNG.uniform(0.0, 1.0, (n, thrusters))
+        U[RNG.random(U.shape) < 0.3] = 0.0
+        alone = np.array([row_product(u, M) for u in U])
+        assert np.array_equal(matmul(M.T, U.T).T, alone)
+        assert np.array_equal(matmul(U, M), alone)
+    single = row_product(U[0], M)
+    assert type(single) is list and len(single) == parts and type(single[0]) is float
 
 
 def test_matmul_is_the_product():
