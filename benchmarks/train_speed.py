@@ -143,7 +143,7 @@ def off_policy_configs(quick: bool = False) -> list[dict]:
         sac("sac 64 envs x 16 updates", n_envs=64, gradient_steps=16),
         sac("sac 128 envs x 32 updates", n_envs=128, gradient_steps=32),
         sac("sac batch 256", batch_size=256),
-        sac("sac batch 2048, 2 updates (0.0625/step)", batch_size=2048, gradient_steps=2),
+        sac("sac batch 2048, 2 updates", batch_size=2048, gradient_steps=2),
         sac("sac net 128x128", policy_kwargs={"net_arch": [128, 128]}),
         sac("sac net 64x64, batch 256", batch_size=256,
             policy_kwargs={"net_arch": [64, 64]}),
@@ -243,8 +243,7 @@ def measure_off_policy(quick: bool = False) -> list[dict]:
 
 
 def plot_off_policy(rows: list[dict], ax) -> None:
-    names = [r["name"] if "/step)" in r["name"] else
-             f"{r['name']} ({r['updates_per_env_step']:g} upd/step)" for r in rows]
+    names = [f"{r['name']} ({r['updates_per_env_step']:g} upd/step)" for r in rows]
     values = [r["env_steps_per_s"] for r in rows]
     colors = ["C2" if r["meets_target"] else
               ("C0" if r["updates_per_env_step"] >= TARGET_UPDATES_PER_STEP else "C7")

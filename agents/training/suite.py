@@ -234,12 +234,13 @@ def checkpoint_progress(cell: Cell, out: Path, *, episodes: int = 200,
     """
     rows = []
     run = cell_dir(cell, out) / "run"
+    env_kwargs = run_env_kwargs(run)
     ckpts = sorted(runfolder.checkpoints(run / runfolder.CHECKPOINTS, report=lambda _: None),
                    key=lambda c: c.steps)
     for ckpt in ckpts:
         s = evaluate(SB3Policy(ckpt.model, action="auto"), episodes=episodes,
                      seed=seed, scene=cell.scene, env_id=cell.env_id, record=0,
-                     env_kwargs=run_env_kwargs(run)).summary()
+                     env_kwargs=env_kwargs).summary()
         rows.append({"timesteps": ckpt.steps, "success_rate": s["success_rate"],
                      "final_error_deg_median": s["final_error_deg"]["median"],
                      "fuel_g": 1000 * s["fuel"]["mean"]})
