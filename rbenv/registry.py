@@ -44,13 +44,18 @@ class TaskSpec:
     env_id: Gymnasium id ``"namespace/Name-vN"``. task: the Task subclass. make: its maker,
     ``make(plant, reward_weights=, max_initial_angle_deg=, max_initial_rate=, task_options=)``.
     baselines: scripted policy name → ``"module:Class"`` or class with ``from_env``.
-    budget: algorithm → training timesteps. scene_budgets: (algorithm, scene) → timesteps,
-    where a scene needs more. scene_env_kwargs: (algorithm, scene) → env options that training
-    adds on that scene (``rbenv train`` and the suite; a reward weight the scene needs, with the
-    evidence beside it); the env's own defaults stay as they are. hyperparams: algorithm →
-    settings in RL Zoo's format (every algorithm of ``budget`` needs one). env_doc: the env
-    classes' docstring. default_scene: the scene ``gym.make(env_id)`` uses (None: the package's
-    default, cubesat-12u). needs: scene tables the task cannot run without (``("wheels",)``);
+    budget: algorithm → the learning suite's training timesteps, where they differ from the
+    settings' ``n_timesteps`` (the v0 entries, whose committed suite results used them).
+    scene_budgets: (algorithm, scene) → timesteps, where a scene needs more.
+    scene_env_kwargs: (algorithm, scene) → env options that training adds on that scene
+    (``rbenv train`` and the suite; a reward weight the scene needs, with the evidence beside
+    it); the env's own defaults stay as they are. hyperparams: algorithm → settings in RL
+    Zoo's format, shared by the ids (``rbenv.hyperparams.tuned``; every algorithm of ``budget``
+    needs one). id_settings: algorithm → this id's own settings over the shared ones (its
+    measured ``n_timesteps``, say); :meth:`settings` merges them, and ``rbenv train``, RL Zoo's
+    files and the suite read that. env_doc: the env classes' docstring. default_scene: the
+    scene ``gym.make(env_id)`` uses (None: the package's default, cubesat-12u). needs: scene
+    tables the task cannot run without (``("wheels",)``);
     :meth:`runs_on` checks them.
     """
 
@@ -58,8 +63,9 @@ class TaskSpec:
     task: type
     make: Callable
     baselines: Mapping[str, object]
-    budget: Mapping[str, int]
     hyperparams: Mapping[str, dict]
+    budget: Mapping[str, int] = field(default_factory=dict)
+    id_settings: Mapping[str, dict] = field(default_factory=dict)
     scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
     scene_env_kwargs: Mapping[tuple, dict] = field(default_factory=dict)
     max_episode_steps: int = MAX_EPISODE_STEPS
@@ -85,9 +91,17 @@ class TaskSpec:
         tables = load_scene(scene).actuators
         return all(tables.get(name) is not None for name in self.needs)
 
+    def settings(self, algo: str) -> dict:
+        """``algo``'s settings on this id, RL Zoo's format: the shared ``hyperparams[algo]``
+        with ``id_settings[algo]`` over them (a deep copy)."""
+        return copy.deepcopy({**self.hyperparams[algo], **self.id_settings.get(algo, {})})
+
     def timesteps(self, algo: str, scene: str | None = None) -> int:
-        """The training budget of ``algo`` (on ``scene``, where it needs more)."""
-        return self.scene_budgets.get((algo, scene), self.budget[algo])
+        """The suite's training budget of ``algo`` (on ``scene``, where it needs more): the
+        scene's, else ``budget``'s, else the settings' ``n_timesteps``."""
+        if (algo, scene) in self.scene_budgets:
+            return self.scene_budgets[algo, scene]
+        return self.budget.get(algo) or self.settings(algo)["n_timesteps"]
 
     def training_env_kwargs(self, algo: str, scene: str | None = None) -> dict:
         """Env options that training ``algo`` on ``scene`` adds (a deep copy; {}: none)."""
@@ -120,28 +134,34 @@ def _check(spec: TaskSpec) -> None:
             raise InvalidParameterError(
                 f"{where}: baselines[{name!r}] must be 'module:Class' or a class with "
                 f"from_env(env), got {ref!r}")
-    if not isinstance(spec.budget, Mapping) or "ppo" not in spec.budget:
+    if not isinstance(spec.hyperparams, Mapping) or "ppo" not in spec.hyperparams:
         raise InvalidParameterError(
-            f"{where}: budget must give the training timesteps of 'ppo' (the default "
-            f"algorithm), got {spec.budget!r}")
+            f"{where}: hyperparams has no settings for 'ppo' (the default algorithm), got "
+            f"{spec.hyperparams!r}")
+    for name, table in (("budget", spec.budget), ("id_settings", spec.id_settings)):
+        if not isinstance(table, Mapping):
+            raise InvalidParameterError(f"{where}: {name} must be a dict keyed by algorithm, "
+                                        f"got {table!r}")
     for key, kwargs in spec.scene_env_kwargs.items():
         if not (isinstance(key, tuple) and len(key) == 2 and isinstance(kwargs, Mapping)):
             raise InvalidParameterError(
                 f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
                 f"options, got {key!r}: {kwargs!r}")
-    for algo, steps in {**spec.budget, **{a: s for (a, _), s in spec.scene_budgets.items()}
-                        }.items():
-        if not isinstance(steps, int) or steps <= 0:
+    budgets = {**spec.budget, **{a: s for (a, _), s in spec.scene_budgets.items()}}
+    for algo in {**spec.hyperparams, **spec.id_settings, **budgets}:
+        if not isinstance(spec.hyperparams.get(algo), Mapping):
             raise InvalidParameterError(
-                f"{where}: budget[{algo!r}] must be a positive int of timesteps, got {steps!r}")
-        if algo not in spec.hyperparams:
+                f"{where}: hyperparams[{algo!r}] must be a dict of settings (RL Zoo format), "
+                f"got {spec.hyperparams.get(algo)!r}; every algorithm with a budget or "
+                "id_settings needs one")
+        if not isinstance(spec.id_settings.get(algo, {}), Mapping):
+            raise InvalidParameterError(f"{where}: id_settings[{algo!r}] must be a dict of "
+                                        f"settings, got {spec.id_settings[algo]!r}")
+        steps = budgets.get(algo, spec.settings(algo).get("n_timesteps"))
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
             raise InvalidParameterError(
-                f"{where}: hyperparams has no settings for {algo!r}, which has a budget; "
-                f"give hyperparams[{algo!r}] (RL Zoo format)")
-        if not isinstance(spec.hyperparams[algo], Mapping):
-            raise InvalidParameterError(
-                f"{where}: hyperparams[{algo!r}] must be a dict of settings, got "
-                f"{spec.hyperparams[algo]!r}")
+                f"{where}: the training timesteps of {algo!r} (budget, or its settings' "
+                f"n_timesteps) must be a positive int, got {steps!r}")
 
 
 def register(spec: TaskSpec) -> TaskSpec:
@@ -205,5 +225,4 @@ def specs() -> tuple:
 
 def zoo_hyperparams(algo: str) -> dict:
     """RL Zoo's table for ``algo``: env id → settings, for every entry that has them."""
-    return {s.env_id: copy.deepcopy(dict(s.hyperparams[algo])) for s in _SPECS.values()
-            if algo in s.hyperparams}
+    return {s.env_id: s.settings(algo) for s in _SPECS.values() if algo in s.hyperparams}

@@ -8,7 +8,6 @@ resolved config is saved as the run folder's ``config.json`` and read back by
 
 from __future__ import annotations
 
-import copy
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -149,11 +148,11 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
     """
     if algo not in ALGOS:
         raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
-    table = rbenv.registry.get(env_id).hyperparams  # the task registry: one source
-    if algo not in table:
+    spec = rbenv.registry.get(env_id)  # the task registry: one source
+    if algo not in spec.hyperparams:
         raise InvalidParameterError(f"the task entry of {env_id!r} has no {algo} settings; "
-                                    f"it has {sorted(table)}")
-    return copy.deepcopy(dict(table[algo]))
+                                    f"it has {sorted(spec.hyperparams)}")
+    return spec.settings(algo)
 
 
 def normalize_kwargs(setting) -> dict | None:

@@ -4,7 +4,8 @@ Zoo (``--algo crossq --conf-file rbenv.hyperparams.crossq``).
 SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) without ``tau``: CrossQ has no target
 network (it normalises the critic's batches instead). Its critics are [256, 256] like the
 actor, not sb3-contrib's default 1024 x 1024, which ran at 43 env-steps/s here (issue 22).
-The other ids get the same numbers, untuned.
+The v1 ids carry their own measured budgets (``n_timesteps``, in their task entries'
+``id_settings``); the other settings are shared, untuned per id.
 """
 
 from __future__ import annotations

@@ -6,7 +6,9 @@
 Issue 22's recipe (:mod:`rbenv.hyperparams._off_policy`): torque actions with ``pinv``
 allocation, 32 sub-envs, observation normalisation only, lr 1e-3, batch 512, 8 gradient steps
 per 32 env steps, tau 0.01, net [256, 256]. Measured on ``SatelliteReorient-v0``/cubesat-12u
-(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+(``docs/off-policy.md``); the v1 ids carry their own measured budgets
+(``n_timesteps``, in their task entries' ``id_settings``); the other settings are shared, untuned
+per id.
 """
 
 from __future__ import annotations

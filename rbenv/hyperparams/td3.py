@@ -4,7 +4,9 @@
 SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with Gaussian exploration noise of standard
 deviation 0.1 (the zoo's ``noise_type``/``noise_std``; ``rbenv train`` builds the same
 ``NormalActionNoise``). Measured on ``SatelliteReorient-v0``/cubesat-12u
-(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+(``docs/off-policy.md``); the v1 ids carry their own measured budgets
+(``n_timesteps``, in their task entries' ``id_settings``); the other settings are shared, untuned
+per id.
 """
 
 from __future__ import annotations

@@ -5,7 +5,9 @@ SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with TQC's own defaults (25 
 critic, 2 dropped per net) and a 200k-step budget: issue 22 measured 99.7 % held out after
 169k steps, and TQC's update costs about twice SAC's, so the budget is set by wall time.
 Measured on ``SatelliteReorient-v0``/cubesat-12u
-(``docs/off-policy.md``); the other ids get the same numbers, untuned.
+(``docs/off-policy.md``); the v1 ids carry their own measured budgets
+(``n_timesteps``, in their task entries' ``id_settings``); the other settings are shared, untuned
+per id.
 """
 
 from __future__ import annotations

@@ -28,7 +28,8 @@ PPO = {
 }
 
 # The off-policy learners: issue 22's recipe (rbenv.hyperparams._off_policy), measured on
-# SatelliteReorient-v0/cubesat-12u (docs/off-policy.md); the other ids get the same numbers.
+# SatelliteReorient-v0/cubesat-12u (docs/off-policy.md). A task entry's id_settings give an id
+# its own measured n_timesteps (the v1 ids, via budgets() below); the rest is shared.
 SAC = recipe()
 TD3 = recipe(noise_type="normal", noise_std=0.1)
 # TQC: a 200k-step budget (issue 22 saw 99.7 % at 169k; a TQC step costs ~2x SAC's).
@@ -52,3 +53,9 @@ BOOM_TRACK_FUEL = {"reward_weights": {"fuel": 0.25}}
 
 # algorithm -> settings: what every shipped task entry points at.
 ALL = {"ppo": PPO, "sac": SAC, "td3": TD3, "tqc": TQC, "crossq": CROSSQ}
+
+
+def budgets(**timesteps: int) -> dict:
+    """A task entry's ``id_settings`` giving each named algorithm its measured training budget
+    on that id: ``budgets(sac=150_000)`` → ``{"sac": {"n_timesteps": 150000}}``."""
+    return {algo: {"n_timesteps": int(steps)} for algo, steps in timesteps.items()}

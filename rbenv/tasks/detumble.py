@@ -248,5 +248,6 @@ ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and rew
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteDetumble-v1", task=DetumbleV1, make=make_detumble_v1,
                    # SAC: 100 % held out with the policies of 46-71k steps (3 seeds,
                    # benchmarks/results/rl/v1/sac-detumble-v1-seed*-keepbest.json).
-                   baselines=SPEC.baselines, budget={"ppo": 300_000, "sac": 75_000},
+                   baselines=SPEC.baselines, budget={"ppo": 300_000},
+                   id_settings=tuned.budgets(sac=75_000),
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

@@ -401,6 +401,7 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteTrack-v1", task=TrackV1, make=make_track_v1,
                    # SAC: 99.2-100 % held out with the policies of 40-65k steps (3 seeds,
                    # benchmarks/results/rl/v1/sac-track-v1-seed*-keepbest.json).
-                   baselines=SPEC.baselines, budget={"ppo": 1_000_000, "sac": 75_000},
+                   baselines=SPEC.baselines, budget={"ppo": 1_000_000},
+                   id_settings=tuned.budgets(sac=75_000),
                    scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

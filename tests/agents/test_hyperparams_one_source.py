@@ -77,3 +77,35 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
         assert cfg.model["fcnet_hiddens"] == tuned.PPO["policy_kwargs"]["net_arch"]
         assert cfg.log_std_init == tuned.PPO["policy_kwargs"]["log_std_init"]
     assert rbenv.registry.zoo_hyperparams("ppo")[rbenv.ENV_ID]["n_epochs"] == 7
+
+
+V1_IDS = ("rbenv/SatelliteReorient-v1", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v1")
+
+
+@pytest.mark.parametrize(("env_id", "algo"), [
+    (env_id, algo) for env_id in V1_IDS for algo in rbenv.registry.get(env_id).id_settings])
+def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, algo):
+    """A v1 id's measured off-policy budget lives in its task entry (id_settings) only:
+    `rbenv train`'s default --timesteps, the RL Zoo file's n_timesteps and the suite's cell
+    budget are that one number, and every other setting is still the shared dict's."""
+    import importlib
+
+    from rbenv.agents.training.config import TrainConfig, shipped_settings
+
+    spec = rbenv.registry.get(env_id)
+    steps = spec.id_settings[algo]["n_timesteps"]
+    zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
+    assert zoo == shipped_settings(algo, env_id) == spec.settings(algo)
+    assert zoo["n_timesteps"] == steps == spec.timesteps(algo, "cubesat-12u")
+    assert TrainConfig(algo=algo, env_id=env_id).resolve().timesteps == steps
+    shared = {k: v for k, v in tuned.ALL[algo].items() if k != "n_timesteps"}
+    assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == shared
+    assert spec.settings(algo) is not spec.settings(algo)  # a copy: a caller can't edit it
+
+
+def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
+    """The per-id numbers are not the shared default restated (that would be no tuning)."""
+    spec = rbenv.registry.get("rbenv/SatelliteReorient-v1")
+    for algo in ("sac", "td3", "tqc", "crossq"):
+        assert spec.timesteps(algo) != tuned.ALL[algo]["n_timesteps"]
+    assert rbenv.registry.get("rbenv/SatelliteReorient-v0").settings("sac") == tuned.SAC

@@ -167,7 +167,10 @@ def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
 @pytest.mark.parametrize(("change", "named"), [
     ({"baselines": {}}, "baselines"),
     ({"baselines": {"pd": 3}}, "baselines['pd']"),
-    ({"budget": {"sac": 1000}}, "'ppo'"),
+    ({"budget": {"sac": 1000}}, "hyperparams['sac']"),
+    ({"hyperparams": {"sac": {"n_timesteps": 1000}}}, "'ppo'"),
+    ({"budget": {}, "id_settings": {"ppo": {"n_timesteps": 0}}}, "positive int"),
+    ({"id_settings": {"sac": {"n_timesteps": 1000}}}, "hyperparams['sac']"),
     ({"hyperparams": {}}, "hyperparams has no settings for 'ppo'"),
     ({"env_id": "PointSun"}, "namespace/Name-v0"),
     ({"task": object}, "Task subclass"),
