@@ -193,15 +193,20 @@ def fit_order(x, y) -> float:
     return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
 
 
+def fmt(value, spec: str, missing: str = "—") -> str:
+    """``format(value, spec)``, or ``missing`` for a value that was not measured (None)."""
+    return missing if value is None else format(value, spec)
+
+
 def table(rows: list[dict], columns: list[str]) -> str:
     """A Markdown table of ``rows`` restricted to ``columns``."""
-    def fmt(v):
+    def cell(v):
         if isinstance(v, float):
             return f"{v:.3g}"
         return str(v)
 
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    lines += ["| " + " | ".join(fmt(r.get(c, "")) for c in columns) + " |" for r in rows]
+    lines += ["| " + " | ".join(cell(r.get(c, "")) for c in columns) + " |" for r in rows]
     return "\n".join(lines)
 
 

@@ -49,6 +49,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies.evaluate import EvalResult, settle_time_s
 
+from benchmarks.common import fmt
 from rbenv.goal import GOAL_ID
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl" / "her"
@@ -446,17 +447,13 @@ def finite(value):
     return value
 
 
-def _fmt(value, spec: str) -> str:
-    return "—" if value is None else format(value, spec)
-
-
 def _steps(n: int) -> str:
     return f"{n / 1000:.0f}k" if n >= 1000 else str(n)
 
 
 def _cells(r: dict) -> str:
     return (f"{100 * r['success_rate']:.1f} % | {1e3 * r['fuel']['mean']:.2f} | "
-            f"{_fmt(r['settle_time_s']['median'], '.1f')} | "
+            f"{fmt(r['settle_time_s']['median'], '.1f')} | "
             f"{r['final_error_deg']['median']:.3g}")
 
 
