@@ -50,7 +50,7 @@ def _angle(a: np.ndarray, d: np.ndarray) -> np.ndarray:
     ``atan2(|vee(M − Mᵀ)|/2, (tr M − 1)/2)``, accurate near 0 and π."""
     a = np.asarray(a, dtype=float)
     d = np.asarray(d, dtype=float)
-    ra, rd = _matrix(a), _matrix(d)
+    ra, rd = v1.matrix_from_rot6(a), v1.matrix_from_rot6(d)
     m = np.einsum("...ki,...kj->...ij", rd, ra)
     x = m[..., 2, 1] - m[..., 1, 2]
     y = m[..., 0, 2] - m[..., 2, 0]
@@ -58,14 +58,6 @@ def _angle(a: np.ndarray, d: np.ndarray) -> np.ndarray:
     s = 0.5 * np.sqrt(x * x + y * y + z * z)
     c = 0.5 * (m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2] - 1.0)
     return np.arctan2(s, c)
-
-
-def _matrix(r6: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) rotation from rot6 (Gram–Schmidt; the third column the cross product)."""
-    c0 = r6[..., 0:3] / np.sqrt(np.sum(r6[..., 0:3] ** 2, axis=-1, keepdims=True))
-    c1 = r6[..., 3:6] - np.sum(c0 * r6[..., 3:6], axis=-1, keepdims=True) * c0
-    c1 = c1 / np.sqrt(np.sum(c1 ** 2, axis=-1, keepdims=True))
-    return np.stack([c0, c1, np.cross(c0, c1)], axis=-1)
 
 
 class GoalReorientEnv(gym.Env):

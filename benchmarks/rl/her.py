@@ -196,7 +196,7 @@ def goal_error_extractor(success_angle: float):
     import torch
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-    def matrix(r6):  # rot6 → rotation (Gram–Schmidt), as rbenv.goal._matrix
+    def matrix(r6):  # rbenv.tasks.v1.matrix_from_rot6 in torch, for the policy's graph
         c0 = r6[..., 0:3] / torch.linalg.vector_norm(r6[..., 0:3], dim=-1, keepdim=True)
         c1 = r6[..., 3:6] - (c0 * r6[..., 3:6]).sum(-1, keepdim=True) * c0
         c1 = c1 / torch.linalg.vector_norm(c1, dim=-1, keepdim=True)

@@ -121,16 +121,21 @@ def rate_features(w: tuple, inv_limit: float, rate_s: float, xp) -> tuple:
             clip(w[2] * inv_limit, -1.0, 1.0), *fine(w, norm, rate_s))
 
 
-def quaternion_from_rot6(r6: np.ndarray) -> np.ndarray:
-    """Canonical unit quaternions (..., 4) from rot6 features (..., 6), for decoding:
-    Gram–Schmidt on the two columns, the third their cross product."""
-    from rbenv.core.quaternion import from_matrix
-
+def matrix_from_rot6(r6: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from rot6 features (..., 6): Gram–Schmidt on the two
+    columns, the third their cross product."""
     a = np.asarray(r6, dtype=float)
     c0 = a[..., 0:3] / np.linalg.norm(a[..., 0:3], axis=-1, keepdims=True)
     c1 = a[..., 3:6] - np.sum(c0 * a[..., 3:6], axis=-1, keepdims=True) * c0
     c1 = c1 / np.linalg.norm(c1, axis=-1, keepdims=True)
-    return from_matrix(np.stack([c0, c1, np.cross(c0, c1)], axis=-1))
+    return np.stack([c0, c1, np.cross(c0, c1)], axis=-1)
+
+
+def quaternion_from_rot6(r6: np.ndarray) -> np.ndarray:
+    """Canonical unit quaternions (..., 4) from rot6 features (..., 6), for decoding."""
+    from rbenv.core.quaternion import from_matrix
+
+    return from_matrix(matrix_from_rot6(r6))
 
 
 class V1Decode:
