@@ -9,9 +9,10 @@ step's info), for a wall-clock budget. SB3's ``DummyVecEnv`` runs the Dict-obser
 ``VecNormalize`` normalises the ``observation`` entry only (``--normalize none``: nothing).
 
 ``--features goal-error`` adds to the networks' input Reorient-v1's error features computed
-from the goals (:func:`goal_error_extractor`; SB3's default input, ``flat``, has only the two
-absolute attitudes), and ``--relabel-done reached`` ends a relabelled transition where its
-substituted goal is reached (:func:`reached_her_buffer`; SB3 copies the real ``done``).
+from the goals (:class:`rbenv.agents.training.her.GoalErrorFeatures`; SB3's default input,
+``flat``, has only the two absolute attitudes), and ``--relabel-done reached`` ends a
+relabelled transition where its substituted goal is reached
+(:class:`rbenv.agents.training.her.ReachedHerReplayBuffer`; SB3 copies the real ``done``).
 ``docs/off-policy.md`` (its HER section) has the runs.
 
 Every ``--eval-every`` env steps the deterministic policy is validated on 100 episodes seeded
@@ -187,69 +188,6 @@ def make_env(args, n_envs: int, env_kwargs: dict):
     return venv
 
 
-def goal_error_extractor(success_angle: float):
-    """An SB3 features extractor (class, keyword arguments) that feeds the networks what
-    Reorient-v1 observes, computed from the goals: ``observation``, then the error rotation
-    R_dᵀR_a as rot6 (v1's ``rot6_err``) and the error's axis-angle vector θ·axis scaled by
-    1/(θ_s + θ) (v1's ``attitude_fine``). No parameters; a function of the goals only, so
-    it stays right for the goals HER substitutes."""
-    import torch
-    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
-
-    def matrix(r6):  # rbenv.tasks.v1.matrix_from_rot6 in torch, for the policy's graph
-        c0 = r6[..., 0:3] / torch.linalg.vector_norm(r6[..., 0:3], dim=-1, keepdim=True)
-        c1 = r6[..., 3:6] - (c0 * r6[..., 3:6]).sum(-1, keepdim=True) * c0
-        c1 = c1 / torch.linalg.vector_norm(c1, dim=-1, keepdim=True)
-        return torch.stack([c0, c1, torch.linalg.cross(c0, c1)], dim=-1)
-
-    class GoalErrorFeatures(BaseFeaturesExtractor):
-        def __init__(self, observation_space, success_angle: float):
-            super().__init__(observation_space,
-                             features_dim=observation_space["observation"].shape[0] + 9)
-            self.success_angle = float(success_angle)
-
-        def forward(self, obs: dict):
-            m = matrix(obs["desired_goal"]).transpose(-1, -2) @ matrix(obs["achieved_goal"])
-            vee = torch.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
-                               m[..., 1, 0] - m[..., 0, 1]], dim=-1)
-            s = torch.linalg.vector_norm(vee, dim=-1, keepdim=True)  # 2 sin θ
-            theta = torch.atan2(s, m.diagonal(dim1=-2, dim2=-1).sum(-1, keepdim=True) - 1.0)
-            fine = vee * (theta / s.clamp_min(1e-12)) / (self.success_angle + theta)
-            return torch.cat([obs["observation"], m[..., :, 0], m[..., :, 1], fine], dim=-1)
-
-    return GoalErrorFeatures, {"success_angle": success_angle}
-
-
-def reached_her_buffer():
-    """``HerReplayBuffer`` whose relabelled transitions end where the task would: a goal the
-    task reaches ends its episode (Reorient-v1 stops on success), so a transition whose
-    substituted goal is reached (``GoalReorientEnv.goal_reached``) is terminal, and one that
-    ended the real episode by its success is not, unless the new goal is reached too (a
-    failure, the rate limit, stays terminal). SB3's buffer copies the real ``done``, so a
-    substituted goal reached at rest pays the success on every later step instead of once."""
-    from stable_baselines3 import HerReplayBuffer
-
-    class ReachedHerReplayBuffer(HerReplayBuffer):
-        def _sample_goals(self, batch_indices, env_indices):
-            goals = super()._sample_goals(batch_indices, env_indices)
-            self._relabelled = (batch_indices, env_indices, goals)
-            return goals
-
-        def _get_virtual_samples(self, batch_indices, env_indices, env=None):
-            data = super()._get_virtual_samples(batch_indices, env_indices, env)
-            b, e, goals = self._relabelled
-            infos = self.infos[b, e]
-            reached = self.env.env_method("goal_reached",
-                                          self.next_observations["achieved_goal"][b, e], goals,
-                                          infos, indices=[0])[0]
-            ended = self.dones[b, e] * (1 - self.timeouts[b, e]) > 0
-            success = np.array([bool(i.get("is_success", False)) for i in infos])
-            done = (ended & ~success) | np.asarray(reached, bool)
-            return data._replace(dones=self.to_torch(done.astype(np.float32)).reshape(-1, 1))
-
-    return ReachedHerReplayBuffer
-
-
 def model_class(algo: str):
     if algo == "tqc":
         from sb3_contrib import TQC
@@ -340,6 +278,7 @@ def versions() -> dict:
 
 def train(args) -> dict:
     import torch
+    from rbenv.agents.training.her import GoalErrorFeatures, ReachedHerReplayBuffer
     from stable_baselines3 import HerReplayBuffer
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -363,11 +302,10 @@ def train(args) -> dict:
     kwargs = copy.deepcopy(settings)  # (SB3 adds keys to the policy_kwargs it is given)
     if args.features == "goal-error":
         angle = env.get_attr("task", [0])[0].success_angle
-        extractor, extractor_kwargs = goal_error_extractor(angle)
         kwargs["policy_kwargs"] = {**kwargs.get("policy_kwargs", {}),
-                                   "features_extractor_class": extractor,
-                                   "features_extractor_kwargs": extractor_kwargs}
-    buffer = reached_her_buffer() if args.relabel_done == "reached" else HerReplayBuffer
+                                   "features_extractor_class": GoalErrorFeatures,
+                                   "features_extractor_kwargs": {"success_angle": angle}}
+    buffer = ReachedHerReplayBuffer if args.relabel_done == "reached" else HerReplayBuffer
     model = model_class(args.algo)(
         "MultiInputPolicy", env, replay_buffer_class=buffer,
         replay_buffer_kwargs=dict(her), seed=args.seed, device="cpu", verbose=0, **kwargs)
