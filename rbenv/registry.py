@@ -147,8 +147,9 @@ def _check(spec: TaskSpec) -> None:
             raise InvalidParameterError(
                 f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
                 f"options, got {key!r}: {kwargs!r}")
-    budgets = {**spec.budget, **{a: s for (a, _), s in spec.scene_budgets.items()}}
-    for algo in {**spec.hyperparams, **spec.id_settings, **budgets}:
+    budgets = [(f"budget[{a!r}]", a, n) for a, n in spec.budget.items()] + [
+        (f"scene_budgets[{key!r}]", key[0], n) for key, n in spec.scene_budgets.items()]
+    for algo in {**spec.hyperparams, **spec.id_settings, **{a: 0 for _, a, _ in budgets}}:
         if not isinstance(spec.hyperparams.get(algo), Mapping):
             raise InvalidParameterError(
                 f"{where}: hyperparams[{algo!r}] must be a dict of settings (RL Zoo format), "
@@ -157,11 +158,13 @@ def _check(spec: TaskSpec) -> None:
         if not isinstance(spec.id_settings.get(algo, {}), Mapping):
             raise InvalidParameterError(f"{where}: id_settings[{algo!r}] must be a dict of "
                                         f"settings, got {spec.id_settings[algo]!r}")
-        steps = budgets.get(algo, spec.settings(algo).get("n_timesteps"))
+        if algo not in spec.budget:
+            budgets.append((f"the n_timesteps of {algo!r}'s settings", algo,
+                            spec.settings(algo).get("n_timesteps")))
+    for name, _, steps in budgets:
         if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
             raise InvalidParameterError(
-                f"{where}: the training timesteps of {algo!r} (budget, or its settings' "
-                f"n_timesteps) must be a positive int, got {steps!r}")
+                f"{where}: {name} must be a positive int of timesteps, got {steps!r}")
 
 
 def register(spec: TaskSpec) -> TaskSpec:
