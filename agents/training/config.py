@@ -95,7 +95,7 @@ class RunConfig:
 
     def resolve(self: C) -> C:
         """Fill the defaults that depend on other fields and validate; back ends extend it."""
-        rbenv.registry.get(self.env_id)  # a named error for an id it does not hold
+        task_entry(self.env_id)  # a named error for an id it does not hold
         if self.threads is None:
             self.threads = 1
         self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
@@ -139,6 +139,18 @@ OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
 
 
+def task_entry(env_id: str):
+    """The registry's entry for ``env_id`` (:func:`rbenv.registry.get`); the goal form, which
+    has none, gets an error that says how to train it."""
+    if env_id == rbenv.goal.GOAL_ID:
+        raise InvalidParameterError(
+            f"env_id {env_id!r} (the goal form, a Dict observation) is not trained by rbenv "
+            "train, whose run folders, reports and suite use the registry's flat observations; "
+            "train it with SB3 and rbenv.agents.training.her (its docstring has the recipe), "
+            "or train rbenv/SatelliteReorient-v1, the same task")
+    return rbenv.registry.get(env_id)
+
+
 def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
     """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its task registry
     entry's (rbenv.registry; the dicts live in rbenv.hyperparams.tuned).
@@ -148,7 +160,7 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
     """
     if algo not in ALGOS:
         raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
-    spec = rbenv.registry.get(env_id)  # the task registry: one source
+    spec = task_entry(env_id)  # the task registry: one source
     if algo not in spec.hyperparams:
         raise InvalidParameterError(f"the task entry of {env_id!r} has no {algo} settings; "
                                     f"it has {sorted(spec.hyperparams)}")

@@ -119,3 +119,14 @@ def test_the_buffer_refuses_to_run_without_the_step_infos():
         ReachedHerReplayBuffer(40, raw.observation_space, raw.action_space, env=venv)
     with pytest.raises(ValueError, match="success_angle must be > 0"):
         GoalErrorFeatures(raw.observation_space, 0.0)
+
+
+def test_rbenv_train_refuses_the_goal_form_and_says_how_to_train_it(tmp_path, capsys):
+    from rbenv.agents.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["train", "--algo", "sac", "--env-id", GOAL_ID, "--out", str(tmp_path / "run")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert GOAL_ID in err and "rbenv.agents.training.her" in err
+    assert not (tmp_path / "run").exists()
