@@ -369,7 +369,9 @@ def load_replay_buffer(model, directory: Path, steps: int, trust_pickle: bool = 
         print(f"replay buffer not restored ({type(e).__name__}: {e}); "
               f"{type(model).__name__} refills it from the resumed policy")
         return
-    print(f"replay buffer restored: {size} transitions ({path.name})")
+    n_envs = model.replay_buffer.n_envs  # SB3's size() counts vector steps, not transitions
+    print(f"replay buffer restored: {size * n_envs} transitions, {size} vector steps of "
+          f"{n_envs} envs ({path.name})")
 
 
 def load_checkpoint(cfg: TrainConfig, directory: Path, base, trust_pickle: bool = False):

@@ -491,9 +491,11 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     buffers = sorted(p.name for p in (out / "checkpoints").glob("replay_buffer_*"))
     assert buffers == ["replay_buffer_256.npz"]  # only the latest is kept
     run(TrainConfig(out=str(out), timesteps=384), resume=True)
-    restored = re.search(r"replay buffer restored: (\d+) transitions", capsys.readouterr().out)
-    # 64 steps of 4 envs, less the last one: SB3 stores a transition after the callbacks run
-    assert restored and 60 <= int(restored.group(1)) <= 64
+    restored = re.search(r"replay buffer restored: (\d+) transitions, (\d+) vector steps of 4 "
+                         "envs", capsys.readouterr().out)
+    # 64 vector steps of 4 envs, less the last one: SB3 stores a step after the callbacks run
+    assert restored and 60 <= int(restored.group(2)) <= 64
+    assert int(restored.group(1)) == 4 * int(restored.group(2))
     _truncate(out / "checkpoints" / "replay_buffer_384.npz")
     run(TrainConfig(out=str(out), timesteps=512), resume=True)
     printed = capsys.readouterr().out
