@@ -424,8 +424,8 @@ def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle:
     including when its model's own num_timesteps is not the count claimed for it."""
     check_model_file(ckpt.model)
     env = load_stats(ckpt.stats, base, trust_pickle=trust_pickle)
-    model = load_model(ckpt.model, cfg.algo, env=env, hyperparams=cfg.hyperparams,
-                            seed=cfg.seed, trust_pickle=trust_pickle)
+    model = load_model(ckpt.model, cfg.algo, env=env, hyperparams=model_kwargs(cfg, env),
+                       seed=cfg.seed, trust_pickle=trust_pickle)
     own = int(model.num_timesteps)
     if own != ckpt.steps:
         claim = ckpt.source or ckpt.model

@@ -503,6 +503,20 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
 
 
+def test_td3_resumes_with_its_action_noise(tmp_path, capsys):
+    """TD3's shipped settings name its exploration noise in the zoo's words (noise_type,
+    noise_std); a resume builds the model from them as a new run does, with the noise."""
+    out = tmp_path / "td3"
+    hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
+    run(tiny(out, algo="td3", timesteps=256, hyperparams=hyper))
+    run(TrainConfig(out=str(out), timesteps=384), resume=True)
+    printed = capsys.readouterr().out
+    assert "resuming td3" in printed and "unusable" not in printed
+    assert summary(out)["timesteps"] == 384 and summary(out)["trained"]
+    config = json.loads((out / "config.json").read_text())
+    assert config["hyperparams"]["noise_type"] == "normal"
+
+
 @pytest.mark.parametrize("text", ["{", '{"wall_time_s": 1}', '{"timesteps": "x"}'])
 def test_a_corrupt_training_summary_is_named_and_the_run_rewrites_it(copy, capsys, text):
     (copy / "training.json").write_text(text)
