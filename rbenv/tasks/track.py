@@ -399,9 +399,14 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
     """ + v1.version_history("rbenv/SatelliteTrack-v0")
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteTrack-v1", task=TrackV1, make=make_track_v1,
-                   # SAC: 99.2-100 % held out with the policies of 40-65k steps (3 seeds,
-                   # benchmarks/results/rl/v1/sac-track-v1-seed*-keepbest.json).
                    baselines=SPEC.baselines, budget={"ppo": 1_000_000},
-                   id_settings=tuned.budgets(sac=75_000),
+                   # Off-policy budgets (benchmarks/results/rl/v1/<algo>-track-v1-seed*-
+                   # keepbest.json): SAC 99.2-100 % held out with the policies of 40-65k
+                   # steps (3 seeds); TQC 100 % with its 20k policy (seed 0, 75k run). TD3 and
+                   # CrossQ do not learn it: TD3 peaked at 61 % validation at 80k and fell to
+                   # 0 % by 120k (58.8 % held out at best); CrossQ reached 23 % at 20k and 0 %
+                   # from 30k to 176k (17.2 %). Their budgets only bound the time spent.
+                   id_settings=tuned.budgets(sac=75_000, td3=80_000, tqc=75_000,
+                                             crossq=75_000),
                    scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)

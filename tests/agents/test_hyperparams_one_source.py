@@ -109,3 +109,8 @@ def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
     for algo in ("sac", "td3", "tqc", "crossq"):
         assert spec.timesteps(algo) != tuned.ALL[algo]["n_timesteps"]
     assert rbenv.registry.get("rbenv/SatelliteReorient-v0").settings("sac") == tuned.SAC
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
+def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
+    assert set(rbenv.registry.get(env_id).id_settings) == {"sac", "td3", "tqc", "crossq"}
