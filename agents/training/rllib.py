@@ -35,7 +35,7 @@ import numpy as np
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.rllib import MODULE_PATH, RLLIB_HINT, RLlibPolicy, latest
 from rbenv.agents.training import engine, flags
-from rbenv.agents.training.config import Engine, RLlibOptions, RunConfig
+from rbenv.agents.training.config import Engine, RLlibOptions, RunConfig, task_entry
 from rbenv.agents.training.engine import add_run_arguments
 from rbenv.agents.training.ray_cluster import connect, require_ray, shutdown
 from rbenv.agents.training.report import Trained, write_report
@@ -75,7 +75,7 @@ class RLlibConfig(RunConfig):
 
     def resolve(self) -> RLlibConfig:
         # A named error for an id it does not hold; its PPO settings are the defaults.
-        shipped = rbenv.registry.get(self.env_id).settings("ppo")
+        shipped = task_entry(self.env_id).settings("ppo")
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         if self.log_std_init is None:
