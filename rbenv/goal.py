@@ -48,9 +48,7 @@ def _columns(q: np.ndarray) -> np.ndarray:
 def _angle(a: np.ndarray, d: np.ndarray) -> np.ndarray:
     """Rotation angle (rad) between attitudes given as rot6 (..., 6): from M = R_dᵀR_a,
     ``atan2(|vee(M − Mᵀ)|/2, (tr M − 1)/2)``, accurate near 0 and π."""
-    a = np.asarray(a, dtype=float)
-    d = np.asarray(d, dtype=float)
-    ra, rd = v1.matrix_from_rot6(a), v1.matrix_from_rot6(d)
+    ra, rd = v1.matrix_from_rot6(a), v1.matrix_from_rot6(d)  # (float64 arrays of a and d)
     m = np.einsum("...ki,...kj->...ij", rd, ra)
     x = m[..., 2, 1] - m[..., 1, 2]
     y = m[..., 0, 2] - m[..., 2, 0]

@@ -147,9 +147,11 @@ def _check(spec: TaskSpec) -> None:
             raise InvalidParameterError(
                 f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
                 f"options, got {key!r}: {kwargs!r}")
-    budgets = [(f"budget[{a!r}]", a, n) for a, n in spec.budget.items()] + [
-        (f"scene_budgets[{key!r}]", key[0], n) for key, n in spec.scene_budgets.items()]
-    for algo in {**spec.hyperparams, **spec.id_settings, **{a: 0 for _, a, _ in budgets}}:
+    budgets = {f"budget[{a!r}]": n for a, n in spec.budget.items()}
+    budgets.update({f"scene_budgets[{key!r}]": n for key, n in spec.scene_budgets.items()})
+    algos = dict.fromkeys([*spec.hyperparams, *spec.id_settings, *spec.budget,
+                           *(algo for algo, _ in spec.scene_budgets)])
+    for algo in algos:
         if not isinstance(spec.hyperparams.get(algo), Mapping):
             raise InvalidParameterError(
                 f"{where}: hyperparams[{algo!r}] must be a dict of settings (RL Zoo format), "
@@ -159,9 +161,9 @@ def _check(spec: TaskSpec) -> None:
             raise InvalidParameterError(f"{where}: id_settings[{algo!r}] must be a dict of "
                                         f"settings, got {spec.id_settings[algo]!r}")
         if algo not in spec.budget:
-            budgets.append((f"the n_timesteps of {algo!r}'s settings", algo,
-                            spec.settings(algo).get("n_timesteps")))
-    for name, _, steps in budgets:
+            budgets[f"the n_timesteps of {algo!r}'s settings"] = \
+                spec.settings(algo).get("n_timesteps")
+    for name, steps in budgets.items():
         if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
             raise InvalidParameterError(
                 f"{where}: {name} must be a positive int of timesteps, got {steps!r}")
