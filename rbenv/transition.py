@@ -113,13 +113,20 @@ def render_values(plant: Plant, task, st, index: int | None = None) -> dict:
     def pick(c):
         return float(c if index is None else c[index])
 
-    q = np.array([pick(c) for c in st.q])
+    def vector(components):  # a state field of components (None: the actuator is absent)
+        return None if components is None else np.array([pick(c) for c in components])
+
+    q = vector(st.q)
     target = task.target(st)
-    w = np.array([pick(c) for c in st.omega_B])
-    throttle = st.throttle if index is None else st.throttle[index]
+    w = vector(st.omega_B)
+    throttle = getattr(st, "throttle", None)
+    if throttle is not None and index is not None:
+        throttle = throttle[index]
     angle = task.error_angle(st)
-    return {"q": q, "q_target": None if target is None else np.array([pick(c) for c in target]),
-            "throttle": np.asarray(throttle, dtype=float),
+    return {"q": q, "q_target": vector(target),
+            "throttle": None if throttle is None else np.asarray(throttle, dtype=float),
+            "wheel_speed": vector(getattr(st, "wheel_speed", None)),
+            "dipole_B": vector(getattr(st, "mtq_dipole_B", None)),
             "error_deg": float(np.degrees(pick(angle))) if angle is not None else 0.0,
             "rate_dps": float(np.degrees(np.linalg.norm(w))),
             "time_s": pick(st.steps) * plant.control_dt}

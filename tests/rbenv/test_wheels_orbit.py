@@ -241,8 +241,8 @@ def test_both_checkers_pass_on_the_wheel_scene_for_every_task(env_id, mode):
                               reason="stable-baselines3 is not installed (train extra)")
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode).unwrapped,
-                  skip_render_check=True)
+        check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode,
+                           render_mode="rgb_array").unwrapped)
         sb3.check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode).unwrapped)
 
 
