@@ -26,10 +26,15 @@ _F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
 
 
 def unknown_options(owner: str, unknown: dict, valid) -> None:
-    """Raise the TypeError of an unexpected keyword (as Python does), naming the valid ones."""
-    bad = ", ".join(repr(k) for k in sorted(unknown))
-    raise TypeError(f"{owner} got unexpected option(s) {bad}; the valid options are "
-                    f"{', '.join(sorted(valid))}")
+    """Raise the TypeError of an unexpected keyword, naming the valid ones.
+
+    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
+    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
+    drops ``frameskip`` so)."""
+    first, *rest = sorted(unknown)
+    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
+    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
+                    f"the valid options are {', '.join(sorted(valid))}")
 
 
 class AttitudeEnv(TaskAdapter, gym.Env):

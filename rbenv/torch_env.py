@@ -485,7 +485,8 @@ class TorchEnv(gym.Env):
     def __init__(self, scene=None, **options):
         for name in ("num_envs", "autoreset_mode"):
             if name in options:
-                raise TypeError(f"{type(self).__name__} got unexpected option {name!r}: it is "
+                raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword "
+                                f"argument {name!r}: it is "
                                 f"one satellite; use gym.make_vec(ID, backend='torch') for a "
                                 f"batch")
         self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,

@@ -97,3 +97,18 @@ def test_every_task_option_is_documented_and_every_documented_one_is_real(env_id
                       r"(.*?)\n\n", doc, re.S)
     if named:
         assert set(re.findall(r"``(\w+)`` \(", named.group(1))) <= keys
+
+
+@pytest.mark.parametrize("backend", ["numpy", "torch"])
+def test_an_unknown_option_reads_as_pythons_own_error_and_names_the_valid_ones(backend):
+    """Clients match Python's wording to drop an option the env does not take (TorchRL's
+    GymEnv drops frameskip when the message says "unexpected keyword argument 'frameskip'")."""
+    if backend == "torch":
+        pytest.importorskip("torch", reason="torch is not installed (train extra)")
+    with pytest.raises(TypeError) as err:
+        gym.make("rbenv/SatelliteReorient-v1", backend=backend, frameskip=4)
+    assert "unexpected keyword argument 'frameskip'" in str(err.value)
+    assert "scene" in str(err.value) and "reward_weights" in str(err.value)
+    with pytest.raises(TypeError, match=r"argument 'frameskip' \(and 'zzz'\); the valid"):
+        gym.make_vec("rbenv/SatelliteReorient-v1", num_envs=2, backend=backend, frameskip=4,
+                     zzz=1)
