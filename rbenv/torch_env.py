@@ -5,6 +5,8 @@
 ``gymnasium.vector.VectorEnv`` whose ``step`` takes an (N, k) action tensor and returns
 tensors on its device: obs (N, d) in the env's dtype, reward (N,), terminated and truncated
 (N,) bool, and ``info``, a dict of (N,) tensors with a ``_key`` mask each, as the NumPy env.
+Its spaces are Gymnasium Boxes in the env's dtype (actions and observations alike), so
+``action_space.sample()`` is a NumPy array; ``step`` takes it too and copies it to the device.
 
 ``gym.make(ID, backend="torch")`` gives one satellite of it as a ``gymnasium.Env`` with NumPy at
 its boundary (:class:`TorchEnv`), for the env checkers and single-env tools.
@@ -174,8 +176,11 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
-        self.single_action_space, single_obs = self._setup(options, None, ())
+        single_action, single_obs = self._setup(options, None, ())
         check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
+        # Both spaces in the env's dtype: what it returns, and what it computes actions in.
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, single_action.shape,
+                                                  np.dtype(dtype))
         self.single_observation_space = gym.spaces.Box(-1.0, 1.0, single_obs.shape,
                                                        np.dtype(dtype))
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
@@ -430,11 +435,12 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
 
     def _actions(self, actions) -> torch.Tensor:
         """The action batch as a tensor of the env's dtype on its device; a named error for
-        anything else (the shape and the type are checked, values are clipped by the plant)."""
+        anything else (the shape and the type are checked, values are clipped by the plant).
+        A NumPy array (``action_space.sample()``) or a list is copied to the device: a host
+        transfer per step, which a tensor already on the device avoids."""
         shape = self.action_space.shape
-        if not isinstance(actions, torch.Tensor):
-            raise TypeError(f"actions must be a torch tensor of shape {shape} on backend="
-                            f"'torch', got {type(actions).__name__}")
+        if not isinstance(actions, torch.Tensor):  # the NumPy env's checks, then the copy
+            actions = torch.as_tensor(action_array(actions, shape, name="actions"))
         if tuple(actions.shape) != shape:
             raise InvalidParameterError(f"actions must have shape {shape}, got "
                                         f"{tuple(actions.shape)}")
@@ -491,7 +497,10 @@ class TorchEnv(gym.Env):
                                 f"batch")
         self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,
                                      **options)
-        self.action_space = self.env.single_action_space
+        # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
+        # gymnasium.Env); the vector env's spaces are in its dtype.
+        self.action_space = gym.spaces.Box(-1.0, 1.0, self.env.single_action_space.shape,
+                                           np.float32)
         self.observation_space = self.env.single_observation_space
         self.metadata = {**type(self).metadata, "render_fps": self.env.metadata["render_fps"]}
         self.render_mode = None
