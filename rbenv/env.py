@@ -16,7 +16,7 @@ import numpy as np
 from rbenv import transition
 from rbenv.adapter import TaskAdapter, action_array, backend_twin
 from rbenv.core.backend import FLOAT
-from rbenv.draws import EpisodeDraws
+from rbenv.draws import EpisodeDraws, check_seed
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
@@ -70,9 +70,11 @@ class AttitudeEnv(TaskAdapter, gym.Env):
 
     def reset(self, *, seed=None, options=None):
         """Start an episode; ``options`` replace parts of the sampled start (see the task)."""
+        if seed is not None:
+            seed = check_seed(seed)
         super().reset(seed=seed)
         if seed is not None:
-            self._seed_key, self._episode = int(seed) % 2**64, 0
+            self._seed_key, self._episode = seed % 2**64, 0
         elif self._seed_key is None:
             self._seed_key = int(self.np_random.integers(2**63))
         draws = EpisodeDraws(self._seed_key, self._episode, single=True,

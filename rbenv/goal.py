@@ -34,6 +34,7 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv.core.backend import FLOAT
+from rbenv.draws import check_seed
 from rbenv.tasks import v1
 
 GOAL_ID = "rbenv/SatelliteReorientGoal-v1"
@@ -81,7 +82,7 @@ class GoalReorientEnv(gym.Env):
         self._attitudes = self._flags = self._desired = None
 
     def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
+        super().reset(seed=None if seed is None else check_seed(seed))
         _, info = self.env.reset(seed=seed, options=options)
         st = self.env._st
         self._attitudes = np.repeat(_columns(np.array(st.q))[None], self.n, axis=0)

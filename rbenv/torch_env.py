@@ -59,6 +59,7 @@ from rbenv.adapter import TaskAdapter, action_array
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
+from rbenv.draws import check_seed
 from rbenv.env import unknown_options
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
@@ -243,8 +244,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             seeds, episodes = seeds[idx], episodes[idx]
         draws = TorchDraws(seeds, episodes, self.xp)
         rows = np.arange(self.num_envs) if options else None
-        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows),
-                           draws.n)
+        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows,
+                                            num_envs=self.num_envs), draws.n)
 
     def _scatter(self, idx: torch.Tensor, new: State, old: State) -> State:
         """Rows ``idx`` from ``new`` (a state of len(idx)), the others from ``old`` (a new
@@ -328,10 +329,10 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             if len(seed) != n:
                 raise InvalidParameterError(
                     f"seed list must have num_envs = {n} entries, got {len(seed)}")
-            values = [validation.integer(f"seed[{i}]", s.item() if hasattr(s, "item") else s,
-                                         low=0) for i, s in enumerate(seed)]
+            values = [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
+                      for i, s in enumerate(seed)]
         else:
-            s = validation.integer("seed", seed, low=0)
+            s = check_seed(seed)
             values = [s + i for i in range(n)]
         if max(values) >= 2**63:
             raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "

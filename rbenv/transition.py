@@ -140,21 +140,21 @@ def zero_terms(task, value=0.0) -> tuple:
 # --------------------------------------------------------------------------- episode start
 
 
-def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
+def start(plant: Plant, task, draws, options=None, rows=None, num_envs=None) -> dict:
     """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
 
     options: the reset options (names in ``task.reset_options``); for the vector env their
-    leading axis is num_envs and ``rows`` selects the rows of the envs being reset.
+    leading axis is ``num_envs`` and ``rows`` selects the rows of the envs being reset.
     """
     s = task.sample_start(draws)
-    _override(task, s, options, rows, draws)
+    _override(task, s, options, rows, draws, num_envs)
     s.update(plant.sample_start(draws))
     task.complete_start(s, draws.xp)
     plant.complete_start(s, draws.xp)
     return s
 
 
-def _override(task, s: dict, options, rows, draws) -> None:
+def _override(task, s: dict, options, rows, draws, num_envs=None) -> None:
     """Replace sampled start values by reset options (validated, named in errors)."""
     if not options:
         return
@@ -171,13 +171,14 @@ def _override(task, s: dict, options, rows, draws) -> None:
             continue
         name = f"reset options[{key!r}]"
         arr = validation.finite_array(name, options[key])
-        shape = (width,) if rows is None else ("num_envs", width)
-        if rows is not None:
-            if arr.ndim != 2 or arr.shape[1] != width:
-                raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
+        if rows is not None:  # one row per sub-env, num_envs of them
+            if arr.shape != (num_envs, width):
+                raise InvalidParameterError(
+                    f"{name} must have shape (num_envs, {width}) = {(num_envs, width)}, one "
+                    f"row per sub-env, got {arr.shape}")
             arr = arr[rows]
         elif arr.shape != (width,):
-            raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
+            raise InvalidParameterError(f"{name} must have shape {(width,)}, got {arr.shape}")
         arr = np.broadcast_to(arr, (draws.n, width))
         if width == 4:
             arr = validation.unit_quaternion(name, arr)
