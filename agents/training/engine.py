@@ -184,7 +184,7 @@ def load_eval_history(log: Path, upto: int) -> dict:
     if upto <= 0 or not log.exists():
         return history
     try:
-        with np.load(log) as data:
+        with open(log, "rb") as f, np.load(f) as data:  # closed also when the zip is torn
             loaded = {k: data[k].tolist() for k in EVAL_KEYS}
     except Exception as e:  # a torn or foreign file: keep training, say what was lost
         warnings.warn(f"evaluation history {str(log)!r} is unreadable ({type(e).__name__}: "

@@ -74,8 +74,8 @@ def test_base_run_has_checkpoints_history_and_a_trained_summary(base_run):
     s = summary(base_run)
     assert s["timesteps"] == 512 and s["trained"] and s["gradient_updates"] > 0
     assert s["wall_time_s"] > 0 and s["threads"] == 1
-    assert np.load(base_run / "eval" / "evaluations.npz")["timesteps"].tolist() == [
-        128, 256, 384, 512]
+    with np.load(base_run / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [128, 256, 384, 512]
     assert not (base_run / runs.LOCK).read_text()  # released cleanly: no stale record
 
 
@@ -91,9 +91,9 @@ def test_resume_continues_the_folder_given_not_the_one_in_config_json(copy, base
 def test_resume_keeps_the_evaluation_history_and_accumulates_wall_time(copy):
     wall = summary(copy)["wall_time_s"]
     run(TrainConfig(out=str(copy), timesteps=768), resume=True)
-    log = np.load(copy / "eval" / "evaluations.npz")
-    assert log["timesteps"].tolist() == [128, 256, 384, 512, 640, 768]
-    assert log["successes"].shape == (6, 2) and log["results"].shape == (6, 2)
+    with np.load(copy / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [128, 256, 384, 512, 640, 768]
+        assert log["successes"].shape == (6, 2) and log["results"].shape == (6, 2)
     assert summary(copy)["wall_time_s"] > wall
 
 
@@ -220,7 +220,8 @@ def test_a_torn_evaluation_history_is_replaced_with_a_warning(copy):
     _truncate(copy / "eval" / "evaluations.npz")
     with pytest.warns(UserWarning, match="evaluations.npz"):
         run(TrainConfig(out=str(copy), timesteps=640), resume=True)
-    assert np.load(copy / "eval" / "evaluations.npz")["timesteps"].tolist() == [640]
+    with np.load(copy / "eval" / "evaluations.npz") as evals:
+        assert evals["timesteps"].tolist() == [640]
 
 
 # --- new runs, --force, locks, temporary files ------------------------------------------------
@@ -258,6 +259,7 @@ def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_loc
     finally:
         holder.kill()  # SIGKILL: no clean-up runs in the holder
         holder.wait()
+        holder.stdout.close()
     lock = RunLock(copy).acquire()
     try:
         assert lock.stale["pid"] == holder.pid  # recognised as stale, and taken over
@@ -278,7 +280,7 @@ def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     cmd = _train_command(out, timesteps=2048, checkpoint_every=256, eval_every=100000)
     procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for _ in range(2)]
-    results = [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in procs]
+    results = [(p.wait(timeout=300), *p.communicate()) for p in procs]
     codes = sorted(r[0] for r in results)
     errors = " ".join(r[2] for r in results)
     # Either the second start found the folder locked, or (if the first had finished) not
@@ -387,7 +389,8 @@ def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
 def test_not_a_model_is_an_error_naming_it(tmp_path):
     bogus = tmp_path / "model.zip"
     bogus.write_text("not a zip")
-    with pytest.raises(RbenvValueError, match=r"model.zip"):
+    with pytest.raises(RbenvValueError, match=r"model.zip"), \
+            pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):  # found first
         load_policy(bogus)
 
 
@@ -471,6 +474,8 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
     finally:
         if proc.poll() is None:
             proc.kill()
+            proc.wait()
+        proc.stderr.close()
     cfg = TrainConfig(out=str(out), timesteps=1536)
     try:
         run(cfg, resume=True)
@@ -479,9 +484,11 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
         run(tiny(out, timesteps=1536, eval_every=256))
     assert summary(out)["timesteps"] == 1536
     assert not list(out.rglob("*.tmp"))
-    evals = np.load(out / "eval" / "evaluations.npz")["timesteps"].tolist()
-    assert evals == list(range(256, 1537, 256))
-    assert load_policy(out).predict(np.zeros(7, np.float32))[0].shape == (12,)
+    with np.load(out / "eval" / "evaluations.npz") as evals:
+        assert evals["timesteps"].tolist() == list(range(256, 1537, 256))
+    policy = load_policy(out)
+    n_obs = policy.model.observation_space.shape[0]
+    assert policy.predict(np.zeros(n_obs, np.float32))[0].shape == (12,)
 
 
 def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path, capsys):
@@ -536,12 +543,14 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
     assert isinstance(env.venv, SB3VecEnv)
     PPO("MlpPolicy", env, n_steps=8, batch_size=16, seed=0, device="cpu").save(
         tmp_path / "model.zip")
-    with pytest.raises(runs.UntrustedPickleError, match="trust_pickle=True"):
+    with pytest.raises(runs.UntrustedPickleError, match="trust_pickle=True"), \
+            pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):  # found first
         load_policy(tmp_path / "model.zip")  # a foreign SB3 .zip holds cloudpickled objects
     with pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):
         policy = load_policy(tmp_path / "model.zip", trust_pickle=True)
     assert policy.vecnormalize is None and policy.config is None
-    assert policy.predict(np.zeros((3, 7), np.float32))[0].shape == (3, 12)
+    n_obs = policy.model.observation_space.shape[0]
+    assert policy.predict(np.zeros((3, n_obs), np.float32))[0].shape == (3, 12)
 
 
 def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):
