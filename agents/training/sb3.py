@@ -231,8 +231,8 @@ class TimeLimit(BaseCallback):
         return (f"stopped by --max-minutes {cfg.max_minutes:g}: {self.clock.total() / 60:.1f} "
                 f"min of training wall time (all sessions of the run) at {steps:,} of "
                 f"{cfg.timesteps:,} timesteps ({100 * steps / cfg.timesteps:.0f} %); the policy "
-                f"as it is now is saved and reported in {str(out)!r}; to train on: rbenv train "
-                f"--out {out} --resume --max-minutes M, with M > {cfg.max_minutes:g}")
+                f"as it is then is the run's final one, in {str(out)!r}; to train on: rbenv "
+                f"train --out {out} --resume --max-minutes M, with M > {cfg.max_minutes:g}")
 
 
 class PeriodicEval(_Every):
