@@ -34,6 +34,7 @@ from rbenv.agents.policies.evaluate import (
     scripted_by_task,
     write_json,
 )
+from rbenv.agents.policies.weights import ALGOS
 from rbenv.agents.training import flags, rllib, suite, tune
 from rbenv.agents.training.config import (
     RLlibOptions,
@@ -126,13 +127,14 @@ ENGINE_GROUPS = (
     ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)",
      (RLlibConfig, RLlibOptions)),
     ("torchrl", "torchrl options (--engine torchrl: TorchRL's PPO on the torch env; the "
-                "ecosystem extra). It reads only --env-id, --scene, --seed, --timesteps, --out, "
-                "--threads and --report-episodes of the common options", (TorchRLOptions,)),
+                "ecosystem extra). It reads only --algo ppo, --env-id, --scene, --seed, "
+                "--timesteps, --out, --threads and --report-episodes of the common options",
+     (TorchRLOptions,)),
 )
 # The classes whose fields each engine takes from the command line.
 ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "rllib": (RLlibConfig, RLlibOptions),
                  "torchrl": (TorchRLOptions,)}
-TORCHRL_READS = ("engine", "env_id", "scene", "seed", "timesteps", "out", "threads",
+TORCHRL_READS = ("engine", "algo", "env_id", "scene", "seed", "timesteps", "out", "threads",
                  "report_episodes")
 
 
@@ -175,7 +177,7 @@ def _parser() -> Parser:
                         "task's default scene)")
     e.add_argument("--env-id", default=None,
                    help=f"the task (default: a run's own, else {rbenv.ENV_ID})")
-    e.add_argument("--env-kwargs", type=flags.json_object, default={},
+    e.add_argument("--env-kwargs", type=flags.json_object, default={}, metavar="JSON",
                    help="JSON of gym.make options (docs/api.md lists them)")
     e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
                    help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, "
@@ -246,7 +248,8 @@ def _train(args) -> int:
     cfg = config(**cfg_fields)
     if engine == "torchrl":
         if cfg.algo != "ppo":
-            raise usage.invalid_choice("algo", cfg.algo, ["ppo"], what="for --engine torchrl")
+            raise usage.invalid_choice("algo", cfg.algo, ["ppo"],
+                                       what="one of --engine torchrl's algorithms:")
         usage.check_env_options(cfg.env_id, {"scene": cfg.scene})
         from rbenv.agents.training import torchrl  # the ecosystem extra (torch, TorchRL)
 
@@ -272,7 +275,7 @@ def _check_evaluate(args) -> None:
     check_policy(args.policy, env_id)
     options = dict(args.env_kwargs)
     if Path(args.policy).exists():
-        options = {**runfolder.env_kwargs_of(runfolder.locate(args.policy).config), **options}
+        options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}
     if args.scene is not None:
         options["scene"] = args.scene
     usage.check_env_options(env_id, options)
@@ -319,17 +322,27 @@ def _env_id(args) -> str:
     """--env-id, else the task a run folder was trained on, else :data:`rbenv.ENV_ID`."""
     if args.env_id:
         return args.env_id
-    path = Path(args.policy)
-    if args.policy not in scripted() and path.exists():
-        if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
-            config = runfolder.read_config(path)
-        else:
-            config = runfolder.locate(path).config or {}
-        return config.get("env_id", rbenv.ENV_ID)
+    if args.policy not in scripted() and Path(args.policy).exists():
+        return _run_config(args.policy).get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
 
+def _run_config(policy: str) -> dict:
+    """The config.json of the run a policy path belongs to ({} for a bare model file)."""
+    path = Path(policy)
+    if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
+        return runfolder.read_config(path)
+    return runfolder.locate(path).config or {}
+
+
 def _suite(args) -> int:
+    for algo in args.algos or ():
+        usage.check_choice("algos", algo, ALGOS, what="one of")
+    for scene in args.scenes or ():
+        try:
+            rbenv.load_scene(scene)
+        except usage.InvalidChoiceError as e:  # named for the flag, with its did-you-mean
+            raise usage.InvalidChoiceError("scenes", scene, e.reason) from None
     if args.ray or args.address:
         tune.main(args)
         return 0

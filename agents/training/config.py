@@ -36,6 +36,8 @@ class RunConfig:
 
     # The fields a resumed run takes from the caller (when given); the rest are the run's own.
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = ("timesteps", "threads")
+    # What a config.json written before a field existed meant by its absence.
+    LEGACY_DEFAULTS: ClassVar[dict] = {}
 
     engine: Engine = "sb3"
     """The training back end: sb3 (Stable-Baselines3), rllib (PPO on Ray RLlib; the ray
@@ -135,6 +137,7 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
         raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
                              f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
     known = cls.__dataclass_fields__
+    saved = {**cls.LEGACY_DEFAULTS, **saved}
     try:
         cfg = cls(**{k: v for k, v in saved.items() if k in known})
     except TypeError as e:
@@ -227,6 +230,8 @@ class TrainConfig(RunConfig):
     once, sampling the transitions collected since the resume."""
 
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "max_minutes")
+    # Runs written before --save-replay-buffer kept their buffer: a resume goes on keeping it.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True}
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""

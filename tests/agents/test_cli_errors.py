@@ -67,6 +67,10 @@ MISTAKES = {
                                 ["argument --n-envs", "belongs to --engine sb3"]),
     "option torchrl ignores": (["train", "--engine", "torchrl", "--env-kwargs", "{}"],
                                ["argument --env-kwargs", "not read by --engine torchrl"]),
+    "torchrl algo": (["train", "--engine", "torchrl", "--algo", "sac"],
+                     ["argument --algo", "--engine torchrl's algorithms: ppo"]),
+    "suite scene": (["suite", "--scenes", "cubesat12u", "--aggregate-only"],
+                    ["argument --scenes", "did you mean 'cubesat-12u'?"]),
 }
 
 

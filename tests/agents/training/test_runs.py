@@ -516,6 +516,12 @@ def test_an_off_policy_run_keeps_no_replay_buffer_unless_asked_and_resumes_witho
     assert "starts with an empty buffer" in printed
     assert summary(out)["timesteps"] == 384 and summary(out)["resumed_from"] == 256
     assert summary(out)["gradient_updates"] > 0 and not list(out.rglob("replay_buffer_*"))
+    # A config.json from before the flag existed kept its buffer; its resumes keep doing so.
+    config = json.loads((out / "config.json").read_text())
+    del config["save_replay_buffer"]
+    (out / "config.json").write_text(json.dumps(config))
+    run(TrainConfig(out=str(out), timesteps=512), resume=True)
+    assert [p.name for p in out.rglob("replay_buffer_*")] == ["replay_buffer_512.npz"]
 
 
 def test_a_deleted_latest_json_is_said_and_the_newest_checkpoint_on_disk_resumes(copy, capsys):
