@@ -3,6 +3,7 @@ docstrings and docs/api.md agree with the declaration, and what it says of defau
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import re
 from pathlib import Path
@@ -112,3 +113,19 @@ def test_an_unknown_option_reads_as_pythons_own_error_and_names_the_valid_ones(b
     with pytest.raises(TypeError, match=r"argument 'frameskip' \(and 'zzz'\); the valid"):
         gym.make_vec("rbenv/SatelliteReorient-v1", num_envs=2, backend=backend, frameskip=4,
                      zzz=1)
+
+
+def test_the_backend_options_have_the_constructors_defaults():
+    declared = {f.name: f.default for f in dataclasses.fields(options.BackendOptions)}
+    assert inspect.signature(AttitudeEnv.__new__).parameters["backend"].default == \
+        declared["backend"]
+    assert inspect.signature(AttitudeVectorEnv.__init__).parameters["backend"].default == \
+        declared["backend"]
+    pytest.importorskip("torch", reason="torch is not installed (train extra)")
+    from rbenv.torch_env import TorchVectorEnv
+
+    torch_defaults = _keywords(TorchVectorEnv.__init__)
+    assert {k: torch_defaults[k] for k in options.BACKEND_OPTIONS if k != "backend"} == \
+        {k: v for k, v in declared.items() if k != "backend"}
+    table = options.options_markdown()
+    assert all(f"| `{name}` |" in table for name in options.BACKEND_OPTIONS)

@@ -60,7 +60,7 @@ def ppo_run(tmp_path_factory):
 def sac_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("sac") / "run"
     hyper = {"learning_starts": 64, "batch_size": 32, "buffer_size": 1000}
-    run(tiny(out, algo="sac", hyperparams=hyper))
+    run(tiny(out, algo="sac", hyperparams=hyper, save_replay_buffer=True))
     return out
 
 

@@ -286,7 +286,8 @@ def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     # Either the second start found the folder locked, or (if the first had finished) not
     # empty; both are refusals with a named reason, never an interleaved run.
     assert codes == [0, 2], results
-    assert "rbenv: error:" in errors and ("is in use by pid" in errors or "not empty" in errors)
+    assert "rbenv train: error:" in errors
+    assert "is in use by pid" in errors or "not empty" in errors
     assert summary(out)["timesteps"] == 2048
     steps = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("policy_*.pt"))
     assert steps == list(range(256, 2049, 256))
@@ -494,7 +495,7 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
 def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path, capsys):
     out = tmp_path / "sac"
     hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
-    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper))
+    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper, save_replay_buffer=True))
     buffers = sorted(p.name for p in (out / "checkpoints").glob("replay_buffer_*"))
     assert buffers == ["replay_buffer_256.npz"]  # only the latest is kept
     run(TrainConfig(out=str(out), timesteps=384), resume=True)
@@ -508,6 +509,49 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     printed = capsys.readouterr().out
     assert "replay_buffer_384.npz" in printed and "not restored" in printed
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
+
+
+def test_an_off_policy_run_keeps_no_replay_buffer_unless_asked_and_resumes_without(tmp_path,
+                                                                                   capsys):
+    out = tmp_path / "sac"
+    hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
+    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper))
+    assert not list(out.rglob("replay_buffer_*"))
+    run(TrainConfig(out=str(out), timesteps=384), resume=True)
+    printed = capsys.readouterr().out
+    assert "no replay buffer saved with checkpoint 256" in printed
+    assert "starts with an empty buffer" in printed
+    assert summary(out)["timesteps"] == 384 and summary(out)["resumed_from"] == 256
+    assert summary(out)["gradient_updates"] > 0 and not list(out.rglob("replay_buffer_*"))
+    # A config.json from before the flag existed kept its buffer; its resumes keep doing so.
+    config = json.loads((out / "config.json").read_text())
+    del config["save_replay_buffer"]
+    (out / "config.json").write_text(json.dumps(config))
+    run(TrainConfig(out=str(out), timesteps=512), resume=True)
+    assert [p.name for p in out.rglob("replay_buffer_*")] == ["replay_buffer_512.npz"]
+
+
+def test_a_deleted_latest_json_is_said_and_the_newest_checkpoint_on_disk_resumes(copy, capsys):
+    (copy / "checkpoints" / "latest.json").unlink()
+    run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    printed = capsys.readouterr().out
+    assert "checkpoint pointer" in printed and "latest.json' is missing" in printed
+    assert summary(copy)["resumed_from"] == 512 and summary(copy)["timesteps"] == 640
+
+
+def test_max_minutes_says_when_and_why_it_stopped_and_a_larger_limit_trains_on(tmp_path,
+                                                                              capsys):
+    out = tmp_path / "ppo"
+    run(tiny(out, max_minutes=1e-9))
+    printed = capsys.readouterr().out
+    stopped = re.search(r"stopped by --max-minutes 1e-09: \d+\.\d min of training wall time "
+                        r"\(all sessions of the run\) at (\d+) of 512 timesteps", printed)
+    assert stopped and int(stopped.group(1)) == summary(out)["timesteps"] < 512
+    assert f"--out {out} --resume --max-minutes M" in printed
+    assert summary(out)["stopped_by_time_limit"] is True
+    run(TrainConfig(out=str(out), max_minutes=60.0), resume=True)
+    assert "stopped by" not in capsys.readouterr().out
+    assert summary(out)["timesteps"] >= 512 and summary(out)["stopped_by_time_limit"] is False
 
 
 def test_td3_resumes_with_its_action_noise(tmp_path, capsys):

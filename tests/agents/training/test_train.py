@@ -157,7 +157,7 @@ def test_evaluate_cli_writes_json_and_plot(tmp_path):
 
 
 def test_evaluate_rejects_unknown_policy():
-    with pytest.raises(ValueError, match="policy must be one of"):
+    with pytest.raises(ValueError, match="'nope' is not a scripted policy of rbenv/Satellite"):
         cli_main(["evaluate", "--policy", "nope", "--episodes", "1"])
 
 
