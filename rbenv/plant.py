@@ -154,6 +154,16 @@ class Plant:
         return self.scene.physics.translation
 
     @property
+    def eclipse_known(self) -> bool:
+        """Whether the scene models the Sun (``[orbit.srp]``): info then has ``eclipse``."""
+        return self.orbit is not None and self.orbit.srp is not None
+
+    def eclipse(self, st, xp):
+        """True (bool, or (N,) bools) where the satellite is in the Earth's cylindrical
+        shadow now."""
+        return self.orbit_table.lit(2 * st.steps * self.substeps, xp) == 0.0
+
+    @property
     def thrusters(self) -> Thrusters | None:
         """The thruster actuator (the scene's ``[thrusters]``), or None."""
         return next((a for a in self.actuators if isinstance(a, Thrusters)), None)
