@@ -25,6 +25,7 @@ Run: ``python -m benchmarks.orbit_torques [--quick]`` (also part of ``rbenv benc
 from __future__ import annotations
 
 import argparse
+import time
 from types import SimpleNamespace
 
 import numpy as np
@@ -137,9 +138,14 @@ def convergence(cases=CASES, steps=CONV_STEPS, duration=T_CONV) -> dict:
         q_ref, _ = reference(scene(extra), rods, duration)
         out[name] = {}
         for integ, dts in steps.items():
-            rows = [{"dt": dt, "attitude_error_rad": angle(run_plant(
-                scene(extra, integrator=integ, control_dt=dt, duration=duration), rods,
-                duration)[0], q_ref)} for dt in dts]
+            rows = []
+            for dt in dts:
+                sc = scene(extra, integrator=integ, control_dt=dt, duration=duration)
+                t0 = time.perf_counter()
+                q = run_plant(sc, rods, duration)[0]
+                wall = time.perf_counter() - t0
+                rows.append({"dt": dt, "attitude_error_rad": angle(q, q_ref),
+                             "wall_s_per_simulated_s": wall / duration})
             out[name][integ] = {"rows": rows, "order": fit_order(
                 [r["dt"] for r in rows], [r["attitude_error_rad"] for r in rows])}
     return out
@@ -173,8 +179,7 @@ def costs(num_envs: int = 1024) -> list[dict]:
         act = np.array(rods or (0.0, 0.0, 0.0), np.float32)
         env = gym.make(rbenv.DETUMBLE_ID, scene=sc).unwrapped
         env.reset(seed=0)
-        venv = gym.make_vec(rbenv.DETUMBLE_ID, num_envs=num_envs, vectorization_mode="vector_env",
-                            scene=sc)
+        venv = gym.make_vec(rbenv.DETUMBLE_ID, num_envs=num_envs, scene=sc)
         venv.reset(seed=0)
         acts = np.tile(act, (num_envs, 1))
         fns[(label, "single")] = lambda env=env, act=act: env.step(act)
@@ -185,6 +190,16 @@ def costs(num_envs: int = 1024) -> list[dict]:
              "single_ratio": t[(label, "single")] / base_s,
              "batch_us_per_env": 1e6 * t[(label, "batch")] / num_envs,
              "batch_ratio": t[(label, "batch")] / base_b} for label in labels]
+
+
+def work_precision_rows(conv: dict) -> list[dict]:
+    """One row per torque, integrator and dt: error and wall time per simulated second
+    (one satellite, plant step including the torque; a single timing, under the run's
+    load)."""
+    return [{"torque": n, "integrator": i, "dt": row["dt"],
+             "error_rad": row["attitude_error_rad"],
+             "us_per_simulated_s": 1e6 * row["wall_s_per_simulated_s"]}
+            for n, per in conv.items() for i, r in per.items() for row in r["rows"]]
 
 
 def main(argv=None) -> dict:
