@@ -15,9 +15,9 @@ each (the rods present but idle unless the case commands them):
    fitted order for rk4, midpoint and splitting.
 2. **Targets** (rk4, 600 s): attitude difference against the plant at 0.1 s for gravity
    gradient at 10 s × 4 and for the magnetorquers at 0.5 s and at 10 s × 4.
-3. **Cost**: seconds per env step of the detumble env (one satellite, and per satellite at
-   N = 1024) for each case against the same scene without orbit torques (the field only),
-   interleaved in one run.
+3. **Cost**: seconds per env step of the detumble env on the bus with idle wheels (one
+   satellite, and per satellite at N = 1024) for each case, and all five, against the same
+   scene without orbit torques, interleaved in one run.
 
 Run: ``python -m benchmarks.orbit_torques [--quick]`` (also part of ``rbenv bench accuracy``).
 """
@@ -25,6 +25,7 @@ Run: ``python -m benchmarks.orbit_torques [--quick]`` (also part of ``rbenv benc
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from types import SimpleNamespace
 
@@ -58,14 +59,20 @@ CONV_STEPS = {"rk4": (20.0, 10.0, 5.0), "midpoint": (10.0, 5.0, 2.5),
               "splitting": (10.0, 5.0, 2.5)}
 
 
+RODS = {"axes": np.eye(3).tolist(), "max_dipole": 0.2, "power_W": 0.2}
+WHEELS = {"axes": np.eye(3).tolist(), "inertia": 2.94e-5, "max_torque": 0.0032,
+          "max_speed_rpm": 6500.0}  # cubesat-6u-rw's RW0s
+
+
 def scene(orbit_extra: dict, *, integrator="rk4", control_dt=0.5, substeps=1,
-          duration=600.0) -> Scene:
-    """The 6U bus with idle rods on the 500 km orbit, plus ``orbit_extra`` ([orbit] keys)."""
+          duration=600.0, actuators=None) -> Scene:
+    """The 6U bus on the 500 km orbit, plus ``orbit_extra`` ([orbit] keys); ``actuators``:
+    scene tables (default: the rods, idle unless commanded)."""
     orbit = {"model": "circular", "altitude_km": 500.0, "inclination_deg": 97.4,
              "magnetic_field": True, **orbit_extra}
     return Scene.from_dict({
         "name": "orbit-torques", "body": {"mass": 12.0, "inertia": INERTIA},
-        "magnetorquers": {"axes": np.eye(3).tolist(), "max_dipole": 0.2, "power_W": 0.2},
+        **(actuators or {"magnetorquers": RODS}),
         "orbit": orbit,
         "physics": {"integrator": integrator, "control_dt": control_dt, "substeps": substeps},
         "episode": {"duration": duration, "rate_limit": 5.0, "max_initial_rate": 0.01}})
@@ -167,16 +174,19 @@ def targets() -> list[dict]:
 
 
 def costs(num_envs: int = 1024) -> list[dict]:
-    """Seconds per env step (detumble, rk4 at 0.5 s) with each torque against the scene without
-    orbit torques, one satellite and per satellite at N = ``num_envs``; one interleaved run."""
+    """Seconds per env step (detumble, rk4 at 0.5 s, one substep) of the 6U bus with idle
+    wheels, with each torque against the same scene without orbit torques, one satellite and
+    per satellite at N = ``num_envs``; one interleaved run."""
     import gymnasium as gym
 
     import rbenv
 
-    fns, labels = {}, {"none (field only)": ({}, None), **CASES}
+    everything = {k: v for extra, _ in CASES.values() for k, v in extra.items()}
+    fns, labels = {}, {"none": ({}, None), **CASES, "all five": (everything, ROD_COMMAND)}
     for label, (extra, rods) in labels.items():
-        sc = scene(extra, duration=1e5)
-        act = np.array(rods or (0.0, 0.0, 0.0), np.float32)
+        acts = {"wheels": WHEELS, **({"magnetorquers": RODS} if rods else {})}
+        sc = scene(extra, duration=1e5, actuators=acts)
+        act = np.array((0.0, 0.0, 0.0, *(rods or ())), np.float32)
         env = gym.make(rbenv.DETUMBLE_ID, scene=sc).unwrapped
         env.reset(seed=0)
         venv = gym.make_vec(rbenv.DETUMBLE_ID, num_envs=num_envs, scene=sc)
@@ -185,11 +195,72 @@ def costs(num_envs: int = 1024) -> list[dict]:
         fns[(label, "single")] = lambda env=env, act=act: env.step(act)
         fns[(label, "batch")] = lambda venv=venv, acts=acts: venv.step(acts)
     t = best_times(fns)
-    base_s, base_b = t[("none (field only)", "single")], t[("none (field only)", "batch")]
+    base_s, base_b = t[("none", "single")], t[("none", "batch")]
     return [{"torque": label, "single_us": 1e6 * t[(label, "single")],
              "single_ratio": t[(label, "single")] / base_s,
              "batch_us_per_env": 1e6 * t[(label, "batch")] / num_envs,
              "batch_ratio": t[(label, "batch")] / base_b} for label in labels]
+
+
+# CPU seconds per env step on cubesat-6u-rw (wheels and rods, gravity gradient), in the tree
+# on PYTHONPATH: reorient (0.5 s, rk4) and detumble (10 s x 4), one satellite and N = 256.
+AB_PROBE = r"""
+import json, time, warnings
+import gymnasium as gym
+import numpy as np
+import rbenv
+warnings.simplefilter("ignore")
+
+def best(fn, n, rounds=3):
+    out = []
+    for _ in range(rounds):
+        t = time.process_time(); fn(n); out.append((time.process_time() - t) / n)
+    return min(out)
+
+def single(env_id):
+    env = gym.make(env_id, scene="cubesat-6u-rw").unwrapped
+    env.reset(seed=0)
+    acts = 0.3 * np.random.default_rng(0).uniform(-1, 1, (256, 6)).astype(np.float32)
+    def run(n):
+        for i in range(n):
+            _, _, te, tr, _ = env.step(acts[i % 256])
+            if te or tr:
+                env.reset()
+    return best(run, 1000)
+
+def vec(env_id, n=256):
+    env = gym.make_vec(env_id, num_envs=n, scene="cubesat-6u-rw")
+    env.reset(seed=0)
+    acts = 0.3 * np.random.default_rng(1).uniform(-1, 1, (16, n, 6)).astype(np.float32)
+    def run(k):
+        for i in range(k):
+            env.step(acts[i % 16])
+    return best(run, 50) / n
+
+out = {}
+for name, env_id in (("reorient", "rbenv/SatelliteReorient-v0"),
+                     ("detumble", "rbenv/SatelliteDetumble-v0")):
+    out[name + "_single_us"] = 1e6 * single(env_id)
+    out[name + "_vec256_us_per_env"] = 1e6 * vec(env_id)
+print(json.dumps(out))
+"""
+
+
+def ab(baseline: str, rounds: int = 3) -> dict:
+    """The wheel scene's step cost here against ``baseline`` (a source tree), alternating
+    fresh interpreters round by round and keeping each figure's best."""
+    from pathlib import Path
+
+    from benchmarks.common import run_in_tree
+
+    trees = {"old": Path(baseline), "new": Path(__file__).resolve().parents[1]}
+    best = {}
+    for _ in range(rounds):
+        for name, tree in trees.items():
+            got = run_in_tree(tree, AB_PROBE)
+            best[name] = {k: min(v, best.get(name, {}).get(k, v)) for k, v in got.items()}
+    return {"best": best, "new_over_old": {k: best["new"][k] / best["old"][k]
+                                           for k in best["new"]}}
 
 
 def work_precision_rows(conv: dict) -> list[dict]:
@@ -205,7 +276,14 @@ def work_precision_rows(conv: dict) -> list[dict]:
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="convergence only, two cases (CI)")
+    p.add_argument("--baseline", default=None,
+                   help="only the A/B of cubesat-6u-rw's step cost against this source tree")
     args = p.parse_args(argv)
+    if args.baseline:
+        result = ab(args.baseline)
+        print(json.dumps(result, indent=1))
+        write_json("orbit_torques_ab", result)
+        return result
     cases = {n: CASES[n] for n in ("gravity gradient", "magnetorquers")} if args.quick \
         else CASES
     conv = convergence(cases)

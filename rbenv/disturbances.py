@@ -260,15 +260,17 @@ def srp_force_N(orbit, t, xp) -> tuple:
 class OrbitTorque:
     """The sum of the scene's orbit torques, for the integrators' ``torque_fn``.
 
-    ``stage(steps, j, dipole_B)`` gives the function of one substep: ``steps`` the control
-    steps taken (int or (N,) ints), ``j`` the substep, ``dipole_B`` the commanded dipole
-    (A·m², body axes, held over the step) or None. Its ``(s, q, ω)`` call looks the inertial
-    vectors up at half-step ``2(steps·substeps + j) + 2s`` of the :class:`OrbitTable`.
+    Per control step, :meth:`for_step` fetches the inertial vectors of the step's
+    ``2·substeps + 1`` half-steps from the :class:`OrbitTable` at once (one gather per
+    component for a batch), and ``.substep(j)`` gives substep j's ``torque_fn(s, q, ω)``,
+    which reads half-step ``2j + 2s`` of them.
     """
 
     needs_rate = False  # every orbit torque is a function of (t, q)
 
     def __init__(self, table, body, substeps: int):
+        import numpy as np
+
         orbit = table.orbit
         self.table, self.body, self.substeps = table, body, substeps
         self.gravity_gradient = orbit.gravity_gradient
@@ -277,6 +279,10 @@ class OrbitTorque:
         self.residual = None if res is None else res.moment_B_Am2
         self.drag_cp = None if orbit.drag is None else orbit.drag.cp_offset_B_m
         self.srp_cp = None if orbit.srp is None else orbit.srp.cp_offset_B_m
+        self.span = 2 * substeps + 1  # half-steps a control step touches
+        offsets = np.arange(self.span)[:, None]
+        offsets.setflags(write=False)
+        self.offsets = offsets  # a plant constant (xp.const caches it on the device)
 
     @staticmethod
     def needed(orbit, actuators) -> bool:
@@ -286,28 +292,41 @@ class OrbitTorque:
                                        or any(a.scene_table == "magnetorquers"
                                               for a in actuators)))
 
-    def stage(self, steps, j: int, dipole_B, xp):
-        """The torque function of substep ``j`` of this control step (``xp``: the state's
-        namespace)."""
+    def names(self, dipole) -> tuple:
+        """The table vectors the torques read (dipole: whether a dipole acts)."""
+        return tuple(name for name, on in (("direction", self.gravity_gradient),
+                                           ("field", dipole is not None),
+                                           ("drag", self.drag_cp is not None),
+                                           ("srp", self.srp_cp is not None)) if on)
+
+    def for_step(self, steps, dipole_B, xp) -> _StepTorque:
+        """The torques of one control step: ``steps`` the control steps taken (int or (N,)
+        ints), ``dipole_B`` the commanded dipole (A·m², body axes, held) or None."""
         if self.residual is not None:
             dipole_B = self.residual if dipole_B is None else k.add(dipole_B, self.residual)
-        return _Stage(self, 2 * (steps * self.substeps + j), dipole_B, xp)
+        return _StepTorque(self, 2 * (steps * self.substeps), dipole_B, xp)
 
     def torque_B(self, index, q, dipole_B, xp) -> tuple:
-        """Σ orbit torques (N·m, body axes) at half-step ``index`` and attitude ``q``."""
-        table = self.table
+        """Σ orbit torques (N·m, body axes) at half-step ``index`` and attitude ``q`` (the
+        residual dipole included)."""
+        if self.residual is not None:
+            dipole_B = self.residual if dipole_B is None else k.add(dipole_B, self.residual)
+        rows = {name: [self.table.lookup(name, index, xp)] for name in self.names(dipole_B)}
+        return self.sum(rows, 0, q, dipole_B)
+
+    def sum(self, rows: dict, m: int, q, dipole_B) -> tuple:
+        """Σ torques at attitude q from entry m of the inertial vectors ``rows`` (name →
+        list of components)."""
         tau = None
         if self.gravity_gradient:
-            r_B = k.rotate_inverse(q, table.direction_N(index, xp))
+            r_B = k.rotate_inverse(q, rows["direction"][m])
             tau = k.scale(k.cross(r_B, self.body.inertia_times(r_B)), self.gg_scale)
         if dipole_B is not None:
-            tau = _sum(tau, k.cross(dipole_B, k.rotate_inverse(q, table.field_N(index, xp))))
+            tau = _sum(tau, k.cross(dipole_B, k.rotate_inverse(q, rows["field"][m])))
         if self.drag_cp is not None:
-            tau = _sum(tau, k.cross(self.drag_cp,
-                                    k.rotate_inverse(q, table.lookup("drag", index, xp))))
+            tau = _sum(tau, k.cross(self.drag_cp, k.rotate_inverse(q, rows["drag"][m])))
         if self.srp_cp is not None:
-            tau = _sum(tau, k.cross(self.srp_cp,
-                                    k.rotate_inverse(q, table.lookup("srp", index, xp))))
+            tau = _sum(tau, k.cross(self.srp_cp, k.rotate_inverse(q, rows["srp"][m])))
         return tau
 
 
@@ -315,14 +334,39 @@ def _sum(a, b):
     return b if a is None else k.add(a, b)
 
 
-class _Stage:
-    """One substep's ``torque_fn(s, q, ω)`` (see :class:`OrbitTorque`)."""
+class _StepTorque:
+    """One control step's inertial vectors, fetched once (see :class:`OrbitTorque`)."""
 
-    __slots__ = ("dipole", "index", "owner", "xp")
+    __slots__ = ("dipole", "owner", "rows")
+
+    def __init__(self, owner: OrbitTorque, base, dipole, xp):
+        self.owner, self.dipole = owner, dipole
+        table, names = owner.table, owner.names(dipole)
+        if type(base) is int:  # one satellite: rows of Python floats
+            self.rows = {name: [table.lookup(name, base + m, xp) for m in range(owner.span)]
+                         for name in names}
+            return
+        index = xp.minimum(base + xp.const(owner.offsets), table.last)  # (span, N)
+        const = xp.const
+        self.rows = {}
+        for name in names:
+            cols = [const(c)[index] for c in table.arrays[name]]
+            self.rows[name] = [(cols[0][m], cols[1][m], cols[2][m]) for m in range(owner.span)]
+
+    def substep(self, j: int) -> _Stage:
+        """Substep j's ``torque_fn``."""
+        return _Stage(self, 2 * j)
+
+
+class _Stage:
+    """One substep's ``torque_fn(s, q, ω)``: the torques at half-step ``2j + 2s``."""
+
+    __slots__ = ("offset", "step")
     needs_rate = False
 
-    def __init__(self, owner: OrbitTorque, index, dipole, xp):
-        self.owner, self.index, self.dipole, self.xp = owner, index, dipole, xp
+    def __init__(self, step: _StepTorque, offset: int):
+        self.step, self.offset = step, offset
 
     def __call__(self, s, q, w):
-        return self.owner.torque_B(self.index + int(2.0 * s), q, self.dipole, self.xp)
+        step = self.step
+        return step.owner.sum(step.rows, self.offset + int(s + s), q, step.dipole)

@@ -43,6 +43,8 @@ class Orbit:
     """The scene's ``[orbit]`` table (angles in degrees, altitude in km).
 
     model: "none" or "circular". gravity_gradient, magnetic_field: each effect on or off.
+    residual_dipole, drag, srp: the nested opt-in tables ``[orbit.residual_dipole]``,
+    ``[orbit.drag]`` and ``[orbit.srp]`` (:mod:`rbenv.disturbances`), or None.
     """
 
     model: str = "none"

@@ -258,15 +258,17 @@ class Plant:
         h, advance = self.h, self.advance_kernel
         q, w = st.q, st.omega_B
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
-        table, orbit_torque = self.orbit_table, self.orbit_torque
+        table = self.orbit_table
+        step_torque = None if self.orbit_torque is None else self.orbit_torque.for_step(
+            st.steps, c.dipole_B, xp)
         try:
             for j in range(self.substeps):
                 if st.x is not None:  # actuators without a force (wheels, rods) push nothing
                     self._translate(st, body, k.rotate(q, _ZERO if c.force_B is None
                                                        else c.force_B))
-                if orbit_torque is not None:  # torques of (t, q), at every stage
-                    f = orbit_torque.stage(st.steps, j, c.dipole_B, xp)
-                    q, w = advance(body, q, w, h, tau, None, h_int, h_dot, f)
+                if step_torque is not None:  # torques of (t, q), at every stage
+                    q, w = advance(body, q, w, h, tau, None, h_int, h_dot,
+                                   step_torque.substep(j))
                 elif h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
                 else:  # internal momentum (wheels), moving linearly over the step

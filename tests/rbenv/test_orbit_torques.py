@@ -166,11 +166,11 @@ def test_residual_dipole_torque_is_m_cross_b():
     sc = ot.scene({"residual_dipole": {"moment_B_Am2": m}})
     plant = make_plant(sc)
     q = ot.Q0
-    f = plant.orbit_torque.stage(0, 0, None, FLOAT)
+    f = plant.orbit_torque.for_step(0, None, FLOAT).substep(0)
     b_B = k.rotate_inverse(q, sc.orbit.field_N(0.0, FLOAT))
     np.testing.assert_allclose(f(0.0, q, None), np.cross(m, b_B), rtol=1e-12)
     # with a rod command the dipoles add
-    g = plant.orbit_torque.stage(0, 0, (0.1, 0.0, 0.0), FLOAT)
+    g = plant.orbit_torque.for_step(0, (0.1, 0.0, 0.0), FLOAT).substep(0)
     np.testing.assert_allclose(g(0.0, q, None), np.cross(np.add(m, [0.1, 0, 0]), b_B),
                                rtol=1e-12)
 
