@@ -1,6 +1,6 @@
-"""The orbit's torques where they act: convergence against a tight SciPy reference of the same
-model (fitted order of each integrator), the step targets against a 0.1 s run, closed forms of
-each low-orbit disturbance, and the named errors of their scene tables."""
+"""A low orbit's torques in the plant: the integrators' stage torque, closed forms of each
+disturbance (drag, Sun, shadow, radiation pressure, residual dipole), the eclipse flag, the
+batch against one satellite, and the named errors of the scene tables."""
 
 from __future__ import annotations
 
@@ -9,42 +9,33 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
-from rbenv.core import INTEGRATORS
+from rbenv.core import INTEGRATORS, quaternion
 from rbenv.core import kernels as k
 from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from benchmarks import orbit_torques as ot
 from rbenv import disturbances as dist
 from rbenv.orbit import OMEGA_EARTH, R_EQ, Orbit
 from rbenv.plant import make_plant
+from rbenv.scene import Scene
 
-ORDERS = {"rk4": 4, "midpoint": 2, "splitting": 2}
-
-
-@pytest.fixture(scope="module")
-def convergence():
-    return ot.convergence()
+Q0 = tuple(quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2])).tolist())
 
 
-@pytest.mark.parametrize("case", list(ot.CASES))
-@pytest.mark.parametrize("integrator", list(ORDERS))
-def test_each_orbit_torque_converges_at_the_integrators_order(convergence, case, integrator):
-    """Held over a step (the old plant), the torque made every integrator first order."""
-    order = convergence[case][integrator]["order"]
-    assert abs(order - ORDERS[integrator]) <= 0.2, convergence[case][integrator]
-
-
-def test_the_tasks_steps_meet_the_targets_against_a_fine_step():
-    """600 s against the plant at 0.1 s: gravity gradient at 10 s × 4 within 1e-5 rad, the
-    rods within 1e-6 rad at 0.5 s and 1e-3 rad at 10 s × 4 (held: 1.1e-3, 2.9e-3, 7.5e-2)."""
-    for row in ot.targets():
-        assert row["met"], row
+def _scene(orbit_extra: dict, *, control_dt=0.5, duration=600.0) -> Scene:
+    """The 6U bus of cubesat-6u-rw with three 0.2 A·m² rods on its 500 km orbit."""
+    return Scene.from_dict({
+        "name": "orbit-torques", "body": {"mass": 12.0, "inertia": [0.185, 0.144, 0.061]},
+        "magnetorquers": {"axes": np.eye(3).tolist(), "max_dipole": 0.2},
+        "orbit": {"model": "circular", "altitude_km": 500.0, "inclination_deg": 97.4,
+                  "magnetic_field": True, **orbit_extra},
+        "physics": {"integrator": "rk4", "control_dt": control_dt},
+        "episode": {"duration": duration, "rate_limit": 5.0, "max_initial_rate": 0.01}})
 
 
 def test_kick_schemes_refuse_a_torque_of_the_rate_by_name():
-    body = make_plant(ot.scene({})).body
+    body = make_plant(_scene({})).body
 
     def torque_fn(s, q, w):
         return k.scale(w, -1.0)
@@ -61,7 +52,7 @@ def test_kick_schemes_refuse_a_torque_of_the_rate_by_name():
 
 def test_rk4_evaluates_the_torque_at_its_four_stages():
     """A torque linear in time, τ = c·t: ω(h) = c h² / (2 I) exactly (RK4 integrates it)."""
-    body = make_plant(ot.scene({})).body
+    body = make_plant(_scene({})).body
     calls = []
 
     def torque_fn(s, q, w):
@@ -77,7 +68,7 @@ def test_rk4_evaluates_the_torque_at_its_four_stages():
 def test_compiled_kernels_refuse_orbit_torques_by_name():
     pytest.importorskip("numba")
     with pytest.raises(InvalidParameterError, match="orbit torques"):
-        make_plant(ot.scene({"gravity_gradient": True}), compiled=True)
+        make_plant(_scene({"gravity_gradient": True}), compiled=True)
 
 
 # --------------------------------------------------------------------------- closed forms
@@ -101,7 +92,7 @@ def test_drag_on_an_equatorial_orbit_is_the_closed_form():
 
 
 def test_plant_drag_torque_is_offset_cross_force():
-    sc = ot.scene({"drag": {"area_m2": 0.05, "cp_offset_B_m": [0.0, 0.0, 0.1]}})
+    sc = _scene({"drag": {"area_m2": 0.05, "cp_offset_B_m": [0.0, 0.0, 0.1]}})
     torque = make_plant(sc).orbit_torque
     q = (1.0, 0.0, 0.0, 0.0)
     tau = torque.torque_B(0, q, None, FLOAT)
@@ -144,7 +135,7 @@ def test_cylindrical_shadow_and_radiation_pressure():
 
 
 def test_eclipse_is_a_flag_in_info_and_srp_vanishes_in_shadow():
-    sc = ot.scene({"inclination_deg": 0.0, "srp": {"area_m2": 0.1,
+    sc = _scene({"inclination_deg": 0.0, "srp": {"area_m2": 0.1,
                                                   "epoch": "2025-03-20T09:01:00"}},
                   control_dt=10.0, duration=6000.0)
     env = gym.make(rbenv.DETUMBLE_ID, scene=sc).unwrapped
@@ -163,9 +154,9 @@ def test_eclipse_is_a_flag_in_info_and_srp_vanishes_in_shadow():
 
 def test_residual_dipole_torque_is_m_cross_b():
     m = [0.05, -0.02, 0.08]
-    sc = ot.scene({"residual_dipole": {"moment_B_Am2": m}})
+    sc = _scene({"residual_dipole": {"moment_B_Am2": m}})
     plant = make_plant(sc)
-    q = ot.Q0
+    q = Q0
     f = plant.orbit_torque.for_step(0, None, FLOAT).substep(0)
     b_B = k.rotate_inverse(q, sc.orbit.field_N(0.0, FLOAT))
     np.testing.assert_allclose(f(0.0, q, None), np.cross(m, b_B), rtol=1e-12)
@@ -194,7 +185,7 @@ def test_residual_dipole_torque_is_m_cross_b():
 ])
 def test_bad_disturbance_tables_get_named_errors(extra, match):
     with pytest.raises(InvalidParameterError, match=match):
-        ot.scene(extra)
+        _scene(extra)
 
 
 def test_a_residual_dipole_needs_the_field_and_a_table_needs_an_orbit():
@@ -215,7 +206,7 @@ def test_the_batch_runs_the_same_torques_as_one_satellite(backend):
     equals the single env (floats) row by row."""
     if backend == "torch":
         pytest.importorskip("torch")
-    sc = ot.scene(ALL, duration=50.0)
+    sc = _scene(ALL, duration=50.0)
     n = 3
     venv = gym.make_vec(rbenv.DETUMBLE_ID, num_envs=n, scene=sc, backend=backend)
     venv.reset(seed=5)
