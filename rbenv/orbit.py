@@ -189,8 +189,7 @@ class OrbitTable:
         self.arrays = {name: tuple(np.ascontiguousarray(np.broadcast_to(c, t.shape))
                                    for c in fn(t, NUMPY))
                        for name, fn in self.direct.items()}
-        self.floats = {name: list(zip(*(c.tolist() for c in cols), strict=True))
-                       for name, cols in self.arrays.items()}
+        self.floats = {}  # name → list of 3-tuples of floats, made at one satellite's first use
         self.direction = self.arrays["direction"]
         self.field = self.arrays.get("field")
 
@@ -198,7 +197,11 @@ class OrbitTable:
         """Vector ``name`` at half-step ``index`` (components)."""
         if type(index) is int:
             if index <= self.last:
-                return self.floats[name][index]
+                rows = self.floats.get(name)
+                if rows is None:
+                    rows = self.floats[name] = list(zip(*(c.tolist() for c in
+                                                          self.arrays[name]), strict=True))
+                return rows[index]
             return tuple(float(c) for c in self.direct[name](index * 0.5 * self.h, xp))
         index = xp.minimum(index, self.last)
         const = xp.const
