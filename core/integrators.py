@@ -66,6 +66,14 @@ def stage_torque(q, w, tau_B, tau_W, torque_fn, s):
     return total
 
 
+def _kick_torque(q, tau_B, tau_W, torque_fn, s):
+    """The kick schemes' torque at attitude q (no rate: see :func:`_refuse_rate_torque`)."""
+    total = body_torque(q, tau_B, tau_W)
+    if torque_fn is not None:
+        total = k.add(total, torque_fn(s, q, None))
+    return total
+
+
 def _refuse_rate_torque(name: str, torque_fn) -> None:
     """The kick schemes evaluate the torque at the end of the step before the new rate is
     known: they take torques of (t, q) only."""
@@ -127,8 +135,9 @@ def euler(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_
     ``ω_W ← ω_W + h I_W⁻¹(τ_W − ω_W × I_W ω_W)`` at the old state, and the lecture's
     quaternion update with the old ω. Unstable for h·|ω| ≳ 0.5 on asymmetric bodies.
     """
-    alpha = angular_acceleration(body, w, stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0),
-                                 momentum_B, momentum_rate_B)
+    tau = body_torque(q, tau_B, tau_W) if torque_fn is None \
+        else stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0)
+    alpha = angular_acceleration(body, w, tau, momentum_B, momentum_rate_B)
     q_new = k.cayley(q, w, h)
     return q_new, k.rotate_inverse(q_new, k.rotate(q, k.add(w, alpha, h)))
 
@@ -140,16 +149,20 @@ def semi_implicit(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     ``ω_B ← ω_B + h α_B(q, ω_B)``, ``q ← q ⊗ exp(h ω_B⁺)``. Order 1; the explicit gyroscopic
     term still diverges at high spin (h·|ω| ≳ 0.5).
     """
-    tau = stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0)
+    tau = body_torque(q, tau_B, tau_W) if torque_fn is None \
+        else stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0)
     w_new = k.add(w, angular_acceleration(body, w, tau, momentum_B, momentum_rate_B), h)
     return k.qnormalize(k.qmul(q, k.exp(k.scale(w_new, h)))), w_new
 
 
 def _rk4_rate(body, q, w, tau_B, tau_W, h_B=None, h_dot_B=None, torque_fn=None, s=0.0):
     q_dot = k.qmul_vec(q, k.scale(w, 0.5))
-    q_unit = q if tau_W is None and torque_fn is None else k.qnormalize(q)
-    return q_dot, angular_acceleration(body, w, stage_torque(q_unit, w, tau_B, tau_W, torque_fn,
-                                                             s), h_B, h_dot_B)
+    if torque_fn is None:  # the rigid body's path, one call fewer
+        q_unit = q if tau_W is None else k.qnormalize(q)
+        return q_dot, angular_acceleration(body, w, body_torque(q_unit, tau_B, tau_W), h_B,
+                                           h_dot_B)
+    tau = stage_torque(k.qnormalize(q), w, tau_B, tau_W, torque_fn, s)
+    return q_dot, angular_acceleration(body, w, tau, h_B, h_dot_B)
 
 
 def _qadd(q, dq, s):
@@ -333,13 +346,17 @@ def midpoint(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = body.inertia_times(w)
     if forced:
-        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
+        kick = body_torque(q, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q, tau_B, tau_W, torque_fn, 0.0)
+        m = k.add(m, kick, 0.5 * h)
     # Isotropic: m × I⁻¹m = 0, so the free step keeps m and turns about it.
     m_mid = m if body.is_isotropic else _solve_midpoint(body, m, h)
     q_new = k.cayley(q, body.inverse_times(m_mid), h)
     m_new = k.add(k.scale(m_mid, 2.0), m, -1.0)
     if forced:
-        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
+        kick = body_torque(q_new, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q_new, tau_B, tau_W, torque_fn, 1.0)
+        m_new = k.add(m_new, kick, 0.5 * h)
     return q_new, body.inverse_times(m_new)
 
 
@@ -352,12 +369,16 @@ def _midpoint_internal(body, q, w, h, tau_B, tau_W, h_B, h_dot_B, torque_fn=None
     forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = k.add(body.inertia_times(w), h0)
     if forced:
-        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
+        kick = body_torque(q, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q, tau_B, tau_W, torque_fn, 0.0)
+        m = k.add(m, kick, 0.5 * h)
     m_mid = _solve_midpoint(body, m, h, h_mid)
     q_new = k.cayley(q, body.inverse_times(k.sub(m_mid, h_mid)), h)
     m_new = k.add(k.scale(m_mid, 2.0), m, -1.0)
     if forced:
-        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
+        kick = body_torque(q_new, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q_new, tau_B, tau_W, torque_fn, 1.0)
+        m_new = k.add(m_new, kick, 0.5 * h)
     return q_new, body.inverse_times(k.sub(m_new, h1))
 
 
@@ -380,11 +401,15 @@ def splitting(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = body.inertia_times(w)
     if forced:
-        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
+        kick = body_torque(q, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q, tau_B, tau_W, torque_fn, 0.0)
+        m = k.add(m, kick, 0.5 * h)
     frame = split.principal_frame(body)
     q_new, m_new = frame.to_body(*split.free_flow(frame, *frame.to_work(q, m), h))
     if forced:
-        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
+        kick = body_torque(q_new, tau_B, tau_W) if torque_fn is None \
+            else _kick_torque(q_new, tau_B, tau_W, torque_fn, 1.0)
+        m_new = k.add(m_new, kick, 0.5 * h)
     return q_new, body.inverse_times(m_new)
 
 
