@@ -81,6 +81,7 @@ class Plant:
     # rbenv.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
     # integrator stage; None without them (the kernels then run as for a free body).
     orbit_torque: object = field(init=False, repr=False)
+    eclipse_known: bool = field(init=False)  # the scene models the Sun: info has "eclipse"
     action_shape: tuple = field(init=False)
     action_slices: tuple = field(init=False, repr=False)  # each actuator's slice of the action
     advance_kernel: object = field(init=False, repr=False)
@@ -127,6 +128,7 @@ class Plant:
         values["orbit_torque"] = OrbitTorque(values["orbit_table"], self.scene.body,
                                              values["substeps"]) \
             if OrbitTorque.needed(self.scene.orbit, acts) else None
+        values["eclipse_known"] = values["orbit"] is not None and values["orbit"].srp is not None
         if values["randomization"] is not None and values["body"] is not self.scene.body:
             raise InvalidParameterError(
                 "domain randomization of the inertia does not know the wheels' rotors yet; "
@@ -152,11 +154,6 @@ class Plant:
     def translation(self) -> bool:
         """Whether the centre of mass moves (the scene models translation)."""
         return self.scene.physics.translation
-
-    @property
-    def eclipse_known(self) -> bool:
-        """Whether the scene models the Sun (``[orbit.srp]``): info then has ``eclipse``."""
-        return self.orbit is not None and self.orbit.srp is not None
 
     def eclipse(self, st, xp):
         """True (bool, or (N,) bools) where the satellite is in the Earth's cylindrical
