@@ -84,6 +84,11 @@ episode.rate_limit               1e-6 … 100 rad/s
 episode.hold_time                0 … duration
 disturbance torque and sigmas    within ±10 N·m
 sensor_noise                     attitude 0 … π rad; rate 0 … 100 rad/s
+orbit.residual_dipole            moment_B_Am2: 3 numbers within ±10 A·m²
+orbit.drag, orbit.srp            area_m2 > 0 and <= 1e4 m²; cp_offset_B_m 3 numbers within
+                                 ±100 m; cd > 0 … 10; density_scale > 0 … 1e3;
+                                 reflectivity 0 … 1; epoch ISO 8601 UTC within a
+                                 century of J2000.0
 ===============================  ===================================================
 """
 

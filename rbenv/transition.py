@@ -97,6 +97,8 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     for act in plant.actuators:
         act.info(st, xp, out)
     out["time_s"] = st.steps * plant.control_dt
+    if plant.eclipse_known:
+        out["eclipse"] = plant.eclipse(st, xp)
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)
     if st.x is not None:

@@ -235,7 +235,7 @@ class Wheels:
         st.wheel_momentum, st.wheel_torque = h, u
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
         return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
-                                   power * self.inv_max_power))
+                                   power * self.inv_max_power, None))
 
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
