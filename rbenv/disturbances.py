@@ -26,7 +26,7 @@ step (:class:`rbenv.orbit.OrbitTable`): a stage looks them up and rotates them i
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 from rbenv.core import kernels as k
@@ -179,7 +179,10 @@ class SolarPressure:
     reflectivity: float = 0.0
     cp_offset_B_m: tuple = (0.0, 0.0, 0.0)
     epoch: str = "2025-03-20T12:00:00"
-    epoch_days: float = 0.0  # days from J2000.0 (derived)
+    epoch_days: float = field(init=False, default=0.0)  # days from J2000.0, from epoch
+
+    def __post_init__(self):
+        object.__setattr__(self, "epoch_days", parse_epoch("orbit.srp.epoch", self.epoch))
 
     @classmethod
     def parse(cls, table) -> SolarPressure:
@@ -194,7 +197,7 @@ class SolarPressure:
                    reflectivity=validation.number(f"{path}.reflectivity", t["reflectivity"],
                                                   low=0.0, high=1.0),
                    cp_offset_B_m=_vector(f"{path}.cp_offset_B_m", t["cp_offset_B_m"], 100.0),
-                   epoch=t["epoch"], epoch_days=parse_epoch(f"{path}.epoch", t["epoch"]))
+                   epoch=t["epoch"])
 
 
 def parse_tables(orbit) -> dict:

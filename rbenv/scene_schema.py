@@ -146,7 +146,29 @@ TABLES: tuple[Table, ...] = (
         Key("gravity_gradient", "", "apply the gravity-gradient torque"),
         Key("magnetic_field", "", "model Earth's field (IGRF-14 dipole): rods act, a "
                                   "magnetometer is observed"),
+        Key("residual_dipole", "", "the nested table [orbit.residual_dipole] (opt-in)"),
+        Key("drag", "", "the nested table [orbit.drag] (opt-in)"),
+        Key("srp", "", "the nested table [orbit.srp] (opt-in)"),
     ), "rbenv.orbit:Orbit"),
+    Table("[orbit.residual_dipole]", "the spacecraft's own magnetic dipole, torque m × B "
+                                     "evaluated at every integrator stage (needs "
+                                     "magnetic_field = true; rbenv.disturbances)", (
+        Key("moment_B_Am2", "A·m²", "the dipole [x, y, z], body axes, |m| ≤ 10"),
+    ), "rbenv.disturbances:ResidualDipole"),
+    Table("[orbit.drag]", "aerodynamic torque: exponential atmosphere by altitude (Vallado "
+                          "table 8-4), air co-rotating with the Earth (rbenv.disturbances)", (
+        Key("area_m2", "m²", "reference area facing the flow"),
+        Key("cd", "", "drag coefficient (≈ 2.2 in free molecular flow)"),
+        Key("cp_offset_B_m", "m", "centre of pressure minus centre of mass, body axes"),
+        Key("density_scale", "", "factor on the table's density (solar activity)"),
+    ), "rbenv.disturbances:Drag"),
+    Table("[orbit.srp]", "solar radiation pressure torque, cylindrical Earth shadow "
+                         "(info['eclipse']), analytic Sun direction (rbenv.disturbances)", (
+        Key("area_m2", "m²", "area facing the Sun"),
+        Key("reflectivity", "", "in [0, 1]; C_R = 1 + reflectivity"),
+        Key("cp_offset_B_m", "m", "centre of pressure minus centre of mass, body axes"),
+        Key("epoch", "", "ISO 8601 UTC date-time of the episode start"),
+    ), "rbenv.disturbances:SolarPressure"),
     Table("[randomization]", "domain randomization: sizes of the per-episode perturbations, all "
                              "0 = off (rbenv.randomization; gym.make's randomize= overrides)", (
         Key("inertia_scale", "fraction", "each principal second moment scaled by 1 ± this"),
@@ -208,6 +230,9 @@ def class_defaults(ref: str) -> dict:
     out = {}
     for f in dataclasses.fields(resolve(ref)):
         if not f.init:
+            continue
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            out[f.name] = REQUIRED
             continue
         value = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         out[f.name] = _show(value)
