@@ -55,6 +55,7 @@ class StepNoise(NamedTuple):
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
                 "model": "obj", "field_B_T": "c3"}  # field_B_T: Earth's field now, T (orbit)
 _ZERO = (0.0, 0.0, 0.0)
+PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration")  # acceleration: wheels only
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
@@ -92,7 +93,7 @@ class Plant:
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
     def __post_init__(self):
-        validation.choice("action_mode", self.action_mode, ACTION_MODES)
+        validation.choice("action_mode", self.action_mode, PLANT_ACTION_MODES)
         validation.choice("allocator", self.allocator_name, ALLOCATORS)
         values = _scene_scalars(self.scene)
         acts = make_actuators(self.scene, action_mode=self.action_mode,
@@ -183,6 +184,26 @@ class Plant:
         """(owner, fields) of the plant and each actuator, for :class:`rbenv.state.Layout`."""
         return (("plant", PLANT_FIELDS),
                 *((f"actuator {a.scene_table!r}", a.state_fields) for a in self.actuators))
+
+    @property
+    def reset_options(self) -> dict:
+        """The plant's names in ``reset(options=...)`` and their widths: ``wheel_speed``
+        (rad/s, each wheel's speed relative to the body) with wheels."""
+        wheels = self.wheels
+        return {} if wheels is None else {"wheel_speed": wheels.n}
+
+    def check_start(self, start: dict) -> None:
+        """Refuse a start whose wheel speeds exceed the wheels' limits (named error)."""
+        wheels = self.wheels
+        if wheels is None:
+            return
+        speed = np.abs(np.asarray(start["wheel_speed"], dtype=float).reshape(wheels.n, -1))
+        limit = np.asarray(wheels.max_speed)[:, None]
+        if np.any(speed > limit * (1.0 + 1e-12)):
+            i = int(np.argwhere(speed > limit * (1.0 + 1e-12))[0][0])
+            raise InvalidParameterError(
+                f"reset options['wheel_speed'][{i}] must be within ±{limit[i, 0]:.6g} rad/s "
+                f"(the wheel's max_speed_rpm), got {speed[i].max():.6g} in magnitude")
 
     @property
     def start_slots(self) -> int:

@@ -136,29 +136,39 @@ def zero_terms(task, value=0.0) -> tuple:
 def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
     """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
 
-    options: the reset options (names in ``task.reset_options``); for the vector env their
-    leading axis is num_envs and ``rows`` selects the rows of the envs being reset.
+    options: the reset options (names in ``task.reset_options`` and ``plant.reset_options``);
+    for the vector env their leading axis is num_envs and ``rows`` selects the rows of the envs
+    being reset.
     """
     s = task.sample_start(draws)
-    _override(task, s, options, rows, draws)
+    if options:
+        _check_option_names(options, {**task.reset_options, **plant.reset_options})
+    _override(task.reset_options, s, options, rows, draws)
     s.update(plant.sample_start(draws))
+    if plant.reset_options:
+        _override(plant.reset_options, s, options, rows, draws)
+        plant.check_start(s)
     task.complete_start(s, draws.xp)
     plant.complete_start(s, draws.xp)
     return s
 
 
-def _override(task, s: dict, options, rows, draws) -> None:
-    """Replace sampled start values by reset options (validated, named in errors)."""
-    if not options:
-        return
+def _check_option_names(options, allowed: dict) -> None:
+    """Refuse reset options that are not a dict or name an unknown key."""
     if not isinstance(options, dict):
         raise InvalidParameterError(
             f"reset options must be a dict of name -> value, got {validation.show(options)}")
-    allowed = task.reset_options
     unknown = sorted(set(options) - set(allowed) - {"reset_mask"})
     if unknown:
         raise InvalidParameterError(
             f"reset options has unknown key(s) {unknown}; allowed: {sorted(allowed)}")
+
+
+def _override(allowed: dict, s: dict, options, rows, draws) -> None:
+    """Replace sampled start values by the reset options named in ``allowed`` (name → width;
+    validated, named in errors). Names starting with "q" are quaternions."""
+    if not options:
+        return
     for key, width in allowed.items():
         if key not in options:
             continue
@@ -172,7 +182,7 @@ def _override(task, s: dict, options, rows, draws) -> None:
         elif arr.shape != (width,):
             raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
         arr = np.broadcast_to(arr, (draws.n, width))
-        if width == 4:
+        if key.startswith("q"):
             arr = validation.unit_quaternion(name, arr)
             arr = arr / np.linalg.norm(arr, axis=-1, keepdims=True)
         elif np.linalg.norm(arr, axis=-1).max(initial=0.0) > MAX_RESET_RATE:
