@@ -30,7 +30,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
 
 from rbenv import registry
 from rbenv.randomization import Randomization
-from rbenv.scene import Scene, list_scenes, load_scene
+from rbenv.scene import Scene, list_scenes, load_scene, scene_variant
 from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
@@ -78,6 +78,7 @@ __all__ = [
     "__version__",
     "list_scenes",
     "load_scene",
+    "scene_variant",
 ]
 
 ENV_ID = reorient.SPEC.env_id

@@ -117,6 +117,8 @@ __all__ = [
     "list_scenes",
     "load_scene",
     "mass_properties",
+    "scene_table",
+    "scene_variant",
 ]
 
 DEFAULT_SCENE = "cubesat-12u"
@@ -471,6 +473,49 @@ class Scene:
         if "base" in data:
             data = _with_base(data, path)
         return cls.from_dict(data, name=path.stem)
+
+
+def scene_table(scene) -> dict:
+    """The TOML-shaped dict of a shipped scene's name or a scene file's path (its ``base``
+    merged in), to change and build with :meth:`Scene.from_dict` (see :func:`scene_variant`)."""
+    text = str(scene)
+    if isinstance(scene, (str, Path)) and text in list_scenes():
+        with resources.as_file(_scene_dir() / f"{text}.toml") as path:
+            data, name = _read_toml(path), text
+    elif isinstance(scene, (str, Path)) and Path(scene).suffix == ".toml" \
+            and Path(scene).exists():
+        path = Path(scene)
+        data, name = _read_toml(path), path.stem
+    else:
+        raise InvalidParameterError(
+            f"scene must be a shipped name {list_scenes()} or a path to an existing .toml "
+            f"file, got {scene!r}")
+    if "base" in data:
+        data = _with_base(data, Path(text))
+    data.setdefault("name", name)
+    return data
+
+
+def scene_variant(scene, overrides: dict, name: str | None = None) -> Scene:
+    """A scene with some keys changed: ``overrides`` maps a table to {key: value} (None
+    removes the key, and an empty table with None as a whole, ``{"magnetorquers": None}``,
+    removes the table), e.g. ``scene_variant("innocube-3u", {"wheels": {"deadband_rpm_s":
+    None}})`` for innocube-3u without the deadband. Top-level keys take plain values."""
+    data = scene_table(scene)
+    if not isinstance(overrides, dict):
+        raise InvalidParameterError(
+            f"overrides must be a dict of table -> {{key: value}}, got {describe(overrides)}")
+    for table, change in overrides.items():
+        if change is None:
+            data.pop(table, None)
+        elif isinstance(change, dict) and isinstance(data.get(table, {}), dict):
+            merged = {**data.get(table, {}), **change}
+            data[table] = {k: v for k, v in merged.items() if v is not None}
+        else:
+            data[table] = change
+    if name is not None:
+        data["name"] = name
+    return Scene.from_dict(data)
 
 
 def _read_toml(path: Path) -> dict:

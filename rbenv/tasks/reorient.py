@@ -293,7 +293,8 @@ OPTIONS_TABLE
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
                 baselines={"pd": "rbenv.agents.baselines.controllers:QuaternionPD",
-                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang"},
+                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang",
+                           "innocube-pd": "rbenv.agents.baselines.controllers:InnoCubePD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
