@@ -188,15 +188,22 @@ class Plant:
     @property
     def reset_options(self) -> dict:
         """The plant's names in ``reset(options=...)`` and their widths: ``wheel_speed``
-        (rad/s, each wheel's speed relative to the body) with wheels."""
+        (rad/s, each wheel's speed relative to the body) with wheels; ``wheel_clock_s`` (s since
+        the wheels' first command, −1: not yet commanded, the default) with wheels as flown,
+        so that a start in mid-run is past the start-up delay."""
         wheels = self.wheels
-        return {} if wheels is None else {"wheel_speed": wheels.n}
+        if wheels is None:
+            return {}
+        return {"wheel_speed": wheels.n,
+                **({"wheel_clock_s": 1} if wheels.wheels.as_flown else {})}
 
     def check_start(self, start: dict) -> None:
         """Refuse a start whose wheel speeds exceed the wheels' limits (named error)."""
         wheels = self.wheels
         if wheels is None:
             return
+        if isinstance(start.get("wheel_clock_s"), tuple):  # a reset option: one component
+            start["wheel_clock_s"] = start["wheel_clock_s"][0]
         speed = np.abs(np.asarray(start["wheel_speed"], dtype=float).reshape(wheels.n, -1))
         limit = np.asarray(wheels.max_speed)[:, None]
         if np.any(speed > limit * (1.0 + 1e-12)):
