@@ -284,6 +284,12 @@ OPTIONS_TABLE
 
     **Version History**
 
+    * v0, orbit torques evaluated where they act (a physics fix, same version): on a scene
+      with an orbit (``cubesat-6u-rw``) the gravity gradient and the rods' ``m × B`` (the
+      field fixed in inertial axes, the dipole command held) are evaluated at every
+      integrator stage instead of held over the substep in body axes, so its episodes
+      change: with idle wheels and random rod commands (seed 1,000,000) the attitude moves
+      by 2.3e-5 rad after its 80 s. Scenes without an orbit are bit-identical.
     * v0: first release. Episode starts are counter-based draws (since rbenv 0.2; rbenv 0.1
       drew them from ``np_random``, so seeded episodes differ between the two). rbenv 0.2 adds
       the ``precision`` reward term, weight 0 by default: default rewards are unchanged to the
