@@ -5,9 +5,9 @@
 Times one env step of ``SatelliteReorient-v1`` with ``action_mode="acceleration"`` (random
 actions, resets inline) through ``gym.make`` and, per sub-env, through the native vector env
 at N = 1024, for ``innocube-3u`` with every as-flown effect off (ideal wheels, true attitude,
-no residual dipole: the reference), each effect switched on alone, and the shipped scene (all on). All in one run,
-interleaved (process CPU time, best of rounds), so each ratio to the reference is what a user
-pays for that effect ("model only what a scene requires").
+no residual dipole: the reference), each effect switched on alone, and the shipped scene (all
+on). All in one run, interleaved (process CPU time, best of rounds), so each ratio to the
+reference is what a user pays for that effect ("model only what a scene requires").
 
 Writes ``innocube_cost.json``.
 """

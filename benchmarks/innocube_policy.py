@@ -68,26 +68,38 @@ def settle_time(t: np.ndarray, err: np.ndarray, limit: float = 1.0):
 
 
 def run(policy_name: str, episodes: int, seed: int, scene: str) -> dict:
+    """All episodes side by side in one native vector env (autoreset off: an episode that
+    succeeds keeps flying to the scene's end)."""
+    from gymnasium.vector import AutoresetMode
     from rbenv.agents.policies.evaluate import make_policy
 
-    env = gym.make(ENV_ID, scene=scene, action_mode="acceleration").unwrapped
+    env = gym.make_vec(ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
+                       scene=scene, action_mode="acceleration",
+                       autoreset_mode=AutoresetMode.DISABLED)
     policy = make_policy(policy_name, env)
+    starts = random_starts(episodes, seed)
+    options = {key: np.array([o[key] for o in starts]) for key in starts[0]}
+    obs, _ = env.reset(seed=seed, options=options)
+    t, true, sensed = [], [], []
+    state, first = None, np.ones(episodes, bool)
+    for _ in range(env.unwrapped.plant.scene.episode_steps):
+        action, state = policy.predict(obs, state=state, episode_start=first,
+                                       deterministic=True)
+        first = np.zeros(episodes, bool)
+        obs, _, _, _, info = env.step(np.asarray(action, np.float32))
+        t.append(np.asarray(info["time_s"], float))
+        true.append(np.asarray(info["attitude_error_deg"], float))
+        sensed.append(np.asarray(info.get("sensed_attitude_error_deg",
+                                          info["attitude_error_deg"]), float))
+    env.close()
+    t, true, sensed = (np.array(x).T for x in (t, true, sensed))  # (episodes, steps)
     per = []
-    for i, options in enumerate(random_starts(episodes, seed)):
-        obs, _ = env.reset(seed=seed + i, options=options)
-        t, true, sensed = [], [], []
-        for _ in range(env.plant.scene.episode_steps):
-            action, _ = policy.predict(obs, deterministic=True)
-            obs, _, _, _, info = env.step(np.asarray(action, np.float32))
-            t.append(info["time_s"])
-            true.append(info["attitude_error_deg"])
-            sensed.append(info.get("sensed_attitude_error_deg", info["attitude_error_deg"]))
-        t, true, sensed = map(np.array, (t, true, sensed))
-        last = t > t[-1] - STEADY_S
-        per.append({"settle_1deg_s": settle_time(t, sensed),
-                    "steady_deg": float(sensed[last].mean()),
-                    "true_settle_1deg_s": settle_time(t, true),
-                    "true_steady_deg": float(true[last].mean())})
+    for i in range(episodes):
+        last = t[i] > t[i, -1] - STEADY_S
+        per.append({"settle_1deg_s": settle_time(t[i], sensed[i]),
+                    "steady_deg": float(sensed[i, last].mean()),
+                    "true_settle_1deg_s": settle_time(t[i], true[i]),
+                    "true_steady_deg": float(true[i, last].mean())})
     return {"policy": policy_name, "scene": scene, "episodes": episodes, "seed": seed,
             "summary": summarize(per), "episodes_detail": per}
 
