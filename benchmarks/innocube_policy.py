@@ -6,7 +6,8 @@
 Each episode starts like the flight's slews: an attitude error of 100-180° about a random axis,
 a body rate of 2-6 °/s in a random direction, wheel speeds uniform within ±500 rpm (the PD
 set's carried-over speeds reach 300-620 rpm) and the wheels' start-up delay ahead, then runs
-the scene's whole 160 s (success does not end it). Per episode, as ``rbenv replay`` measures
+the scene's whole 160 s (success does not end it; an episode that loses control, |ω| above
+the rate limit, counts as 180° from then on). Per episode, as ``rbenv replay`` measures
 the telemetry: ``settle_1deg_s``, the first time after which the error stays below 1° to the
 end (None: never), and ``steady_deg``, its mean over the last 20 s; both for the error the
 satellite believes (the gyro-integrated attitude, what telemetry logs: ``sensed``) and the
@@ -73,8 +74,13 @@ def run(policy_name: str, episodes: int, seed: int, scene: str) -> dict:
     from gymnasium.vector import AutoresetMode
     from rbenv.agents.policies.evaluate import make_policy
 
+    import rbenv
+
+    # The whole episode is flown: a success hold as long as the episode never completes.
+    flown = rbenv.scene_variant(scene, {"episode": {"hold_time": rbenv.load_scene(
+        scene).episode.duration}})
     env = gym.make_vec(ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
-                       scene=scene, action_mode="acceleration",
+                       scene=flown, action_mode="acceleration",
                        autoreset_mode=AutoresetMode.DISABLED)
     policy = make_policy(policy_name, env)
     starts = random_starts(episodes, seed)
@@ -82,17 +88,22 @@ def run(policy_name: str, episodes: int, seed: int, scene: str) -> dict:
     obs, _ = env.reset(seed=seed, options=options)
     t, true, sensed = [], [], []
     state, first = None, np.ones(episodes, bool)
+    lost = np.zeros(episodes, bool)  # loss of control (|ω| > rate limit): never settles
     for _ in range(env.unwrapped.plant.scene.episode_steps):
         action, state = policy.predict(obs, state=state, episode_start=first,
                                        deterministic=True)
         first = np.zeros(episodes, bool)
-        obs, _, _, _, info = env.step(np.asarray(action, np.float32))
+        obs, _, term, _, info = env.step(np.asarray(action, np.float32))
+        if term.any():
+            lost |= term
+            obs, _ = env.reset(options={"reset_mask": term})
         t.append(np.asarray(info["time_s"], float))
         true.append(np.asarray(info["attitude_error_deg"], float))
         sensed.append(np.asarray(info.get("sensed_attitude_error_deg",
                                           info["attitude_error_deg"]), float))
     env.close()
     t, true, sensed = (np.array(x).T for x in (t, true, sensed))  # (episodes, steps)
+    sensed[lost] = true[lost] = 180.0
     per = []
     for i in range(episodes):
         last = t[i] > t[i, -1] - STEADY_S

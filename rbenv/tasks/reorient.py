@@ -300,6 +300,12 @@ OPTIONS_TABLE
       last bit, and ``info`` gains ``reward_precision``.
     """.replace("OPTIONS_TABLE", options_table())
 
+# innocube-3u: its wheels command accelerations, and slews take 30 s and more, so failing
+# (spinning past the rate limit) must cost more than a slow slew: SAC with the default failure
+# weight learned to end every episode within 16 steps (docs/innocube/learned-policy.md).
+INNOCUBE = {(algo, "innocube-3u"): {"action_mode": "acceleration", **tuned.WHEELS_FAILURE}
+            for algo in ("ppo", "sac")}
+
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
                 baselines={"pd": "rbenv.agents.baselines.controllers:QuaternionPD",
@@ -309,7 +315,8 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_re
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
                 scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
-                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE},
+                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE,
+                                  **INNOCUBE},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and reward).
@@ -345,5 +352,6 @@ SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=ma
                    # PPO on boom-sat: 89.0 % and 60.2 % held out at 1 M steps (seeds 0, 1),
                    # validation still rising (v0 needs 4 M there).
                    scene_budgets={("ppo", "boom-sat"): 2_000_000},
-                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
+                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
+                                     **INNOCUBE},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)
