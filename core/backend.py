@@ -144,6 +144,11 @@ class FloatNamespace:
         return -1.0 if x < 0.0 else 1.0
 
     @staticmethod
+    def round(x):
+        """The nearest whole number as a float (halves to even, as NumPy's)."""
+        return float(round(x))
+
+    @staticmethod
     def sign(x):
         """−1, 0 or +1."""
         return (x > 0.0) - (x < 0.0) + 0.0
@@ -184,6 +189,7 @@ class NumpyNamespace:
     clip = staticmethod(np.clip)
     minimum = staticmethod(np.minimum)
     maximum = staticmethod(np.maximum)
+    round = staticmethod(np.round)
 
     @staticmethod
     def sign_nonneg(x):

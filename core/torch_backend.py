@@ -44,6 +44,7 @@ class TorchNamespace:
     isfinite = staticmethod(torch.isfinite)
     abs = staticmethod(torch.abs)
     sign = staticmethod(torch.sign)
+    round = staticmethod(torch.round)
     einsum = staticmethod(torch.einsum)
     matmul = staticmethod(torch.matmul)
 

@@ -32,7 +32,7 @@ if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
 
 from rbenv import registry
 from rbenv.randomization import Randomization
-from rbenv.scene import Scene, list_scenes, load_scene
+from rbenv.scene import Scene, list_scenes, load_scene, scene_variant
 from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
@@ -80,6 +80,7 @@ __all__ = [
     "__version__",
     "list_scenes",
     "load_scene",
+    "scene_variant",
 ]
 
 # The current version of each task (v1: v0's episodes, a new observation and reward); the v0

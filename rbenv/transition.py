@@ -22,6 +22,7 @@ from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.plant import Plant, StepNoise, nan_action_error
 from rbenv.state import Layout
+from rbenv.tasks.base import _DEG, error_quaternion
 
 __all__ = ["Outcome", "info", "layout", "observe", "raise_diverged", "start", "step"]
 
@@ -62,11 +63,14 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
     if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises
         return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged))
+    if plant.sensors is not None:
+        plant.sense(new, noise)
     if task.moving_target:
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
     obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
-        not plant.observed else observe(plant, task, new, noise.sensor, xp)
+        not plant.observed and plant.sensors is None else \
+        observe(plant, task, new, noise.sensor, xp)
     reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
     return new, tuple.__new__(Outcome, (obs, reward, terms, success, failure,
                                         info(plant, task, new, terms, success, xp), diverged))
@@ -81,8 +85,11 @@ def raise_diverged(plant: Plant, st, action) -> None:
 
 
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
-    """Observation components; with sensor noise, from the noisy measurement."""
-    if sensor_noise is None:
+    """Observation components; with sensor noise, from the noisy measurement; with sensors
+    as flown, from what they show (rbenv.sensing)."""
+    if plant.sensors is not None:
+        obs = task.observe(st, st.sensed_q, st.sensed_omega_B, xp)
+    elif sensor_noise is None:
         obs = task.observe(st, st.q, st.omega_B, xp)
     else:
         q, w = plant.measure(st, sensor_noise)
@@ -96,6 +103,10 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     out = task.info(st, xp)
     for act in plant.actuators:
         act.info(st, xp, out)
+    if plant.sensors is not None and getattr(st, "q_target_conj", None) is not None:
+        # The attitude error the satellite believes (what its telemetry would log), degrees.
+        out["sensed_attitude_error_deg"] = error_quaternion(st.q_target_conj, st.sensed_q,
+                                                            xp)[1] * _DEG
     out["time_s"] = st.steps * plant.control_dt
     if plant.eclipse_known:
         out["eclipse"] = plant.eclipse(st, xp)
@@ -145,29 +156,39 @@ def zero_terms(task, value=0.0) -> tuple:
 def start(plant: Plant, task, draws, options=None, rows=None, num_envs=None) -> dict:
     """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
 
-    options: the reset options (names in ``task.reset_options``); for the vector env their
-    leading axis is ``num_envs`` and ``rows`` selects the rows of the envs being reset.
+    options: the reset options (names in ``task.reset_options`` and ``plant.reset_options``);
+    for the vector env their leading axis is ``num_envs`` and ``rows`` selects the rows of the
+    envs being reset.
     """
     s = task.sample_start(draws)
-    _override(task, s, options, rows, draws, num_envs)
+    if options:
+        _check_option_names(options, {**task.reset_options, **plant.reset_options})
+    _override(task.reset_options, s, options, rows, draws, num_envs)
     s.update(plant.sample_start(draws))
+    if plant.reset_options:
+        _override(plant.reset_options, s, options, rows, draws, num_envs)
+        plant.check_start(s)
     task.complete_start(s, draws.xp)
     plant.complete_start(s, draws.xp)
     return s
 
 
-def _override(task, s: dict, options, rows, draws, num_envs=None) -> None:
-    """Replace sampled start values by reset options (validated, named in errors)."""
-    if not options:
-        return
+def _check_option_names(options, allowed: dict) -> None:
+    """Refuse reset options that are not a dict or name an unknown key."""
     if not isinstance(options, dict):
         raise InvalidParameterError(
             f"reset options must be a dict of name -> value, got {validation.show(options)}")
-    allowed = task.reset_options
     unknown = sorted(set(options) - set(allowed) - {"reset_mask"})
     if unknown:
         raise InvalidParameterError(
             f"reset options has unknown key(s) {unknown}; allowed: {sorted(allowed)}")
+
+
+def _override(allowed: dict, s: dict, options, rows, draws, num_envs=None) -> None:
+    """Replace sampled start values by the reset options named in ``allowed`` (name → width;
+    validated, named in errors). Names starting with "q" are quaternions."""
+    if not options:
+        return
     for key, width in allowed.items():
         if key not in options:
             continue
@@ -182,7 +203,7 @@ def _override(task, s: dict, options, rows, draws, num_envs=None) -> None:
         elif arr.shape != (width,):
             raise InvalidParameterError(f"{name} must have shape {(width,)}, got {arr.shape}")
         arr = np.broadcast_to(arr, (draws.n, width))
-        if width == 4:
+        if key.startswith("q"):
             arr = validation.unit_quaternion(name, arr)
             arr = arr / np.linalg.norm(arr, axis=-1, keepdims=True)
         elif np.linalg.norm(arr, axis=-1).max(initial=0.0) > MAX_RESET_RATE:

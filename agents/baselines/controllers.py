@@ -101,10 +101,16 @@ class _TorqueController:
         plant = self.plant
         if plant.action_mode == "torque":
             return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
+        if plant.action_mode == "acceleration":  # α = u/J_eff of the motor torques u = −G⁺τ
+            wheels = plant.wheels
+            alpha = -(torque_B @ wheels.pinv.T) / np.asarray(wheels.eff_inertia)
+            a = alpha / wheels.wheels.max_acceleration
+            scale = np.maximum(np.abs(a).max(axis=-1, keepdims=True), 1.0)
+            return (a / scale).astype(np.float32)
         if plant.action_mode != "throttle":
             raise ValueError(
-                f"scripted controllers drive action_mode 'throttle' or 'torque', got "
-                f"{plant.action_mode!r}"
+                f"scripted controllers drive action_mode 'throttle', 'torque' or "
+                f"'acceleration', got {plant.action_mode!r}"
             )
         if plant.wheels is not None:  # reaction wheels (they drive, thrusters or not): −G u = τ
             wheels = plant.wheels
@@ -493,6 +499,85 @@ class Unload(WheelHoldPD):
         idx = plant.action_slices[plant.actuators.index(self.wheels)]
         out[:, idx] = wheel_action[:, idx]
         return (out[0], new_state[0]) if single else (out, new_state)
+
+
+_RPM_S = 2.0 * math.pi / 60.0  # rad/s² per RPM/s
+
+
+@dataclass(frozen=True, eq=False)
+class InnoCubePD:
+    """InnoCube's flight PD (data README; fits the logged commands to their rounding), per axis
+    in wheel acceleration::
+
+        α_cmd (RPM/s) = clip(−k_p·sign(δq_s)·δq_v − k_d·(1 + δq_vᵀδq_v)·ω, ±clamp)
+
+    δq the error quaternion ``q_target* ⊗ q`` (scalar δq_s, vector δq_v), ω the body rate
+    (rad/s). A positive command turns the bus about +axis, as in flight (the logged wheel speed
+    runs opposite to the wheel's momentum). It drives ``action_mode="acceleration"`` (or
+    "throttle", as the motor torque J_eff·α) on a scene whose wheels lie along the body axes in
+    order (±x, ±y, ±z) and give the command clamp (innocube-3u); magnetorquers get zero.
+    Gains and clamp are fields: ``InnoCubePD.from_env(env, kp=(...), clamp_rpm_s=...)``.
+    """
+
+    plant: Plant
+    task: Task
+    kp: tuple = (670.0, 670.0, 134.0)  # RPM/s per unit of δq_v
+    kd: tuple = (2500.0, 2500.0, 500.0)  # RPM/s per rad/s
+    clamp_rpm_s: float = 100.0  # the flight software's command clamp
+    scale: np.ndarray = field(init=False, repr=False)  # (3,) action per RPM/s of each axis
+    wheel_slice: slice = field(init=False, repr=False)
+
+    def __post_init__(self):
+        plant, wheels = self.plant, self.plant.wheels
+        if wheels is None or plant.action_mode not in ("acceleration", "throttle") \
+                or not wheels.wheels.max_acceleration:
+            raise NotApplicable(
+                f"innocube-pd commands wheel accelerations: it needs [wheels] with a command "
+                f"clamp (max_acceleration_rpm_s) and action_mode 'acceleration' (or "
+                f"'throttle'), got scene {plant.scene.name!r} with "
+                f"action_mode={plant.action_mode!r}")
+        axes = wheels.wheels.axes_B
+        if axes.shape != (3, 3) or not np.allclose(np.abs(axes), np.eye(3)):
+            raise NotApplicable(
+                "innocube-pd needs three wheels along the body axes x, y, z in that order, got "
+                f"axes {axes.tolist()}")
+        for name in ("kp", "kd"):
+            object.__setattr__(self, name, np.broadcast_to(
+                np.asarray(getattr(self, name), dtype=float), (3,)).copy())
+        # −G u = τ: wheel i along ĝ_i = −e_i makes +e_i torque from a positive command.
+        # Action per RPM/s: of the clamp (acceleration mode), or the motor torque J_eff·α as a
+        # fraction of u_max (throttle mode).
+        sign = -np.diag(axes)
+        per = _RPM_S / wheels.wheels.max_acceleration if plant.action_mode == "acceleration" \
+            else _RPM_S * np.asarray(wheels.eff_inertia) / wheels.wheels.max_torque
+        object.__setattr__(self, "scale", sign * per)
+        object.__setattr__(self, "wheel_slice",
+                           plant.action_slices[plant.actuators.index(wheels)])
+
+    @classmethod
+    def from_env(cls, env, **kwargs):
+        """The flight PD for ``env`` (single, vector or wrapped)."""
+        plant, task = env_parts(env)
+        return cls(plant, task, **kwargs)
+
+    def command_rpm_s(self, q_err: np.ndarray, omega_B: np.ndarray) -> np.ndarray:
+        """(N, 3) commanded wheel accelerations, RPM/s, from δq (N, 4) and ω (N, 3) rad/s."""
+        qv = q_err[:, 1:]
+        sign = np.where(q_err[:, :1] < 0.0, -1.0, 1.0)
+        cmd = -self.kp * sign * qv - self.kd * (1.0 + np.sum(qv * qv, axis=1,
+                                                             keepdims=True)) * omega_B
+        return np.clip(cmd, -self.clamp_rpm_s, self.clamp_rpm_s)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3-style ``(actions, None)`` for observations (size,) or (N, size)."""
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        decoded = self.task.decode(obs[:, :self.task.observation_size()])
+        cmd = self.command_rpm_s(decoded["q_err"], decoded["omega_B"])
+        out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)
+        out[:, self.wheel_slice] = np.clip(cmd * self.scale, -1.0, 1.0)
+        return (out[0], None) if single else (out, None)
 
 
 def resolve_baseline(ref):

@@ -18,9 +18,25 @@ speeds the wheel up is limited to ``(Ω_max − |Ω|) J/dt``, what brings it to 
 the end of the control step, so at the limit the motor cannot accelerate it further (u = 0,
 Basilisk's rule, which checks only at the step's start and so overshoots by up to u·dt/J);
 optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
-(default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]) and
+(default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]),
 ``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
-pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max).
+pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max) and
+``acceleration`` (one entry per wheel, the commanded wheel acceleration Ω̇ as a fraction of the
+flight software's clamp α_max, ``max_acceleration``; the motor torque that realizes it is
+``u = J_eff α``, with ``J_eff = 1/(1/J + ĝᵀ I_RW⁻¹ ĝ)`` the inertia the relative speed sees).
+
+Wheels as flown (opt-in, each a ``[wheels]`` key; off by default, and then no step changes):
+every command is first read as the wheel acceleration it asks for, ``α = u/J_eff`` (rad/s²);
+
+* ``deadband`` α_db (rad/s², or ``deadband_rpm_s``): a command with |α| < α_db does nothing;
+* ``realized_gain`` g: the wheel realizes g·α of what a command above the deadband asks;
+* ``startup_delay_s`` T_d: after the first command above the deadband of an episode the
+  wheels stay still for T_d (whole control steps: the realized command is zero on the steps
+  that start less than T_d after it);
+* ``speed_quantization_rpm`` q: the observed wheel speed is ``q·round(Ω/q)`` (the speed
+  sensor's resolution); the physics uses the true speed.
+
+Then the torque and speed limits below apply, as without them.
 
 Effort: electrical power ``Σ|u_i Ω_i| + n·P_standby`` over its maximum; ``energy_J`` accounts
 it. Observation part: ``wheel_speed`` Ω/Ω_max per wheel.
@@ -43,7 +59,7 @@ from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["Wheels", "make_wheels", "parse_wheels"]
 
-MODES = ("throttle", "torque")
+MODES = ("throttle", "torque", "acceleration")
 _RPM = 2.0 * math.pi / 60.0
 _new = tuple.__new__
 _ZERO = (0.0, 0.0, 0.0)  # the motor torque is internal: no external torque on the body
@@ -62,6 +78,24 @@ class WheelSet:
     standby_power: float = 0.0  # W per wheel
     initial_speed: np.ndarray = None  # (n,) rad/s at the episode start
     random_speed: float = 0.0  # rad/s: ± uniform spread added per episode
+    max_acceleration: float = 0.0  # rad/s², the command clamp of acceleration mode (0: none)
+    # Each of the next three: a float, or a (low, high) tuple drawn uniformly per episode.
+    deadband: object = 0.0  # rad/s²: commands below it do nothing
+    realized_gain: object = 1.0  # realized / commanded acceleration above the deadband
+    startup_delay_s: object = 0.0  # s: still after the episode's first command
+    speed_quantum: float = 0.0  # rad/s: the speed sensor's resolution (0: exact)
+
+    @property
+    def as_flown(self) -> bool:
+        """Whether any command non-ideality is on (deadband, gain or start-up delay)."""
+        return bool(self.deadband or self.realized_gain != 1.0 or self.startup_delay_s)
+
+    @property
+    def flown_ranges(self) -> tuple:
+        """((low, high) of deadband rad/s², realized gain, start-up delay s): the per-episode
+        draws' ranges (low == high: fixed)."""
+        return tuple(v if isinstance(v, tuple) else (v, v)
+                     for v in (self.deadband, self.realized_gain, self.startup_delay_s))
 
     @property
     def n(self) -> int:
@@ -77,10 +111,12 @@ class WheelSet:
 def parse_wheels(table: dict, com_B=None) -> WheelSet:
     """The ``[wheels]`` table: axes (list of [x, y, z]), inertia (kg·m²), max_torque (N·m),
     max_speed_rpm, and optional viscous (N·m·s/rad), coulomb (N·m), standby_power (W),
-    initial_speed_rpm and random_speed_rpm (± uniform spread per episode)."""
+    initial_speed_rpm and random_speed_rpm (± uniform spread per episode); wheels as flown:
+    max_acceleration and deadband (rad/s², or the same keys with ``_rpm_s``: RPM/s),
+    realized_gain, startup_delay_s (s) and speed_quantization_rpm (rpm)."""
     tables.keys("wheels", table, {"axes", "inertia", "max_torque", "max_speed_rpm",
                                   "viscous", "coulomb", "standby_power", "initial_speed_rpm",
-                                  "random_speed_rpm"},
+                                  "random_speed_rpm", *_FLOWN_KEYS},
                 ("axes", "inertia", "max_torque", "max_speed_rpm"))
     axes = tables.axes("wheels", table["axes"])
     n = len(axes)
@@ -101,7 +137,56 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
                     max_torque=per_wheel("max_torque", 1e-9, 1e3), max_speed=speed,
                     viscous=scalar("viscous", 1e3), coulomb=scalar("coulomb", 1e3),
                     standby_power=scalar("standby_power", 1e4), initial_speed=start,
-                    random_speed=scalar("random_speed_rpm", 1e5) * _RPM)
+                    random_speed=scalar("random_speed_rpm", 1e5) * _RPM,
+                    **_as_flown(table))
+
+
+_FLOWN_KEYS = ("max_acceleration", "max_acceleration_rpm_s", "deadband", "deadband_rpm_s",
+               "realized_gain", "startup_delay_s", "speed_quantization_rpm")
+
+
+def _acceleration(table: dict, key: str) -> float:
+    """``wheels.<key>`` in rad/s², given as ``key`` (rad/s²) or ``key_rpm_s`` (RPM/s)."""
+    given = [k for k in (key, f"{key}_rpm_s") if k in table]
+    if len(given) > 1:
+        raise InvalidParameterError(
+            f"wheels gives both {given[0]} (rad/s^2) and {given[1]} (RPM/s); give one")
+    if not given:
+        return 0.0
+    value = validation.number(f"wheels.{given[0]}", table[given[0]], low=0.0, high=1e6)
+    return value * (_RPM if given[0].endswith("_rpm_s") else 1.0)
+
+
+def _ranged(table: dict, key: str, default: float, scale: float = 1.0, **rule):
+    """``wheels.<key>``: a number, or [low, high] drawn uniformly per episode (a tuple)."""
+    value = table.get(key, default)
+    if isinstance(value, (list, tuple)):
+        if len(value) != 2:
+            raise InvalidParameterError(
+                f"wheels.{key} must be a number or [low, high], got {value!r}")
+        low, high = (validation.number(f"wheels.{key}[{i}]", v, **rule) * scale
+                     for i, v in enumerate(value))
+        if low > high:
+            raise InvalidParameterError(
+                f"wheels.{key} = {value!r} must have low <= high")
+        return (low, high) if low < high else low
+    return validation.number(f"wheels.{key}", value, **rule) * scale
+
+
+def _as_flown(table: dict) -> dict:
+    """The wheels-as-flown fields of :class:`WheelSet` from the ``[wheels]`` table."""
+    if "deadband" in table and "deadband_rpm_s" in table:
+        _acceleration(table, "deadband")  # the error naming both
+    db_key = "deadband" if "deadband" in table else "deadband_rpm_s"
+    return {"max_acceleration": _acceleration(table, "max_acceleration"),
+            "deadband": _ranged(table, db_key, 0.0, _RPM if db_key.endswith("_rpm_s")
+                                else 1.0, low=0.0, high=1e6),
+            "realized_gain": _ranged(table, "realized_gain", 1.0, low=0.0, high=10.0,
+                                     low_open=True),
+            "startup_delay_s": _ranged(table, "startup_delay_s", 0.0, low=0.0, high=1e6),
+            "speed_quantum": validation.number("wheels.speed_quantization_rpm",
+                                               table.get("speed_quantization_rpm", 0.0),
+                                               low=0.0, high=1e5) * _RPM}
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,6 +220,7 @@ class Wheels:
     pinv_rows: tuple = field(init=False, repr=False)  # n rows of G⁺ (3-tuples)
     authority: tuple | None = field(init=False, repr=False)  # torque_authority as floats
     standby: float = field(init=False)  # W, all wheels
+    eff_inertia: tuple = field(init=False, repr=False)  # n floats J_eff, kg·m²
     state_fields: dict = field(init=False, repr=False)
     observation_structure: dict = field(init=False, repr=False)
     start_slots: int = field(init=False)
@@ -147,6 +233,10 @@ class Wheels:
             raise InvalidParameterError(
                 "action_mode 'torque' needs wheel axes that span 3 dimensions; got rank "
                 f"{np.linalg.matrix_rank(g)}")
+        if self.action_mode == "acceleration" and not ws.max_acceleration:
+            raise InvalidParameterError(
+                "action_mode 'acceleration' needs the command clamp wheels.max_acceleration "
+                "(rad/s^2) or wheels.max_acceleration_rpm_s (RPM/s) in the scene, got neither")
         shape = (3,) if self.action_mode == "torque" else (ws.n,)
         low, high = -np.ones(shape), np.ones(shape)
         for arr in (low, high):
@@ -165,8 +255,14 @@ class Wheels:
                   # torque of the last step, N·m. wheel_momentum: absolute spin momenta
                   # J (Ω + ĝᵀω) at the start of the last step, N·m·s. wheel_energy_J: cumulative.
                   # One component per wheel.
+                  # wheel_clock_s (start-up delay only): seconds since the episode's first
+                  # command above the deadband, −1 before it.
+                  # wheel_flown (wheels as flown): this episode's (deadband rad/s², realized
+                  # gain, start-up delay s).
                   "state_fields": {"wheel_speed": "cn", "wheel_torque": "cn",
-                                   "wheel_momentum": "cn", "wheel_energy_J": "f"},
+                                   "wheel_momentum": "cn", "wheel_energy_J": "f",
+                                   **({"wheel_clock_s": "f", "wheel_flown": "c3"}
+                                      if ws.as_flown else {})},
                   # Per-wheel constants as Python floats (components multiply them).
                   "axes": tuple(tuple(float(c) for c in g_i) for g_i in g),
                   "inertia": tuple(float(j) for j in ws.inertia),
@@ -178,11 +274,14 @@ class Wheels:
                   "headroom": tuple(float(1.0 / (1.0 / j + g_i @ inv_bus @ g_i)) / self.control_dt
                                     for j, g_i in zip(ws.inertia, g, strict=True)),
                   "inv_max_torque": tuple(1.0 / float(v) for v in ws.max_torque),
+                  # J_eff per wheel, kg·m²: u = J_eff α realizes the relative acceleration α.
+                  "eff_inertia": tuple(float(1.0 / (1.0 / j + g_i @ inv_bus @ g_i))
+                                       for j, g_i in zip(ws.inertia, g, strict=True)),
                   "pinv_rows": tuple(tuple(float(c) for c in row) for row in pinv),
                   "authority": None if authority is None else tuple(authority.tolist()),
                   "standby": float(ws.n * ws.standby_power),
                   "observation_structure": {"wheel_speed": ws.n},
-                  "start_slots": ws.n if ws.random_speed else 0}
+                  "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0)}
         values["inv_max_power"] = 1.0 / values["max_power"]
         for name, value in values.items():
             object.__setattr__(self, name, value)
@@ -200,6 +299,9 @@ class Wheels:
         clip = xp.clip
         if self.action_mode == "throttle":
             return tuple([clip(ci, -1.0, 1.0) * self.max_torque[i] for i, ci in enumerate(c)])
+        if self.action_mode == "acceleration":  # u = J_eff α, α clamped to ±α_max
+            a_max, j = self.wheels.max_acceleration, self.eff_inertia
+            return tuple([clip(ci, -1.0, 1.0) * (a_max * j[i]) for i, ci in enumerate(c)])
         tau = tuple(clip(ci, -1.0, 1.0) * self.authority[j] for j, ci in enumerate(c))
         u = tuple(-k.dot(self.pinv_rows[i], tau) for i in range(self.n))
         ratio = abs(u[0]) * self.inv_max_torque[0]
@@ -218,6 +320,10 @@ class Wheels:
         ws = self.wheels
         speed, w = st.wheel_speed, st.omega_B
         where, clip, maximum = xp.where, xp.clip, xp.maximum
+        if ws.as_flown:
+            u = self._as_flown(st, u, xp)
+        u = tuple([clip(c, -self.max_torque[i], self.max_torque[i]) for i, c in enumerate(u)]) \
+            if self.action_mode == "acceleration" else u
         power, limited, h = self.standby, [], []
         for i in range(self.n):  # a few wheels; each value a float or an (N,) array
             s, c = speed[i], u[i]
@@ -236,6 +342,23 @@ class Wheels:
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
         return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
                                    power * self.inv_max_power, None))
+
+    def _as_flown(self, st, u: tuple, xp) -> tuple:
+        """The motor torques the wheels realize of commanded ``u`` (components): zero below the
+        deadband (|u/J_eff| < α_db), ``realized_gain`` times the command above it, and zero
+        on the steps that start within ``startup_delay_s`` of the episode's first command."""
+        where = xp.where
+        deadband, gain, delay = st.wheel_flown
+        u = tuple([where(abs(c) < deadband * self.eff_inertia[i], 0.0 * c, c * gain)
+                   for i, c in enumerate(u)])
+        clock = st.wheel_clock_s
+        commanded = u[0] != 0.0
+        for c in u[1:]:
+            commanded = commanded | (c != 0.0)
+        clock = where((clock < 0.0) & commanded, 0.0 * clock, clock)
+        waiting = clock < delay - 1e-9 * self.control_dt
+        st.wheel_clock_s = where(clock < 0.0, clock, clock + self.control_dt)
+        return tuple([where(waiting, 0.0 * c, c) for c in u])
 
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
@@ -267,13 +390,23 @@ class Wheels:
         zero = draws.xp.zeros(m)
         zeros = tuple(zero for _ in range(ws.n))
         speeds = tuple(speed[0].tolist()) if draws.xp is FLOAT else tuple(speed.T)
-        return {"wheel_speed": speeds, "wheel_torque": zeros, "wheel_momentum": zeros,
-                "wheel_energy_J": zero}
+        out = {"wheel_speed": speeds, "wheel_torque": zeros, "wheel_momentum": zeros,
+               "wheel_energy_J": zero}
+        if ws.as_flown:
+            out["wheel_clock_s"] = zero - 1.0
+            u = draws.uniform("wheels", 3, offset=ws.n if ws.random_speed else 0)
+            out["wheel_flown"] = tuple(lo + (hi - lo) * ui if hi > lo else zero + lo
+                                       for (lo, hi), ui in zip(ws.flown_ranges, u, strict=True))
+        return out
 
     def observe(self, st, xp, sensed=None) -> tuple:
-        """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel."""
+        """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel (Ω quantized to the
+        speed sensor's resolution, where the scene gives one)."""
         clip, inv = xp.clip, self.inv_max_speed
-        return tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(st.wheel_speed)])
+        speed, quantum = st.wheel_speed, self.wheels.speed_quantum
+        if quantum:
+            speed = tuple([xp.round(s * (1.0 / quantum)) * quantum for s in speed])
+        return tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(speed)])
 
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum

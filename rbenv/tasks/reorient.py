@@ -255,8 +255,9 @@ OPTIONS_TABLE
     **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
     over the control step) is ``clip(a, 0, 1)``, so ``a ≤ 0`` is off. ``on_off``: ``a > 0``
     fires at full throttle. ``torque``: ``Box(-1, 1, (3,))``, a body torque as a fraction of
-    the per-axis authority, turned into throttles by the allocator. Values outside [-1, 1] are
-    clipped; NaN raises ``ValueError``.
+    the per-axis authority, turned into throttles by the allocator. ``acceleration`` (wheels):
+    one entry per wheel, the wheel acceleration as a fraction of the scene's command clamp
+    (``innocube-3u``). Values outside [-1, 1] are clipped; NaN raises ``ValueError``.
 
     **Observation** ``Box(-1, 1, (7,), float32)``, ``observation_structure``
     ``{"q_err": 4, "omega_B": 3}``: the canonical error quaternion ``q_target* ⊗ q`` (w ≥ 0;
@@ -279,8 +280,11 @@ OPTIONS_TABLE
     with faults.
 
     **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,)}`` replace the sampled
-    start. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a pure function of (s, e)
-    (:mod:`rbenv.draws`).
+    start; with wheels also ``"wheel_speed": (n,)`` (rad/s) and, with wheels as flown,
+    ``"wheel_clock_s": (1,)`` (s since their first command; −1 before it). With ``[sensors]``
+    the observation is the gyro-integrated, delayed measurement and info adds
+    ``sensed_attitude_error_deg``. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a
+    pure function of (s, e) (:mod:`rbenv.draws`).
 
     **Version History**
 
@@ -296,15 +300,23 @@ OPTIONS_TABLE
       last bit, and ``info`` gains ``reward_precision``.
     """.replace("OPTIONS_TABLE", options_table())
 
+# innocube-3u: its wheels command accelerations, and slews take 30 s and more, so failing
+# (spinning past the rate limit) must cost more than a slow slew: SAC with the default failure
+# weight learned to end every episode within 16 steps (docs/innocube/learned-policy.md).
+INNOCUBE = {(algo, "innocube-3u"): {"action_mode": "acceleration", **tuned.WHEELS_FAILURE}
+            for algo in ("ppo", "sac")}
+
 # The registry entry (rbenv.registry): registered by rbenv/__init__.py.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
                 baselines={"pd": "rbenv.agents.baselines.controllers:QuaternionPD",
-                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang"},
+                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang",
+                           "innocube-pd": "rbenv.agents.baselines.controllers:InnoCubePD"},
                 budget={"ppo": 1_000_000, "sac": 200_000},
                 # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
                 scene_budgets={("ppo", "boom-sat"): 4_000_000},
                 scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
-                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE},
+                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE,
+                                  **INNOCUBE},
                 hyperparams=tuned.ALL, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and reward).
@@ -345,5 +357,6 @@ SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=ma
                    # PPO on boom-sat: 89.0 % and 60.2 % held out at 1 M steps (seeds 0, 1),
                    # validation still rising (v0 needs 4 M there).
                    scene_budgets={("ppo", "boom-sat"): 2_000_000},
-                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
+                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
+                                     **INNOCUBE},
                    hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)
