@@ -92,6 +92,21 @@ TABLES: tuple[Table, ...] = (
             "0.0"),
         Key("random_speed_rpm", "rpm", "± uniform spread added to the start speed per episode",
             "0.0"),
+        Key("max_acceleration", "rad/s²", "as flown: the flight software's clamp on a commanded "
+                                          "wheel acceleration (needed by action_mode "
+                                          '"acceleration")', "(none)"),
+        Key("max_acceleration_rpm_s", "RPM/s", "the same clamp in RPM/s (give one of the two)",
+            "(none)"),
+        Key("deadband", "rad/s²", "as flown: a commanded acceleration below it does nothing; a "
+                                  "number, or [low, high] drawn per episode", "0.0"),
+        Key("deadband_rpm_s", "RPM/s", "the same deadband in RPM/s (give one of the two)",
+            "(none)"),
+        Key("realized_gain", "", "as flown: realized / commanded acceleration above the "
+                                 "deadband; a number or [low, high]", "1.0"),
+        Key("startup_delay_s", "s", "as flown: the wheels stay still this long after the "
+                                    "episode's first command; a number or [low, high]", "0.0"),
+        Key("speed_quantization_rpm", "rpm", "as flown: the observed wheel speed is rounded to "
+                                             "this step", "0.0"),
     )),
     Table("[magnetorquers]", "magnetic torque rods (rbenv.actuators.magnetorquers); they need an "
                              "[orbit] with magnetic_field = true", (
@@ -100,6 +115,17 @@ TABLES: tuple[Table, ...] = (
         Key("max_dipole", "A·m²", "largest dipole: one number, or one per rod", REQUIRED),
         Key("power_W", "W", "electrical power at full dipole: one, or one per rod", "0.0"),
     )),
+    Table("[sensors]", "sensing as flown (opt-in): the observed attitude integrated from a "
+                       "gyro with bias and noise, and an observation delay (rbenv.scene)", (
+        Key("attitude", "", '"true" (the state, or [sensor_noise]) or "gyro" (integrated from '
+                            "the gyro from the true start, so it drifts)"),
+        Key("gyro_bias_sigma_dps", "°/s", "gyro bias drawn per episode, 1σ per axis"),
+        Key("gyro_bias_walk_dps_sqrt_s", "°/s/√s", "random walk of the bias: σ of its change "
+                                                  "over 1 s"),
+        Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ"),
+        Key("delay_steps", "", "0 or 1: the observation shows the previous control step's "
+                               "measurement"),
+    ), "rbenv.scene:Sensors"),
     Table("[physics]", "how the dynamics are integrated", (
         Key("integrator", "", "a name in rbenv.core.INTEGRATORS"),
         Key("substeps", "", "integrator steps per control step"),
