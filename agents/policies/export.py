@@ -277,7 +277,9 @@ def _sb3_parts(policy: RunPolicy):
 def _rllib_parts(policy: RLlibPolicy):
     """RLlib's default PPO module: the actor encoder, then the policy head's mean."""
     module = policy.module
-    encoder = getattr(getattr(module, "encoder", None), "actor_encoder", None)
+    outer = getattr(module, "encoder", None)
+    # Separate actor and critic encoders (rbenv's setting), or one shared encoder.
+    encoder = getattr(outer, "actor_encoder", None) or getattr(outer, "encoder", None)
     pi = getattr(module, "pi", None)
     if encoder is None or pi is None:
         raise UnsupportedPolicyError(
