@@ -235,9 +235,10 @@ def measure(folder: Path, n_obs: int, tools: dict) -> dict:
         "instructions_per_call": {"mean": float(instr.mean()), "max": int(instr.max())},
         "cycles_per_call": {"mean": float(total.mean()), "max": int(total.max())},
         "cycles_by_function": by_function,
-        # dense() is inlined: rbenv_policy's own code (the loops, normalisation, output stage
-        # arithmetic; no libm) per multiply-add.
-        "cycles_per_multiply_add": by_function.get("rbenv_policy", 0.0) / fp["multiply_adds"],
+        # The policy's own code (dense, whether inlined or not, the normalisation, the
+        # activation loops, the output stage's arithmetic; no libm) per multiply-add.
+        "cycles_per_multiply_add": (by_function.get("rbenv_policy", 0.0)
+                                    + by_function.get("dense", 0.0)) / fp["multiply_adds"],
         "cycles_per_tanhf": tanh / calls["tanhf"] if calls.get("tanhf") else None,
     }
     result["time_per_call_ms"] = {f"{hz / 1e6:g} MHz": 1e3 * total.max() / hz for hz in CLOCKS_HZ}
