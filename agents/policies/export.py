@@ -542,32 +542,35 @@ def c_source(flight: FlightPolicy) -> str:
 
 
 _C_DENSE = """\
-/* y = W x + b, W row-major (n_out rows of n_in); four rows at a time share each load of x. */
+/* y = W x + b, W row-major (n_out rows of n_in); eight rows at a time share each load of x. */
 static void dense(const float *w, const float *b, int n_in, int n_out, const float *x, float *y)
 {
-    int i = 0, j;
-    for (; i + 3 < n_out; i += 4) {
-        const float *r0 = w + (long)i * n_in;
-        const float *r1 = r0 + n_in, *r2 = r1 + n_in, *r3 = r2 + n_in;
-        float s0 = b[i], s1 = b[i + 1], s2 = b[i + 2], s3 = b[i + 3];
+    int i = 0, j, k;
+    for (; i + 7 < n_out; i += 8) {
+        const float *r = w + (long)i * n_in;
+        float s[8];
+        for (k = 0; k < 8; ++k)
+            s[k] = b[i + k];
         for (j = 0; j < n_in; ++j) {
             float xj = x[j];
-            s0 += r0[j] * xj;
-            s1 += r1[j] * xj;
-            s2 += r2[j] * xj;
-            s3 += r3[j] * xj;
+            s[0] += r[j] * xj;
+            s[1] += r[n_in + j] * xj;
+            s[2] += r[2 * n_in + j] * xj;
+            s[3] += r[3 * n_in + j] * xj;
+            s[4] += r[4 * n_in + j] * xj;
+            s[5] += r[5 * n_in + j] * xj;
+            s[6] += r[6 * n_in + j] * xj;
+            s[7] += r[7 * n_in + j] * xj;
         }
-        y[i] = s0;
-        y[i + 1] = s1;
-        y[i + 2] = s2;
-        y[i + 3] = s3;
+        for (k = 0; k < 8; ++k)
+            y[i + k] = s[k];
     }
     for (; i < n_out; ++i) {
         const float *row = w + (long)i * n_in;
-        float s = b[i];
+        float t = b[i];
         for (j = 0; j < n_in; ++j)
-            s += row[j] * x[j];
-        y[i] = s;
+            t += row[j] * x[j];
+        y[i] = t;
     }
 }
 """
