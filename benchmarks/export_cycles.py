@@ -250,7 +250,8 @@ def measure(folder: Path, n_obs: int, tools: dict) -> dict:
 def plot(results: list[dict]):
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 0.9 + 0.7 * len(results)))
-    labels = [f"{r['algo']} {r['scene']}" for r in results]
+    labels = [f"{r['algo']} {r['scene']}\n{'-'.join(map(str, r['footprint']['layers']))}"
+              for r in results]
     for i, hz in enumerate(CLOCKS_HZ):
         ms = [r["time_per_call_ms"][f"{hz / 1e6:g} MHz"] for r in results]
         ax.barh(np.arange(len(results)) + 0.35 * i, ms, height=0.35, label=f"{hz / 1e6:g} MHz")
