@@ -57,9 +57,10 @@ def manifest(path: Path) -> dict:
 
 
 def is_exported(path) -> bool:
-    """Whether ``path`` names an exported C policy: a ``.c``/``.so`` file with export.json."""
+    """Whether ``path`` names an exported C policy, a ``.c`` or ``.so`` file (its export.json
+    beside it is read when it is opened, and its absence named then)."""
     path = Path(path)
-    return path.suffix in SUFFIXES and path.is_file() and (path.parent / MANIFEST).is_file()
+    return path.suffix in SUFFIXES and path.is_file()
 
 
 class CPolicy(TrainedOn):

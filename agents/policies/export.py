@@ -859,7 +859,8 @@ def export(source, formats: str | Sequence[str] = "c", out="export", *,
         _onnx()
     policy = source if hasattr(source, "predict") else load_policy(source,
                                                                    trust_pickle=trust_pickle)
-    flight = from_policy(policy, run=None if hasattr(source, "predict") else str(source))
+    run = getattr(policy, "source", None) if hasattr(source, "predict") else str(source)
+    flight = from_policy(policy, run=None if run is None else str(run))
     obs = (episode_observations(policy) if check_observations is None
            else np.asarray(check_observations, np.float32))
     want, _ = policy.predict(obs, deterministic=True)

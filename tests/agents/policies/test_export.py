@@ -273,3 +273,9 @@ def test_cross_compiles_for_a_cortex_m4_with_fpu(runs, tmp_path):
                 if len(p) >= 2 and p[1].isdigit()}
     assert sections.get(".rodata", 0) >= done.footprint["weight_bytes"] - 64
     assert sections.get(".data", 0) == 0 and sections.get(".bss", 0) == 0
+
+
+def test_a_c_file_without_its_manifest_is_named(tmp_path):
+    (tmp_path / "policy.c").write_text("void rbenv_policy(const float *o, float *a) {}\n")
+    with pytest.raises(ValueError, match=r"export\.json"):
+        load_policy(tmp_path / "policy.c")
