@@ -28,13 +28,16 @@ def _rel(a: np.ndarray, b: np.ndarray) -> float | None:
 
 
 def compare(run: str, folder: str, episodes: int, seed: int) -> dict:
+    from rbenv.agents.policies.compiled import manifest
     from rbenv.agents.policies.evaluate import evaluate
 
-    python = evaluate(run, episodes=episodes, seed=seed, record=0, name="run (Python)")
+    env_id = manifest(Path(folder))["env_id"]  # the run's task, as rbenv evaluate finds it
+    python = evaluate(run, episodes=episodes, seed=seed, record=0, name="run (Python)",
+                      env_id=env_id)
     flown = evaluate(str(Path(folder) / "policy.c"), episodes=episodes, seed=seed, record=0,
-                     name="policy.c (ctypes)")
+                     name="policy.c (ctypes)", env_id=env_id)
     return {
-        "run": run, "export": folder, "episodes": episodes, "seed": seed,
+        "run": run, "export": folder, "env_id": env_id, "episodes": episodes, "seed": seed,
         "summaries": [python.summary(), flown.summary()],
         "success_equal_episodes": int(np.sum(python.success == flown.success)),
         "fuel_max_relative_difference": _rel(flown.fuel_kg, python.fuel_kg),
