@@ -75,6 +75,10 @@ class UnsupportedActivationError(UnsupportedLayerError):
     """The network uses an activation that the C and ONNX writers do not implement."""
 
 
+class MissingExportExtraError(ExportError):
+    """onnx or onnxruntime, the export extra, is not installed."""
+
+
 class ExportMismatchError(ExportError):
     """The exported function differs from the policy's ``predict`` by more than the tolerance."""
 
@@ -684,8 +688,8 @@ def _onnx():
         import onnx
         from onnx import helper, numpy_helper
     except ImportError:
-        raise ImportError(f"ONNX export needs the onnx package: {EXPORT_EXTRA} (the export "
-                          "extra)") from None
+        raise MissingExportExtraError(f"ONNX export needs the onnx package: {EXPORT_EXTRA} "
+                                      "(the export extra)") from None
     return onnx, helper, numpy_helper
 
 
@@ -786,8 +790,8 @@ def run_onnx(path: Path, obs: np.ndarray) -> np.ndarray:
     try:
         import onnxruntime
     except ImportError:
-        raise ImportError(f"running ONNX needs onnxruntime: {EXPORT_EXTRA} (the export extra)"
-                          ) from None
+        raise MissingExportExtraError(f"running ONNX needs onnxruntime: {EXPORT_EXTRA} (the "
+                                      "export extra)") from None
     options = onnxruntime.SessionOptions()
     options.intra_op_num_threads = options.inter_op_num_threads = 1
     session = onnxruntime.InferenceSession(str(path), options,

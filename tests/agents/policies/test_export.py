@@ -241,10 +241,14 @@ def test_a_scripted_baseline_needs_no_export(tmp_path):
         ex.export(make_policy("zero", env), "c", tmp_path)
 
 
-def test_a_missing_export_extra_is_named(runs, tmp_path, monkeypatch):
+def test_a_missing_export_extra_is_named(runs, tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "onnx", None)
-    with pytest.raises(ImportError, match=r"rbenv\[export\]"):
+    with pytest.raises(ex.MissingExportExtraError, match=r"rbenv\[export\]"):
         ex.export(runs["ppo"], "onnx", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["rbenv", "export", str(runs["ppo"]), "--format", "onnx",
+                                      "--out", str(tmp_path)])
+    assert cli_main() == 2  # from the command line: one line naming the extra, status 2
+    assert "rbenv[export]" in capsys.readouterr().err
 
 
 def test_a_wrong_format_is_named(runs, tmp_path):
