@@ -125,6 +125,9 @@ def _parser() -> argparse.ArgumentParser:
     x.add_argument("--out", required=True, metavar="DIR", help="folder to write into")
     x.add_argument("--trust-pickle", action="store_true",
                    help="allow an RLlib run (RLlib pickles its modules): only one you trust")
+    x.add_argument("--precision", choices=["float32", "int8"], default="float32",
+                   help="int8: dense weights as int8 with a scale per row (4x less flash; "
+                        "its difference from the run is measured and printed)")
     names = benchmarks()
     b = sub.add_parser("bench", help="run a benchmark, writing NAME.json and NAME.png")
     b.add_argument("name", choices=names or None, help=", ".join(names))
@@ -199,7 +202,7 @@ def _export(args) -> int:
     from rbenv.agents.policies import export  # torch, and onnx for --format onnx
 
     done = export.export(args.run, args.format or ["c"], args.out,
-                         trust_pickle=args.trust_pickle)
+                         trust_pickle=args.trust_pickle, precision=args.precision)
     print(export.format_footprint(done.footprint))
     print("agreement with the run's predict (fraction of the action range): "
           + ", ".join(f"{k} {v:.2g}" for k, v in done.errors.items()))

@@ -32,6 +32,7 @@ observations of its own episodes, to :data:`TOLERANCE` of each action's range
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import tempfile
@@ -87,10 +88,17 @@ class ExportMismatchError(ExportError):
 
 @dataclass(frozen=True)
 class Dense:
-    """y = W x + b; weight (n_out, n_in), bias (n_out,), float32."""
+    """y = W x + b; weight (n_out, n_in), bias (n_out,), float32. Quantised (:func:`to_int8`):
+    weight int8 and ``scale`` (n_out,) float32, y = scale · (W x) + b."""
 
     weight: np.ndarray
     bias: np.ndarray
+    scale: np.ndarray | None = None
+
+    def apply(self, x: np.ndarray) -> np.ndarray:
+        if self.scale is None:
+            return x @ self.weight.T + self.bias
+        return (x @ self.weight.T.astype(np.float32)) * self.scale + self.bias
 
 
 @dataclass(frozen=True)
@@ -177,12 +185,31 @@ class FlightPolicy:
             x = np.clip((x - self.obs_mean) * self.obs_scale, -self.obs_clip, self.obs_clip)
         for layer in self.layers:
             if isinstance(layer, Dense):
-                x = x @ layer.weight.T + layer.bias
+                x = layer.apply(x)
             elif isinstance(layer, Clamp):
                 x = np.clip(x, np.float32(layer.low), np.float32(layer.high))
             else:
                 x = _activate(layer, x)
         return _head(self.head, x.astype(np.float64)).astype(np.float32)
+
+
+PRECISIONS = ("float32", "int8")
+
+
+def to_int8(flight: FlightPolicy) -> FlightPolicy:
+    """``flight`` with every dense layer's weights as int8, one float32 scale per row (the
+    row's largest |w| / 127, rounded to nearest): 4× less flash for the weights; biases,
+    normalisation and the output stage stay float32. Not the same function: measure it."""
+    layers = []
+    for layer in flight.layers:
+        if isinstance(layer, Dense) and layer.scale is None:
+            w = layer.weight.astype(np.float64)
+            scale = np.abs(w).max(axis=1) / 127.0
+            scale = np.where(scale > 0, scale, 1.0)
+            q = np.clip(np.rint(w / scale[:, None]), -127, 127).astype(np.int8)
+            layer = Dense(q, layer.bias, scale.astype(np.float32))
+        layers.append(layer)
+    return dataclasses.replace(flight, layers=tuple(layers))
 
 
 def _activate(layer: Activation, x: np.ndarray) -> np.ndarray:
@@ -435,12 +462,13 @@ def footprint(flight: FlightPolicy) -> dict:
     """Per call of ``rbenv_policy``: constant bytes (flash), activation bytes (RAM, the two
     stack buffers), multiply-adds and libm calls (float32 throughout)."""
     dense = [layer for layer in flight.layers if isinstance(layer, Dense)]
-    constants = sum(d.weight.size + d.bias.size for d in dense)
+    constants = sum(d.bias.size + (0 if d.scale is None else d.scale.size) for d in dense)
     macs = sum(d.weight.size for d in dense)
     if flight.obs_mean is not None:
         constants += 2 * flight.obs_dim
         macs += flight.obs_dim
     constants += (4 if flight.head.std is not None else 2) * flight.act_dim
+    weight_bytes = 4 * constants + sum(d.weight.nbytes for d in dense)
     calls: dict[str, int] = {}
     for layer in flight.layers:
         if isinstance(layer, Activation):
@@ -449,9 +477,10 @@ def footprint(flight: FlightPolicy) -> dict:
                 calls[fn] = calls.get(fn, 0) + n * width
     for fn, n in _HEAD_CALLS[flight.head.kind].items():
         calls[fn] = calls.get(fn, 0) + n * flight.act_dim
-    return {"weight_bytes": 4 * int(constants), "activation_bytes": 8 * max(flight.widths),
+    return {"weight_bytes": int(weight_bytes), "activation_bytes": 8 * max(flight.widths),
             "multiply_adds": int(macs), "transcendental_calls": calls,
-            "layers": flight.widths, "head": flight.head.kind}
+            "layers": flight.widths, "head": flight.head.kind,
+            "weights": "int8" if any(d.scale is not None for d in dense) else "float32"}
 
 
 def _width_before(flight: FlightPolicy, target) -> int:
@@ -476,6 +505,13 @@ def _c_array(name: str, values: np.ndarray, size: str) -> str:
     rows = [", ".join(flat[i:i + 8]) for i in range(0, len(flat), 8)]
     body = ",\n    ".join(rows)
     return f"static const float {name}[{size}] = {{\n    {body}\n}};\n"
+
+
+def _c_int8_array(name: str, values: np.ndarray, size: str) -> str:
+    flat = [str(int(v)) for v in np.asarray(values, np.int8).ravel()]
+    rows = [", ".join(flat[i:i + 16]) for i in range(0, len(flat), 16)]
+    body = ",\n    ".join(rows)
+    return f"static const signed char {name}[{size}] = {{\n    {body}\n}};\n"
 
 
 def _comment(flight: FlightPolicy) -> str:
@@ -527,7 +563,11 @@ def c_source(flight: FlightPolicy) -> str:
         parts.append(_c_array("OBS_SCALE", flight.obs_scale, "RBENV_OBS_DIM"))
     for k, layer in enumerate(layer for layer in flight.layers if isinstance(layer, Dense)):
         n_out, n_in = layer.weight.shape
-        parts.append(_c_array(f"W{k}", layer.weight, f"{n_out} * {n_in}"))
+        if layer.scale is None:
+            parts.append(_c_array(f"W{k}", layer.weight, f"{n_out} * {n_in}"))
+        else:
+            parts.append(_c_int8_array(f"W{k}", layer.weight, f"{n_out} * {n_in}"))
+            parts.append(_c_array(f"S{k}", layer.scale, f"{n_out}"))
         parts.append(_c_array(f"B{k}", layer.bias, f"{n_out}"))
     h = flight.head
     parts.append(_c_array("ACT_LOW", h.low, "RBENV_ACT_DIM"))
@@ -535,7 +575,11 @@ def c_source(flight: FlightPolicy) -> str:
     if h.std is not None:
         parts.append(_c_array("ACT_INV_STD", 1.0 / h.std, "RBENV_ACT_DIM"))
         parts.append(_c_array("ACT_STD", h.std, "RBENV_ACT_DIM"))
-    parts.append(_C_DENSE)
+    quantised = [layer.scale is not None for layer in flight.layers if isinstance(layer, Dense)]
+    if not all(quantised):
+        parts.append(_C_DENSE)
+    if any(quantised):
+        parts.append(_C_DENSE_INT8)
     kinds = {layer.kind for layer in flight.layers if isinstance(layer, Activation)}
     parts += [_C_ACTIVATIONS[k] for k in sorted(kinds)]
     if any(isinstance(layer, Clamp) for layer in flight.layers):
@@ -575,6 +619,41 @@ static void dense(const float *w, const float *b, int n_in, int n_out, const flo
         for (j = 0; j < n_in; ++j)
             t += row[j] * x[j];
         y[i] = t;
+    }
+}
+"""
+_C_DENSE_INT8 = """\
+/* y = s (Q x) + b, Q int8 row-major (n_out rows of n_in), one scale s per row; eight rows at a
+ * time share each load of x. */
+static void dense_int8(const signed char *q, const float *s, const float *b, int n_in,
+                       int n_out, const float *x, float *y)
+{
+    int i = 0, j, k;
+    for (; i + 7 < n_out; i += 8) {
+        const signed char *r = q + (long)i * n_in;
+        float t[8];
+        for (k = 0; k < 8; ++k)
+            t[k] = 0.0f;
+        for (j = 0; j < n_in; ++j) {
+            float xj = x[j];
+            t[0] += (float)r[j] * xj;
+            t[1] += (float)r[n_in + j] * xj;
+            t[2] += (float)r[2 * n_in + j] * xj;
+            t[3] += (float)r[3 * n_in + j] * xj;
+            t[4] += (float)r[4 * n_in + j] * xj;
+            t[5] += (float)r[5 * n_in + j] * xj;
+            t[6] += (float)r[6 * n_in + j] * xj;
+            t[7] += (float)r[7 * n_in + j] * xj;
+        }
+        for (k = 0; k < 8; ++k)
+            y[i + k] = t[k] * s[i + k] + b[i + k];
+    }
+    for (; i < n_out; ++i) {
+        const signed char *row = q + (long)i * n_in;
+        float u = 0.0f;
+        for (j = 0; j < n_in; ++j)
+            u += (float)row[j] * x[j];
+        y[i] = u * s[i] + b[i];
     }
 }
 """
@@ -661,8 +740,9 @@ def _c_body(flight: FlightPolicy) -> str:
     for layer in flight.layers:
         if isinstance(layer, Dense):
             n_out = layer.weight.shape[0]
-            lines += [f"    dense(W{k}, B{k}, {width}, {n_out}, x, y);",
-                      "    t = x; x = y; y = t;"]
+            call = (f"dense(W{k}, B{k}, " if layer.scale is None
+                    else f"dense_int8(W{k}, S{k}, B{k}, ")
+            lines += [f"    {call}{width}, {n_out}, x, y);", "    t = x; x = y; y = t;"]
             width, k = n_out, k + 1
         elif isinstance(layer, Clamp):
             lines.append(f"    clamp(x, {width}, {_c_float(layer.low)}, {_c_float(layer.high)});")
@@ -720,8 +800,9 @@ def onnx_model(flight: FlightPolicy):
     k = 0
     for layer in flight.layers:
         if isinstance(layer, Dense):
-            x = node("Gemm", [x, const(f"W{k}", layer.weight), const(f"B{k}", layer.bias)],
-                     transB=1)
+            w = (layer.weight if layer.scale is None  # int8: the same function, dequantised
+                 else layer.weight.astype(np.float32) * layer.scale[:, None])
+            x = node("Gemm", [x, const(f"W{k}", w), const(f"B{k}", layer.bias)], transB=1)
             k += 1
         elif isinstance(layer, Clamp):
             x = node("Clip", [x, const(f"clamp{count[0]}_low", layer.low),
@@ -846,15 +927,22 @@ class Exported:
 
 
 def export(source, formats: str | Sequence[str] = "c", out="export", *,
-           trust_pickle: bool = False, check_observations: np.ndarray | None = None
-           ) -> Exported:
+           trust_pickle: bool = False, check_observations: np.ndarray | None = None,
+           precision: str = "float32") -> Exported:
     """Export a trained policy (a run folder, its policy.pt, a checkpoint, or a loaded policy)
     to ``out`` in ``formats`` (``"c"``, ``"onnx"`` or both), with footprint.json and
     export.json; every format written is checked against the policy's ``predict`` first.
 
     check_observations: the observations for the check (default: the policy's own episodes,
     :func:`episode_observations`). trust_pickle: an RLlib run (RLlib pickles its modules).
+    precision: ``"int8"`` writes the dense weights as int8 with a scale per row
+    (:func:`to_int8`): the C and ONNX are then checked against that quantised network, and
+    its difference from the policy's ``predict`` is measured (``errors["int8_vs_policy"]``),
+    not bounded.
     """
+    if precision not in PRECISIONS:
+        raise InvalidParameterError(f"precision must be one of {list(PRECISIONS)}, got "
+                                    f"{precision!r}")
     formats = (formats,) if isinstance(formats, str) else tuple(formats)
     for fmt in formats:
         if fmt not in FORMATS:
@@ -869,6 +957,10 @@ def export(source, formats: str | Sequence[str] = "c", out="export", *,
            else np.asarray(check_observations, np.float32))
     want, _ = policy.predict(obs, deterministic=True)
     errors = {"network": check(flight, "the network read from the policy", flight(obs), want)}
+    if precision == "int8":
+        flight = to_int8(flight)
+        want = flight(obs)  # what the written files must compute
+        errors["int8_vs_policy"] = max_error(flight, want, policy.predict(obs)[0])
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     files = []
@@ -887,7 +979,7 @@ def export(source, formats: str | Sequence[str] = "c", out="export", *,
     files.append(write_json(out / FOOTPRINT, fp))
     files.append(write_json(out / compiled.MANIFEST, {
         **flight.info, "obs_dim": flight.obs_dim, "act_dim": flight.act_dim,
-        "output_stage": flight.head.kind, "formats": list(formats),
+        "output_stage": flight.head.kind, "formats": list(formats), "precision": precision,
         "check": {"observations": len(obs), "max_error_of_range": errors,
                   "tolerance": TOLERANCE}}))
     return Exported(files, fp, errors)

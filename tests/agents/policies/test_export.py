@@ -283,3 +283,26 @@ def test_a_c_file_without_its_manifest_is_named(tmp_path):
     (tmp_path / "policy.c").write_text("void rbenv_policy(const float *o, float *a) {}\n")
     with pytest.raises(ValueError, match=r"export\.json"):
         load_policy(tmp_path / "policy.c")
+
+
+@needs_cc
+def test_int8_weights_are_written_exactly_and_their_error_is_measured(runs, observations,
+                                                                     tmp_path):
+    """--precision int8: the C computes the quantised network (to 1e-5 of the range), a
+    quarter of the weight bytes, and the export reports how far that is from the run."""
+    obs = observations["sac"]
+    f32 = ex.export(runs["sac"], "c", tmp_path / "f32", check_observations=obs)
+    done = ex.export(runs["sac"], FORMATS, tmp_path / "q8", check_observations=obs,
+                     precision="int8")
+    flight = ex.to_int8(ex.from_policy(load_policy(runs["sac"])))
+    got, _ = CPolicy(tmp_path / "q8" / "policy.c").predict(obs)
+    assert ex.max_error(flight, got, flight(obs)) <= 1e-5
+    want, _ = load_policy(runs["sac"]).predict(obs)
+    measured = ex.max_error(flight, got, want)
+    assert 0 < done.errors["int8_vs_policy"] == pytest.approx(measured, abs=1e-5)
+    assert done.errors["int8_vs_policy"] < 0.05  # 8 bits per weight: about 1 % of the range
+    assert "static const signed char W0" in (tmp_path / "q8" / "policy.c").read_text()
+    assert done.footprint["weights"] == "int8"
+    assert done.footprint["weight_bytes"] < 0.3 * f32.footprint["weight_bytes"]
+    with pytest.raises(ValueError, match="precision must be one of"):
+        ex.export(runs["sac"], "c", tmp_path / "x", precision="int4")
