@@ -237,8 +237,9 @@ def measure(folder: Path, n_obs: int, tools: dict) -> dict:
         "cycles_by_function": by_function,
         # The policy's own code (dense, whether inlined or not, the normalisation, the
         # activation loops, the output stage's arithmetic; no libm) per multiply-add.
-        "cycles_per_multiply_add": (by_function.get("rbenv_policy", 0.0)
-                                    + by_function.get("dense", 0.0)) / fp["multiply_adds"],
+        "cycles_per_multiply_add": sum(v for k, v in by_function.items()
+                                       if k == "rbenv_policy" or k.startswith("dense"))
+        / fp["multiply_adds"],
         "cycles_per_tanhf": tanh / calls["tanhf"] if calls.get("tanhf") else None,
     }
     result["time_per_call_ms"] = {f"{hz / 1e6:g} MHz": 1e3 * total.max() / hz for hz in CLOCKS_HZ}
