@@ -6,6 +6,7 @@
     rbenv evaluate --policy pd|bangbang|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
                    [--seed S] [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
+    rbenv export RUN_DIR|policy.pt --format c|onnx --out DIR [--trust-pickle]
     rbenv bench NAME [--out DIR]
 
 Only what is asked for is written: evaluate prints its table and writes files only with
@@ -23,7 +24,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from rbenv.agents.policies import runfolder
+from rbenv.agents.policies import compiled, runfolder
 from rbenv.agents.policies.evaluate import (
     check_policy,
     evaluate,
@@ -193,6 +194,18 @@ def _parser() -> Parser:
     e.add_argument("--out", default=None, metavar="DIR",
                    help="write evaluation.json and episodes.png into DIR (relative to the "
                         "current directory)")
+    x = sub.add_parser("export", help="a trained policy as C99 or ONNX flight code, checked "
+                                      "against the run (docs/export.md)")
+    x.add_argument("run", help="a run folder, its policy.pt or a checkpoint policy_N.pt")
+    x.add_argument("--format", action="append", choices=["c", "onnx"], default=None,
+                   help="c: policy.h + policy.c; onnx: policy.onnx (repeat for both; "
+                        "default c)")
+    x.add_argument("--out", required=True, metavar="DIR", help="folder to write into")
+    x.add_argument("--trust-pickle", action="store_true",
+                   help="allow an RLlib run (RLlib pickles its modules): only one you trust")
+    x.add_argument("--precision", choices=["float32", "int8"], default="float32",
+                   help="int8: dense weights as int8 with a scale per row (4x less flash; "
+                        "its difference from the run is measured and printed)")
     names = benchmarks()
     b = sub.add_parser("bench", help="run a benchmark, writing NAME.json and NAME.png")
     b.add_argument("name", choices=names or None, help=", ".join(names))
@@ -318,11 +331,26 @@ def _evaluate(args) -> int:
     return 0
 
 
+def _export(args) -> int:
+    from rbenv.agents.policies import export  # torch, and onnx for --format onnx
+
+    done = export.export(args.run, args.format or ["c"], args.out,
+                         trust_pickle=args.trust_pickle, precision=args.precision)
+    print(export.format_footprint(done.footprint))
+    print("agreement with the run's predict (fraction of the action range): "
+          + ", ".join(f"{k} {v:.2g}" for k, v in done.errors.items()))
+    print("wrote " + ", ".join(str(f) for f in done.files))
+    return 0
+
+
 def _env_id(args) -> str:
     """--env-id, else the task a run folder was trained on, else :data:`rbenv.ENV_ID`."""
     if args.env_id:
         return args.env_id
-    if args.policy not in scripted() and Path(args.policy).exists():
+    path = Path(args.policy)
+    if args.policy not in scripted() and path.exists():
+        if compiled.is_exported(path):  # an exported policy.c / .so: its export.json
+            return compiled.manifest(path).get("env_id", rbenv.ENV_ID)
         return _run_config(args.policy).get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
@@ -388,7 +416,8 @@ def parse(argv: list[str] | None = None, parser: Parser | None = None) -> argpar
     return args
 
 
-COMMANDS = {"train": _train, "evaluate": _evaluate, "bench": _bench, "suite": _suite}
+COMMANDS = {"train": _train, "evaluate": _evaluate, "bench": _bench, "suite": _suite,
+            "export": _export}
 
 
 def _feature(args) -> str:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.compiled import CPolicy, is_exported
 from rbenv.agents.policies.rllib import RLlibPolicy
 from rbenv.agents.policies.sb3 import RunPolicy, load_run_policy
 
@@ -26,7 +27,7 @@ class Policy(Protocol):
 
 
 def load_policy(path, action: str = "auto", *, trust_pickle: bool = False
-                ) -> RunPolicy | RLlibPolicy:
+                ) -> RunPolicy | RLlibPolicy | CPolicy:
     """A ready policy from a run folder (SB3 or RLlib), its ``policy.pt`` or a checkpoint.
 
     An SB3 model comes with its own observation statistics and the run's configuration
@@ -34,8 +35,12 @@ def load_policy(path, action: str = "auto", *, trust_pickle: bool = False
     Nothing is unpickled without ``trust_pickle=True``: a pickle-based file (an older run's
     ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``, any RLlib checkpoint) raises
     :class:`~.runfolder.UntrustedPickleError`. Either policy has ``env_kwargs`` and ``env_id``.
+    An exported ``policy.c`` (compiled here) or its compiled ``.so``, with the ``export.json``
+    of ``rbenv export`` beside it, is flown through ctypes (:class:`~.compiled.CPolicy`).
     """
     path = Path(path)
+    if is_exported(path):
+        return CPolicy(path)
     if path.is_dir() and (path / runfolder.CONFIG).is_file():
         if runfolder.read_config(path).get("engine") == "rllib":
             return RLlibPolicy(path, trust_pickle=trust_pickle)
