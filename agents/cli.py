@@ -347,17 +347,17 @@ def _env_id(args) -> str:
     """--env-id, else the task a run folder was trained on, else :data:`rbenv.ENV_ID`."""
     if args.env_id:
         return args.env_id
-    path = Path(args.policy)
-    if args.policy not in scripted() and path.exists():
-        if compiled.is_exported(path):  # an exported policy.c / .so: its export.json
-            return compiled.manifest(path).get("env_id", rbenv.ENV_ID)
+    if args.policy not in scripted() and Path(args.policy).exists():
         return _run_config(args.policy).get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
 
 def _run_config(policy: str) -> dict:
-    """The config.json of the run a policy path belongs to ({} for a bare model file)."""
+    """The config.json of the run a policy path belongs to ({} for a bare model file; the
+    export.json manifest for an exported policy.c or .so)."""
     path = Path(policy)
+    if compiled.is_exported(path):
+        return compiled.manifest(path)
     if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
         return runfolder.read_config(path)
     return runfolder.locate(path).config or {}

@@ -63,6 +63,16 @@ def is_exported(path) -> bool:
     return path.suffix in SUFFIXES and path.is_file()
 
 
+def _load(library: Path):
+    """The loaded shared library and its ``rbenv_policy`` function."""
+    try:
+        lib = ctypes.CDLL(str(library.resolve()))
+        return lib, getattr(lib, FUNCTION)
+    except (OSError, AttributeError) as e:
+        raise CompileError(f"{str(library)!r} is not a loadable library with {FUNCTION}: {e}"
+                           ) from None
+
+
 class CPolicy(TrainedOn):
     """``rbenv_policy`` of an exported ``policy.c`` (compiled here) or of its compiled library.
 
@@ -81,16 +91,12 @@ class CPolicy(TrainedOn):
         self.config = {k: info[k] for k in ("env_id", "scene", "env_kwargs") if k in info}
         self.source = str(path)
         self.obs_dim, self.act_dim = int(info["obs_dim"]), int(info["act_dim"])
-        self._tmp = None
         if path.suffix == ".c":
-            self._tmp = tempfile.TemporaryDirectory(prefix="rbenv-cpolicy-")
-            path = compile_shared(path, Path(self._tmp.name) / LIBRARY)
-        try:
-            lib = ctypes.CDLL(str(path.resolve()))
-            fn = getattr(lib, FUNCTION)
-        except (OSError, AttributeError) as e:
-            raise CompileError(f"{str(path)!r} is not a loadable library with {FUNCTION}: {e}"
-                               ) from None
+            # A loaded library stays mapped after its file is removed: compile, load, clean up.
+            with tempfile.TemporaryDirectory(prefix="rbenv-cpolicy-") as tmp:
+                lib, fn = _load(compile_shared(path, Path(tmp) / LIBRARY))
+        else:
+            lib, fn = _load(path)
         fn.argtypes = [ctypes.POINTER(ctypes.c_float), ctypes.POINTER(ctypes.c_float)]
         fn.restype = None
         self._lib, self._fn = lib, fn
