@@ -7,6 +7,8 @@
                    [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv bench NAME [--out DIR]
+    rbenv replay DIR --scene S --policy P [--json OUT] [--plot PNG]   (flight telemetry)
+    rbenv identify DIR --scene S [--out SCENE.toml]
 
 Only what is asked for is written: evaluate prints its table and writes files only with
 --json, --plot, --video or --out. Torch, Stable-Baselines3 and matplotlib are imported only
@@ -23,6 +25,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from rbenv.agents.flight import commands as flight
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.evaluate import (
     SCRIPTED,
@@ -123,6 +126,7 @@ def _parser() -> argparse.ArgumentParser:
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
     tune.add_arguments(suite.add_arguments(sub.add_parser(
         "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
+    flight.add_arguments(sub)  # replay, identify: flight telemetry
     return p
 
 
@@ -239,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
     ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
     args = parse(argv)
     command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
-               "suite": _suite}[args.command]
+               "suite": _suite, **flight.COMMANDS}[args.command]
     if argv is not None:
         return command(args)
     try:
