@@ -117,10 +117,12 @@ def overrides(params: list[Parameter], x, table: dict, delay_s: float | None) ->
 
 
 def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = None,
-             seed: int = 0, max_nfev: int = 40, only: tuple | None = None) -> Fit:
+             seed: int = 0, max_nfev: int = 40, only: tuple | None = None,
+             delay_grid_s: tuple = DELAY_GRID_S) -> Fit:
     """Fit the parameters of ``scene`` (a shipped name or .toml path; :func:`parameters`) to
     the telemetry under ``root``; ``only``: the names to fit (default: all the scene has, and
-    ``startup_delay_s`` where the scene has one), the others stay the scene's."""
+    ``startup_delay_s`` where the scene has one), the others stay the scene's; delay_grid_s:
+    the start-up delays (s, evenly spaced) of the profile."""
     maneuvers = load(root)
     table = scene_table(scene)
     base = rbenv.load_scene(scene)
@@ -142,7 +144,8 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     r0 = residuals(x0, delay, maneuvers)
     fit.cost["start"] = _summary(r0, maneuvers)
     if has_delay:
-        delay, delay_sigma = _profile_delay(residuals, x0, maneuvers, len(r0) - len(params))
+        delay, delay_sigma = _profile_delay(residuals, x0, maneuvers, len(r0) - len(params),
+                                            delay_grid_s)
     lower = np.array([p.low for p in params])
     upper = np.array([p.high for p in params])
     result = least_squares(residuals, np.clip(x0, lower, upper), bounds=(lower, upper),
@@ -166,19 +169,19 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     return fit
 
 
-def _profile_delay(residuals, x, maneuvers, dof: int) -> tuple[float, float]:
+def _profile_delay(residuals, x, maneuvers, dof: int, grid: tuple) -> tuple[float, float]:
     """The start-up delay (s) that fits the first slews of each run best, and the half-width
     of the band where the cost stays within one residual variance of the minimum (at least
     half a control step)."""
     first = [m for m in maneuvers if not m.commanded_before]
-    full = residuals(x, DELAY_GRID_S[0], maneuvers)
-    others = float(np.sum(full ** 2)) - float(np.sum(residuals(x, DELAY_GRID_S[0], first) ** 2))
-    costs = np.array([float(np.sum(residuals(x, d, first) ** 2)) for d in DELAY_GRID_S])
+    full = residuals(x, grid[0], maneuvers)
+    others = float(np.sum(full ** 2)) - float(np.sum(residuals(x, grid[0], first) ** 2))
+    costs = np.array([float(np.sum(residuals(x, d, first) ** 2)) for d in grid])
     best = int(np.argmin(costs))
     s2 = (costs[best] + others) / max(dof, 1)
-    band = np.array(DELAY_GRID_S)[costs <= costs[best] + s2]
-    step = DELAY_GRID_S[1] - DELAY_GRID_S[0]
-    return DELAY_GRID_S[best], max(float(band.max() - band.min()) / 2.0, step / 2.0)
+    band = np.array(grid)[costs <= costs[best] + s2]
+    step = grid[1] - grid[0]
+    return grid[best], max(float(band.max() - band.min()) / 2.0, step / 2.0)
 
 
 def _residuals(maneuvers, sim) -> np.ndarray:
