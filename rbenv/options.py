@@ -27,14 +27,15 @@ class EnvOptions:
     scene (``cubesat-12u``; desaturation: ``cubesat-6u-rw``)."""
     integrator: str | None = None
     """A name in ``rbenv.core.INTEGRATORS``; unset: the scene's ``[physics]`` integrator (rk4:
-    cubesat-12u, cubesat-12u-dr, cubesat-12u-rw, cubesat-6u-rw; midpoint: microsat-100kg,
-    boom-sat)."""
+    cubesat-12u, cubesat-12u-dr, cubesat-12u-rw, cubesat-6u-rw, innocube-3u; midpoint:
+    microsat-100kg, boom-sat)."""
     control_dt: float | None = None
     """Seconds of one env step; unset: the scene's."""
     substeps: int | None = None
     """Integrator steps per control step; unset: the scene's."""
     action_mode: str = "throttle"
-    """``"throttle"``, ``"on_off"`` or ``"torque"``."""
+    """``"throttle"``, ``"on_off"``, ``"torque"`` or ``"acceleration"`` (wheels: the wheel
+    acceleration as a fraction of the scene's command clamp)."""
     reward_weights: dict | None = None
     """A dict overriding the task's reward weights (each task's docstring lists them)."""
     max_initial_angle_deg: float | None = None

@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rbenv import sensing
 from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
 from rbenv.actuators.thrusters import ACTION_MODES, ALLOCATORS, action_matrix, nan_action_error
 from rbenv.core import INTEGRATORS, validation
@@ -40,11 +41,13 @@ __all__ = ["ACTION_MODES", "ALLOCATORS", "NO_NOISE", "PLANT_FIELDS", "Plant", "S
 
 class StepNoise(NamedTuple):
     """Per-step random draws: fault uniforms (n or (N, n)), disturbance normals (3
-    components), sensor normals (6 components); each None when the model is off."""
+    components), sensor normals (6 components), gyro normals (6 components); each None when
+    the model is off."""
 
     faults: object
     disturbance: tuple | None
     sensor: tuple | None
+    gyro: tuple | None = None  # 6 normals of the gyro (rbenv.sensing), or None
 
 
 # The plant's own state fields and their storage kinds (rbenv.state). q: body→world
@@ -53,7 +56,8 @@ class StepNoise(NamedTuple):
 # steps taken. model: the episode's randomized physics (rbenv.randomization.EpisodeModel) or
 # None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
-                "model": "obj", "field_B_T": "c3"}  # field_B_T: Earth's field now, T (orbit)
+                "model": "obj", "field_B_T": "c3",  # field_B_T: Earth's field now, T (orbit)
+                **sensing.FIELDS}  # sensing as flown (rbenv.sensing), None when off
 _ZERO = (0.0, 0.0, 0.0)
 PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration")  # acceleration: wheels only
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
@@ -90,6 +94,8 @@ class Plant:
     sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
     sensor_draws: int = field(init=False)  # standard normals per sensor draw: 6 or 9
     randomization: Randomization | None = field(init=False)
+    sensors: object = field(init=False)  # rbenv.scene.Sensors when on, else None
+    gyro_noisy: bool = field(init=False)  # a step draws the gyro's normals
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
     def __post_init__(self):
@@ -126,8 +132,11 @@ class Plant:
                 "domain randomization of the inertia does not know the wheels' rotors yet; "
                 "turn randomization off for a scene with [wheels]")
         thr = next((a for a in acts if isinstance(a, Thrusters)), None)
+        sensors = self.scene.sensors
+        values["sensors"] = sensors if sensors.enabled else None
+        values["gyro_noisy"] = bool(sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
         values["noisy"] = bool((thr is not None and thr.p_fault) or values["dist_noise"]
-                               or values["sensor_noise"] is not None)
+                               or values["sensor_noise"] is not None or values["gyro_noisy"])
         _check_integrator_supports(self.scene, values["randomization"])
         if validation.flag("compiled", self.compiled):
             stores = [a.scene_table for a in acts if a.stores_momentum]
@@ -223,6 +232,8 @@ class Plant:
     def block_slots(self) -> dict:
         """Stream → slots an episode start draws from it (the plant's and actuators' hints)."""
         out = {"plant": self.start_slots}
+        if self.sensors is not None:
+            out["gyro"] = 6
         for a in self.actuators:
             if a.start_stream != "plant":
                 out[a.start_stream] = a.start_slots
@@ -350,14 +361,20 @@ class Plant:
         if not self.noisy:
             return NO_NOISE
         n = self.n
-        faults = dist = sensor = None
+        faults = dist = sensor = gyro = None
         if n and self.thrusters.p_fault:
             faults = rng.random(n if batch is None else (batch, n))
         if self.dist_noise:
             dist = _components(rng, 3, batch)
         if self.sensor_noise is not None:
             sensor = _components(rng, self.sensor_draws, batch)
-        return StepNoise(faults, dist, sensor)
+        if self.gyro_noisy:
+            gyro = _components(rng, sensing.STEP_NORMALS, batch)
+        return StepNoise(faults, dist, sensor, gyro)
+
+    def sense(self, st, noise: StepNoise) -> None:
+        """After the physics of a step: the sensors' part (rbenv.sensing), when on."""
+        sensing.sense(self.sensors, st, noise.gyro, self.control_dt)
 
     # ------------------------------------------------------------------- episode start
 
@@ -382,12 +399,19 @@ class Plant:
             out["x"] = out["v"] = (zero, zero, zero)
         for act in self.actuators:
             out.update(act.sample_start(draws))
+        if self.sensors is not None:  # the bias now (its stream); the rest needs q and ω
+            out.update(sensing.start(self.sensors, _ZERO, _ZERO, draws))
         return out
 
     def complete_start(self, start: dict, xp) -> None:
-        """Derived start values that need the task's attitude: the field in body axes."""
+        """Derived start values that need the task's attitude: the field in body axes, and
+        the sensors' first measurement."""
         if "field_B_T" in start:
             start["field_B_T"] = self.orbit_table.field_B(start["q"], 0, xp)
+        if self.sensors is not None:
+            w = k.add(start["omega_B"], start["gyro_bias"])
+            start.update(sensed_q=start["q"], latest_q=start["q"], sensed_omega_B=w,
+                         latest_omega_B=w)
 
     @property
     def observation_structure(self) -> dict:

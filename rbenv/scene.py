@@ -114,6 +114,7 @@ __all__ = [
     "Physics",
     "Scene",
     "SensorNoise",
+    "Sensors",
     "list_scenes",
     "load_scene",
     "mass_properties",
@@ -250,6 +251,42 @@ class SensorNoise:
 
 
 @dataclass(frozen=True)
+class Sensors:
+    """Sensing as flown (opt-in): the attitude the policy sees is integrated from a gyro.
+
+    ``attitude``: "true" (off: the observation's attitude and rate are the state's, or with
+    ``[sensor_noise]``) or "gyro": the measured rate is ``ω + b + σ_n n`` and the attitude
+    estimate moves with it from the true start, so it drifts from the truth by the integrated
+    bias and noise: ``q_est = q ⊗ δ``, ``δ ← δ ⊗ exp((b + σ_n n)·dt)`` each control step.
+    ``b`` is drawn per episode (``gyro_bias_sigma_dps`` 1σ per axis) and walks
+    (``gyro_bias_walk_dps_sqrt_s``: σ of its change over 1 s). ``delay_steps`` (0 or 1): the
+    observation shows the measurement of the previous control step. Rewards, success and
+    failure use the true state.
+    """
+
+    attitude: str = "true"
+    gyro_bias_sigma_dps: float = 0.0
+    gyro_bias_walk_dps_sqrt_s: float = 0.0
+    gyro_noise_dps: float = 0.0
+    delay_steps: int = 0
+
+    def __post_init__(self):
+        _choice("sensors.attitude", self.attitude, ("true", "gyro"))
+        for name in ("gyro_bias_sigma_dps", "gyro_bias_walk_dps_sqrt_s", "gyro_noise_dps"):
+            value = _number(f"sensors.{name}", getattr(self, name), low=0.0, high=100.0)
+            _unused(self.attitude, "gyro", f"sensors.{name}", value != 0.0)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "delay_steps", _number("sensors.delay_steps",
+                                                         self.delay_steps, low=0, high=1,
+                                                         integer=True))
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the observation is sensed as flown (gyro attitude or a delay)."""
+        return self.attitude == "gyro" or self.delay_steps > 0
+
+
+@dataclass(frozen=True)
 class Episode:
     """Episode rules: duration (s), loss-of-control rate, success thresholds, initial ranges."""
 
@@ -293,8 +330,9 @@ class Episode:
 def _unused(model: str, needs: str, path: str, is_set) -> None:
     if is_set and model != needs:
         group = path.split(".")[0]
+        key = "attitude" if group == "sensors" else "model"
         raise InvalidParameterError(
-            f"{path} is set but {group}.model is {model!r}; it only applies to model={needs!r}"
+            f"{path} is set but {group}.{key} is {model!r}; it only applies to {key}={needs!r}"
         )
 
 
@@ -318,6 +356,7 @@ class Scene:
     disturbance: Disturbance = field(default_factory=Disturbance)
     faults: Faults = field(default_factory=Faults)
     sensor_noise: SensorNoise = field(default_factory=SensorNoise)
+    sensors: Sensors = field(default_factory=Sensors)
     episode: Episode = field(default_factory=Episode)
     description: str = ""
     sources: tuple = ()
@@ -343,8 +382,8 @@ class Scene:
                 f"{sorted(_actuator_tables())}")
         for attr, cls in (("body", RigidBody), ("physics", Physics),
                           ("disturbance", Disturbance), ("faults", Faults),
-                          ("sensor_noise", SensorNoise), ("episode", Episode),
-                          ("orbit", Orbit)):
+                          ("sensor_noise", SensorNoise), ("sensors", Sensors),
+                          ("episode", Episode), ("orbit", Orbit)):
             if not isinstance(getattr(self, attr), cls):
                 raise InvalidParameterError(
                     f"{attr} must be a {cls.__name__}, got {type(getattr(self, attr)).__name__}"
@@ -357,6 +396,10 @@ class Scene:
             raise InvalidParameterError(
                 f"description must be a string, got {describe(self.description)}"
             )
+        if self.sensors.enabled and self.sensor_noise.model != "none":
+            raise InvalidParameterError(
+                "sensors (attitude from a gyro, or a delay) and sensor_noise.model = "
+                f"{self.sensor_noise.model!r} both shape the observation; give one of them")
         if self.thrusters is not None:
             validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
         steps = self.episode.duration / self.physics.control_dt
@@ -430,7 +473,8 @@ class Scene:
         tables = _actuator_tables()
         _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
                                     "physics", "disturbance", "faults", "sensor_noise",
-                                    "episode", "randomization", "tasks", "orbit", *tables})
+                                    "sensors", "episode", "randomization", "tasks", "orbit",
+                                    *tables})
         scene_name = data.get("name", name)
         if "name" in data and (not isinstance(scene_name, str) or not scene_name):
             raise InvalidParameterError(
@@ -447,7 +491,7 @@ class Scene:
             groups = {}
             for key, group in (("physics", Physics), ("disturbance", Disturbance),
                                ("faults", Faults), ("sensor_noise", SensorNoise),
-                               ("episode", Episode), ("orbit", Orbit)):
+                               ("sensors", Sensors), ("episode", Episode), ("orbit", Orbit)):
                 table = _table(data, key)
                 _check_keys(key, table, {f.name for f in dataclasses.fields(group) if f.init})
                 groups[key] = group(**table)

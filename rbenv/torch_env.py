@@ -132,6 +132,9 @@ def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
         _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
                 "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
                 "without it")
+    if plant.sensors is not None:
+        _refuse("scene", sc.name, "sensing as flown ([sensors]: gyro attitude, delay) is "
+                "NumPy-only yet; pick a scene without it")
     if autoreset_mode is AutoresetMode.NEXT_STEP:
         _refuse("autoreset_mode", "NEXT_STEP", "use SAME_STEP (default) or DISABLED")
     if render_mode is not None:

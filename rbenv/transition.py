@@ -22,6 +22,7 @@ from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.plant import Plant, StepNoise, nan_action_error
 from rbenv.state import Layout
+from rbenv.tasks.base import _DEG, error_quaternion
 
 __all__ = ["Outcome", "info", "layout", "observe", "raise_diverged", "start", "step"]
 
@@ -62,11 +63,14 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
     if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises
         return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged))
+    if plant.sensors is not None:
+        plant.sense(new, noise)
     if task.moving_target:
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
     obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
-        not plant.observed else observe(plant, task, new, noise.sensor, xp)
+        not plant.observed and plant.sensors is None else \
+        observe(plant, task, new, noise.sensor, xp)
     reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
     return new, tuple.__new__(Outcome, (obs, reward, terms, success, failure,
                                         info(plant, task, new, terms, success, xp), diverged))
@@ -81,8 +85,11 @@ def raise_diverged(plant: Plant, st, action) -> None:
 
 
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
-    """Observation components; with sensor noise, from the noisy measurement."""
-    if sensor_noise is None:
+    """Observation components; with sensor noise, from the noisy measurement; with sensors
+    as flown, from what they show (rbenv.sensing)."""
+    if plant.sensors is not None:
+        obs = task.observe(st, st.sensed_q, st.sensed_omega_B, xp)
+    elif sensor_noise is None:
         obs = task.observe(st, st.q, st.omega_B, xp)
     else:
         q, w = plant.measure(st, sensor_noise)
@@ -96,6 +103,10 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
     out = task.info(st, xp)
     for act in plant.actuators:
         act.info(st, xp, out)
+    if plant.sensors is not None and getattr(st, "q_target_conj", None) is not None:
+        # The attitude error the satellite believes (what its telemetry would log), degrees.
+        out["sensed_attitude_error_deg"] = error_quaternion(st.q_target_conj, st.sensed_q,
+                                                            xp)[1] * _DEG
     out["time_s"] = st.steps * plant.control_dt
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)

@@ -47,6 +47,9 @@ p_step = 0.0
 [sensor_noise]
 attitude = 0.0
 rate = 0.0
+[sensors]
+gyro_noise_dps = 0.0
+gyro_bias_walk_dps_sqrt_s = 0.0
 """
 
 
@@ -63,6 +66,9 @@ def quiet_scenes(tmp_path_factory) -> dict:
                 text = text.replace("[faults]\np_step = 0.0\n", "")
             if not plant.dist_noise:
                 text = text.replace("[disturbance]\nnoise_sigma = 0.0\n", "")
+            if not plant.gyro_noisy:
+                text = text.replace("[sensors]\ngyro_noise_dps = 0.0\n"
+                                    "gyro_bias_walk_dps_sqrt_s = 0.0\n", "")
             path.write_text(text)
             out[scene] = str(path)
         else:

@@ -36,7 +36,7 @@ def scene_dict(**overrides) -> dict:
 
 def test_list_scenes_names_the_shipped_files():
     assert list_scenes() == ["boom-sat", "cubesat-12u", "cubesat-12u-dr", "cubesat-12u-rw",
-                             "cubesat-6u-rw", "microsat-100kg"]
+                             "cubesat-6u-rw", "innocube-3u", "microsat-100kg"]
     assert rbenv.list_scenes() == list_scenes()
 
 

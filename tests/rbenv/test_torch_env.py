@@ -34,6 +34,12 @@ p_step = 0.0
 model = "none"
 attitude = 0.0
 rate = 0.0
+[sensors]
+attitude = "true"
+gyro_bias_sigma_dps = 0.0
+gyro_bias_walk_dps_sqrt_s = 0.0
+gyro_noise_dps = 0.0
+delay_steps = 0
 """
 UNSUPPORTED_TASKS = ("rbenv/SatelliteDesaturate-v0",)
 CASES = [(env_id, scene, mode)
