@@ -14,8 +14,9 @@ The scene's wheels must be laid out so that the logged speed (rpm) is the state'
 Metrics (each on the error at the logged time stamps, deg, the rotation angle of the
 target-relative quaternion): ``steady_deg`` its mean over the last 20 s; ``settle_1deg_s`` the
 first time after which it stays below 1° to the end (None if it ends above); the difference
-``|error(rbenv) − error(flight)|`` over every logged sample. The simulated error is the true one
-(``info["attitude_error_deg"]``); the flight logs its on-board estimate.
+``|error(rbenv) − error(flight)|`` over every logged sample. The flight logs its on-board
+estimate, so the simulated error is the sensed one where the scene has sensors as flown
+(``info["sensed_attitude_error_deg"]``), else the true one; the body rates likewise.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ SETTLE_DEG = 1.0
 _RPM = math.pi / 30.0  # rad/s per rpm
 DEFAULT_ENV_KWARGS = {"action_mode": "acceleration"}  # the flight commands wheel accelerations
 WHEEL_CLOCK_PAST_DELAY_S = 1e3  # s since the first command: past any start-up delay
+SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
 
 
 @dataclass(frozen=True)
@@ -145,7 +147,7 @@ def simulate(maneuvers: list[SubManeuver], scene, policy, *, env_id: str, env_kw
                                            deterministic=True)
             obs, _, term, trunc, info = envs.step(action)
             starts = np.zeros(n, bool)
-            _record(trace, k, envs, np.asarray(info[key]), alive)
+            _record(trace, k, envs, np.asarray(info.get(SENSED_ERROR, info[key])), alive)
             alive &= ~(term | trunc)
             if not alive.any():
                 break
@@ -162,7 +164,9 @@ def _record(trace: dict, k: int, envs, error_deg: np.ndarray, alive: np.ndarray)
     """Step ``k``'s error, body rate and wheel speeds of the envs still ``alive``."""
     st = envs.unwrapped._st  # the vector env's typed state: components of (N,) arrays
     trace["error_deg"][k, alive] = error_deg[alive]
-    trace["rate_dps"][k, alive] = np.degrees(np.stack(st.omega_B, axis=-1))[alive]
+    rate = getattr(st, "sensed_omega_B", None)  # the gyro's, with sensors as flown
+    rate = st.omega_B if rate is None else rate
+    trace["rate_dps"][k, alive] = np.degrees(np.stack(rate, axis=-1))[alive]
     if "wheel_rpm" in trace:
         trace["wheel_rpm"][k, alive] = (np.stack(st.wheel_speed, axis=-1) / _RPM)[alive]
 
