@@ -26,7 +26,7 @@ def add_arguments(sub) -> None:
     r.add_argument("--plot", default=None, metavar="PNG",
                    help="flight against rbenv, one panel per sub-maneuver (matplotlib)")
     r.add_argument("--env-id", default=None,
-                   help="the task (default: a run's own, else rbenv/SatelliteReorient-v0)")
+                   help="the task (default: a run's own, else rbenv/SatelliteReorient-v1)")
     r.add_argument("--env-kwargs", type=_json_object, default={},
                    help='JSON of gym.make options over {"action_mode": "acceleration"}')
     r.add_argument("--seed", type=int, default=0,

@@ -127,8 +127,8 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     table = scene_table(scene)
     base = rbenv.load_scene(scene)
     params = [p for p in parameters(table) if only is None or p.name in only]
-    kwargs = {"env_id": env_id or rbenv.ENV_ID, "env_kwargs": dict(replay_.DEFAULT_ENV_KWARGS),
-              "seed": seed}
+    kwargs = {"env_id": env_id or replay_.DEFAULT_ENV_ID,
+              "env_kwargs": dict(replay_.DEFAULT_ENV_KWARGS), "seed": seed}
 
     def residuals(x, delay_s, subset):
         variant = scene_variant(scene, overrides(params, x, table, delay_s), name=base.name)
@@ -218,7 +218,7 @@ def format_report(fit: Fit) -> str:
 
 
 def write_json(fit: Fit, path) -> Path:
-    data = {"scene": fit.scene_name, "policy": fit.policy, "telemetry": fit.folder,
+    data = {"scene": fit.scene_name, "policy": fit.policy, "telemetry": Path(fit.folder).name,
             "parameters": {n: {"value": v, "sigma": fit.sigmas[n]} for n, v in fit.values.items()},
             "cost": fit.cost, "notes": fit.notes}
     Path(path).write_text(json.dumps(data, indent=2) + "\n")

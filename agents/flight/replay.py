@@ -32,7 +32,6 @@ import numpy as np
 from rbenv.agents.policies.evaluate import SCRIPTED, make_policy
 from rbenv.agents.policies.load import load_policy
 
-import rbenv
 from rbenv.scene import Scene, load_scene
 from rbenv.telemetry import SubManeuver, load
 
@@ -40,6 +39,7 @@ STEADY_WINDOW_S = 20.0  # s: steady error is the mean over the sub-maneuver's la
 SETTLE_DEG = 1.0
 _RPM = math.pi / 30.0  # rad/s per rpm
 DEFAULT_ENV_KWARGS = {"action_mode": "acceleration"}  # the flight commands wheel accelerations
+DEFAULT_ENV_ID = "rbenv/SatelliteReorient-v1"  # reorientation (v0 and v1 fly the same)
 WHEEL_CLOCK_PAST_DELAY_S = 1e3  # s since the first command: past any start-up delay
 SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
 
@@ -94,7 +94,7 @@ def replay(root, scene, policy, *, env_id: str | None = None, env_kwargs: dict |
         kwargs.update(policy.env_kwargs)
         env_id = env_id or policy.env_id
     kwargs.update(env_kwargs or {})
-    env_id = env_id or rbenv.ENV_ID
+    env_id = env_id or DEFAULT_ENV_ID
     sim = simulate(maneuvers, scene, policy, env_id=env_id, env_kwargs=kwargs, seed=seed)
     replays = [ManeuverReplay(m, _folder_name(m.folder, root), m.error_deg, s["error_deg"])
                for m, s in zip(maneuvers, sim, strict=True)]
@@ -223,9 +223,9 @@ def write_json(result: dict, path) -> Path:
     return Path(path)
 
 
-def plot(result: dict, path) -> Path:
+def plot(result: dict, path, others: dict | None = None) -> Path:
     """PNG: flight against rbenv, attitude error (log scale) over time, one panel per
-    sub-maneuver."""
+    sub-maneuver; ``others`` (label → replay result of the same telemetry) adds curves."""
     try:
         import matplotlib
     except ImportError:
@@ -233,15 +233,18 @@ def plot(result: dict, path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    curves = {result["scene"]: result, **(others or {})}
     replays = result["replays"]
     cols = min(4, len(replays))
     rows = math.ceil(len(replays) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.8 * rows), squeeze=False,
                              sharey=True)
-    for ax, r in zip(axes.flat, replays, strict=False):
+    for i, (ax, r) in enumerate(zip(axes.flat, replays, strict=False)):
         t = r.maneuver.time_s
         ax.semilogy(t, np.maximum(r.flight_deg, 1e-2), "k.-", ms=2, lw=0.8, label="flight")
-        ax.semilogy(t, np.maximum(r.sim_deg, 1e-2), "C0-", lw=1.2, label="rbenv")
+        for j, (label, res) in enumerate(curves.items()):
+            ax.semilogy(t, np.maximum(res["replays"][i].sim_deg, 1e-2), f"C{j}-", lw=1.2,
+                        label=f"rbenv: {label}")
         ax.axhline(SETTLE_DEG, color="gray", ls=":", lw=0.8)
         ax.set_title(f"{r.folder} #{r.maneuver.index}", fontsize=8)
         ax.set_xlabel("time (s)")
@@ -249,12 +252,14 @@ def plot(result: dict, path) -> Path:
         ax.set_visible(False)
     for ax in axes[:, 0]:
         ax.set_ylabel("attitude error (deg)")
-    axes.flat[0].legend(fontsize=8)
-    s = result["summary"]
-    fig.suptitle(f"{result['policy']} in {result['scene']}: median |diff| "
-                 f"{s['median_abs_error_diff_deg']:.2f}°, steady flight "
-                 f"{s['flight_steady_deg_mean']:.2f}° / rbenv {s['sim_steady_deg_mean']:.2f}°",
-                 fontsize=10)
+    axes.flat[0].legend(fontsize=7)
+    title = [f"{result['policy']}; steady error (mean of the last 20 s) flight "
+             f"{result['summary']['flight_steady_deg_mean']:.2f}°"]
+    for label, res in curves.items():
+        s = res["summary"]
+        title.append(f"{label}: median |diff| {s['median_abs_error_diff_deg']:.2f}°, "
+                     f"steady {s['sim_steady_deg_mean']:.2f}°")
+    fig.suptitle("; ".join(title), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -23,8 +23,10 @@ FLOWN = {"realized_gain": 0.7, "deadband_rpm_s": 3.0, "startup_delay_s": 4.0}
 
 
 def scene_file(tmp_path, name, **wheels) -> str:
-    """innocube-3u with the given fixed wheel keys (None removes one), 40 s episodes."""
+    """innocube-3u with the given fixed wheel keys (None removes one) and the true attitude
+    (no sensors: the log below is of the true state)."""
     data = scene_table("innocube-3u")
+    data.pop("sensors", None)
     data["wheels"] = {k: v for k, v in {**data["wheels"], **wheels}.items() if v is not None}
     data["name"] = name
     path = tmp_path / f"{name}.toml"
@@ -156,3 +158,11 @@ def test_identify_profiles_the_start_up_delay(flight, tmp_path):
                             delay_grid_s=tuple(float(d) for d in range(9)))
     assert fit.values["startup_delay_s"] == 4.0
     assert 0.5 <= fit.sigmas["startup_delay_s"] <= 2.0
+
+
+def test_plot_without_matplotlib_names_the_extra(flight, tmp_path, monkeypatch):
+    folder, scene = flight
+    result = replay.replay(folder / "log", scene, "innocube-pd", env_id=ENV_ID)
+    monkeypatch.setitem(__import__("sys").modules, "matplotlib", None)
+    with pytest.raises(ImportError, match=r"rbenv\[train\]"):
+        replay.plot(result, tmp_path / "replay.png")
