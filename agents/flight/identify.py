@@ -34,10 +34,12 @@ from pathlib import Path
 
 import numpy as np
 from rbenv.agents.flight import replay as replay_
+from rbenv.core import quaternion
 from rbenv.core.errors import RbenvValueError
 from scipy.optimize import least_squares
 
 import rbenv
+from rbenv.actuators.wheels import parse_wheels
 from rbenv.scene import Scene, scene_table, scene_variant
 from rbenv.telemetry import load
 
@@ -71,6 +73,7 @@ class Fit:
     base: dict  # the scene's TOML tables it started from
     cost: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    cross_checks: dict = field(default_factory=dict)  # name -> (value, 1σ), other methods
 
 
 def parameters(table: dict) -> list[Parameter]:
@@ -161,12 +164,40 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     fit.overrides = overrides(params, result.x, table, delay)
     fit.cost["fit"] = _summary(result.fun, maneuvers)
     fit.cost["nfev"] = int(result.nfev)
+    if isinstance(table["wheels"]["inertia"], (int, float)):
+        fit.cross_checks["rotor_inertia_momentum"] = rotor_inertia_from_momentum(
+            maneuvers, base.body.inertia, parse_wheels(table["wheels"]).axes_B)
     if not any(p.name == "residual_dipole_z" for p in params):
         fit.notes.append("residual dipole not fitted: this rbenv's scenes have no "
                          "orbit.residual_dipole key, or the scene no magnetic field")
     fit.notes.append("gyro bias not fitted: the logged attitude is the on-board estimate, and "
                      "a bias needs a sensor model in the scene")
     return fit
+
+
+def rotor_inertia_from_momentum(maneuvers, inertia_B, axes_B) -> tuple[float, float]:
+    """Rotor inertia (kg m²) and its 1σ from momentum conservation alone, independent of the
+    simulation: within a sub-maneuver the angular momentum in the target frame,
+    ``R(q) (I ω + J Σ_i Ω_i ĝ_i)``, stays constant (the target fixed in inertial space, the
+    orbit's torques neglected), so J and one momentum per sub-maneuver solve a linear least
+    squares problem. inertia_B (3, 3) the whole satellite's, rotors included; axes_B (n, 3)."""
+    rows, rhs = [], []
+    count = len(maneuvers)
+    for m_index, m in enumerate(maneuvers):
+        q = m.q / np.linalg.norm(m.q, axis=1, keepdims=True)
+        r = quaternion.to_matrix(q)  # (K, 3, 3) body -> target
+        spin_B = (m.wheel_rpm * math.pi / 30.0) @ np.asarray(axes_B)  # Σ Ω_i ĝ_i, (K, 3)
+        body_B = np.radians(m.rate_dps) @ np.asarray(inertia_B).T  # I ω, (K, 3)
+        a = np.zeros((len(q), 3, 1 + 3 * count))
+        a[:, :, 0] = np.einsum("kij,kj->ki", r, spin_B)
+        a[:, :, 1 + 3 * m_index:4 + 3 * m_index] = -np.eye(3)
+        rows.append(a.reshape(-1, 1 + 3 * count))
+        rhs.append(-np.einsum("kij,kj->ki", r, body_B).ravel())
+    result = least_squares(lambda x: np.vstack(rows) @ x - np.concatenate(rhs),
+                           np.zeros(1 + 3 * count), method="lm")
+    dof = max(len(result.fun) - len(result.x), 1)
+    cov = (2.0 * result.cost / dof) * np.linalg.pinv(result.jac.T @ result.jac)
+    return float(result.x[0]), float(math.sqrt(cov[0, 0]))
 
 
 def _profile_delay(residuals, x, maneuvers, dof: int, grid: tuple) -> tuple[float, float]:
@@ -213,6 +244,8 @@ def format_report(fit: Fit) -> str:
     c = fit.cost
     lines.append(f"residual rms (weighted units): {c['start']['rms']:.3f} at the scene's values, "
                  f"{c['fit']['rms']:.3f} fitted ({c['nfev']} evaluations)")
+    for name, (value, sigma) in fit.cross_checks.items():
+        lines.append(f"cross-check, {name}: {value:.4g} ± {sigma:.2g}")
     lines += [f"note: {n}" for n in fit.notes]
     return "\n".join(lines)
 
@@ -220,6 +253,8 @@ def format_report(fit: Fit) -> str:
 def write_json(fit: Fit, path) -> Path:
     data = {"scene": fit.scene_name, "policy": fit.policy, "telemetry": Path(fit.folder).name,
             "parameters": {n: {"value": v, "sigma": fit.sigmas[n]} for n, v in fit.values.items()},
+            "cross_checks": {n: {"value": v, "sigma": e}
+                             for n, (v, e) in fit.cross_checks.items()},
             "cost": fit.cost, "notes": fit.notes}
     Path(path).write_text(json.dumps(data, indent=2) + "\n")
     return Path(path)
