@@ -2,7 +2,7 @@
 
     rbenv replay DIR --scene S --policy P --json OUT [--plot PNG] [--env-id ID]
                  [--env-kwargs JSON] [--seed N] [--trust-pickle]
-    rbenv identify DIR --scene S [--policy P] [--out SCENE.toml] [--json OUT]
+    rbenv identify DIR --scene S [--policy P] [--out SCENE.toml] [--json OUT] [--draws N]
 """
 
 from __future__ import annotations
@@ -45,6 +45,9 @@ def add_arguments(sub) -> None:
     i.add_argument("--json", default=None, metavar="OUT", help="write the fit's report here")
     i.add_argument("--env-id", default=None)
     i.add_argument("--seed", type=int, default=0)
+    i.add_argument("--draws", type=int, default=1,
+                   help="fly each sub-maneuver this many times, the scene's ranges and sensor "
+                        "noise drawn anew each time, and fit them all (default 1)")
 
 
 def run_replay(args) -> int:
@@ -61,7 +64,7 @@ def run_replay(args) -> int:
 
 def run_identify(args) -> int:
     fit = identify.identify(args.dir, args.scene, policy=args.policy, env_id=args.env_id,
-                            seed=args.seed)
+                            seed=args.seed, draws=args.draws)
     print(identify.format_report(fit))
     out = args.out or f"{fit.scene_name}-identified.toml"
     print(f"scene: {identify.write_scene(fit, out)}")

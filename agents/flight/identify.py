@@ -18,6 +18,8 @@ What the data can tell, and so what is fitted (each where the scene has it):
 * the wheels' ``startup_delay_s``, on whole control steps, by a profile over the first slew of
   each run (the only one it affects): the uncertainty is the band where the cost stays within
   one σ² of its minimum;
+* the gyro's white noise ``sensors.gyro_noise_dps``, where the scene has sensors as flown: it
+  dithers the controller across the deadband, so it sets the steady error;
 * a residual magnetic dipole along body z (``orbit.residual_dipole``), where this rbenv has
   the key and the scene Earth's field.
 
@@ -92,9 +94,13 @@ def parameters(table: dict) -> list[Parameter]:
             isinstance(v, (int, float)) for v in inertia):
         out += [Parameter("inertia_ratio_y_x", "", inertia[1] / inertia[0], 0.05, 20.0),
                 Parameter("inertia_ratio_z_x", "", inertia[2] / inertia[0], 0.05, 20.0)]
+    sensors = table.get("sensors", {})
+    if "gyro_noise_dps" in sensors:
+        out.append(Parameter("gyro_noise_dps", "deg/s", _mid(sensors["gyro_noise_dps"]),
+                             1e-4, 0.1))  # > 0: relative finite-difference steps
     orbit = table.get("orbit", {})
     if orbit.get("magnetic_field") and _has_residual_dipole():
-        out.append(Parameter("residual_dipole_z", "A m^2", 0.0, -1.0, 1.0))
+        out.append(Parameter("residual_dipole_z", "A m^2", 0.01, -1.0, 1.0))  # not 0: steps
     return out
 
 
@@ -114,19 +120,24 @@ def overrides(params: list[Parameter], x, table: dict, delay_s: float | None) ->
     if "inertia_ratio_y_x" in v:
         ix = float(table["body"]["inertia"][0])
         out["body"] = {"inertia": [ix, ix * v["inertia_ratio_y_x"], ix * v["inertia_ratio_z_x"]]}
+    if "gyro_noise_dps" in v:
+        out["sensors"] = {"gyro_noise_dps": v["gyro_noise_dps"]}
     if "residual_dipole_z" in v:
         out["orbit"] = {"residual_dipole": {"moment_B_Am2": [0.0, 0.0, v["residual_dipole_z"]]}}
     return out
 
 
 def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = None,
-             seed: int = 0, max_nfev: int = 40, only: tuple | None = None,
+             seed: int = 0, draws: int = 1, max_nfev: int = 40, only: tuple | None = None,
              delay_grid_s: tuple = DELAY_GRID_S) -> Fit:
     """Fit the parameters of ``scene`` (a shipped name or .toml path; :func:`parameters`) to
     the telemetry under ``root``; ``only``: the names to fit (default: all the scene has, and
     ``startup_delay_s`` where the scene has one), the others stay the scene's; delay_grid_s:
-    the start-up delays (s, evenly spaced) of the profile."""
-    maneuvers = load(root)
+    the start-up delays (s, evenly spaced) of the profile; draws: each sub-maneuver is flown
+    this many times side by side (the scene's drawn ranges and sensor noise drawn anew for
+    each), and all their residuals are fitted at once."""
+    logged = load(root)
+    maneuvers = logged * draws
     table = scene_table(scene)
     base = rbenv.load_scene(scene)
     params = [p for p in parameters(table) if only is None or p.name in only]
@@ -166,7 +177,7 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     fit.cost["nfev"] = int(result.nfev)
     if isinstance(table["wheels"]["inertia"], (int, float)):
         fit.cross_checks["rotor_inertia_momentum"] = rotor_inertia_from_momentum(
-            maneuvers, base.body.inertia, parse_wheels(table["wheels"]).axes_B)
+            logged, base.body.inertia, parse_wheels(table["wheels"]).axes_B)
     if not any(p.name == "residual_dipole_z" for p in params):
         fit.notes.append("residual dipole not fitted: this rbenv's scenes have no "
                          "orbit.residual_dipole key, or the scene no magnetic field")
