@@ -2,7 +2,9 @@
 
 Scenes: (a) torque-free rotation near the major axis, (b) near the intermediate axis (the
 Dzhanibekov flip), both against the exact Jacobi-elliptic solution (``rbenv.core.reference``); (c) a
-thruster-driven slew with piecewise-constant body torque against a tight SciPy DOP853 solution.
+thruster-driven slew with piecewise-constant body torque against a tight SciPy DOP853 solution;
+(d) each orbit torque (gravity gradient, rods, residual dipole, drag, SRP) evaluated at every
+stage, against SciPy of the same model (:mod:`benchmarks.orbit_torques`).
 Error: geodesic attitude angle at the final time, plus relative drift of energy and L_W.
 Cost: wall time per simulated second, for one body and per body in a batch of N = 4096.
 ``dominance`` says where ``splitting`` is cheaper than ``rk4`` and ``midpoint`` at equal error.
@@ -223,6 +225,20 @@ def plot(results: dict, costs: dict):
     return fig
 
 
+def orbit_work_precision() -> list[dict]:
+    """Scene (d): the orbit's torques, one at a time, on the 6U bus (benchmarks.orbit_torques):
+    error against solve_ivp of the same model and wall time per simulated second, per dt."""
+    from benchmarks import orbit_torques
+
+    conv = orbit_torques.convergence()
+    rows = orbit_torques.work_precision_rows(conv)
+    print("d: orbit torques (6U bus, 300 s): error against solve_ivp, rtol 1e-12")
+    print(table(rows, ["torque", "integrator", "dt", "error_rad", "us_per_simulated_s"]))
+    orders = [{"torque": n, **{i: r["order"] for i, r in per.items()}} for n, per in conv.items()]
+    print(table(orders, ["torque", *orbit_torques.CONV_STEPS]))
+    return rows
+
+
 def main() -> dict:
     body = RigidBody(mass=1.0, inertia=np.diag(MOMENTS))
     costs = step_costs(body)
@@ -239,8 +255,9 @@ def main() -> dict:
     print("splitting against rk4 and midpoint: rival cost / splitting cost at equal error")
     print(table(dom, ["scene", "rival", "cost", "best_ratio", "dominates_from_rad",
                       "dominates_to_rad"]))
+    orbit = orbit_work_precision()
     write_json("accuracy", {"dts": DTS, "costs": costs, "results": results,
-                            "recommendations": rec, "dominance": dom})
+                            "recommendations": rec, "dominance": dom, "orbit_torques": orbit})
     save_figure(plot(results, costs), "accuracy")
     return {"costs": costs, "results": results, "recommendations": rec, "dominance": dom}
 

@@ -682,6 +682,15 @@ def toml_mutations(scenes: dict, n: int, rng: random.Random):
                     EITHER if big <= 1000 else INVALID)
 
 
+DISTURBANCE_TABLES = {
+    "residual_dipole": {"moment_B_Am2": [0.01, -0.02, 0.03]},
+    "drag": {"area_m2": 0.06, "cd": 2.2, "cp_offset_B_m": [0.0, 0.0, 0.02],
+             "density_scale": 1.0},
+    "srp": {"area_m2": 0.06, "reflectivity": 0.3, "cp_offset_B_m": [0.0, 0.01, 0.0],
+            "epoch": "2025-03-20T12:00:00"},
+}
+
+
 def toml_probes(n: int, seed: int, tmp: Path, names: list[str]):
     import rbenv
 
@@ -692,6 +701,12 @@ def toml_probes(n: int, seed: int, tmp: Path, names: list[str]):
     scenes = {}
     for name in names:
         scenes[name] = tomllib.loads((folder / f"{name}.toml").read_text())
+    if "cubesat-6u-rw" in scenes:  # the orbit's opt-in disturbance tables, mutated too
+        import copy
+
+        variant = copy.deepcopy(scenes["cubesat-6u-rw"])
+        variant["orbit"].update(DISTURBANCE_TABLES)
+        scenes["cubesat-6u-rw+disturbances"] = variant
     rng = random.Random(seed)
     probes = []
     for i, (label, fields, text, expect) in enumerate(toml_mutations(scenes, n, rng)):

@@ -4,8 +4,8 @@
 
 Times one env step of ``SatelliteReorient-v1`` with ``action_mode="acceleration"`` (random
 actions, resets inline) through ``gym.make`` and, per sub-env, through the native vector env
-at N = 1024, for ``innocube-3u`` with every as-flown effect off (ideal wheels, true attitude:
-the reference), each effect switched on alone, and the shipped scene (all on). All in one run,
+at N = 1024, for ``innocube-3u`` with every as-flown effect off (ideal wheels, true attitude,
+no residual dipole: the reference), each effect switched on alone, and the shipped scene (all on). All in one run,
 interleaved (process CPU time, best of rounds), so each ratio to the reference is what a user
 pays for that effect ("model only what a scene requires").
 
@@ -33,12 +33,15 @@ def variants() -> dict:
 
     shipped = scene_table("innocube-3u")
     wheels, sensors = shipped["wheels"], shipped["sensors"]
-    off = {"wheels": dict.fromkeys(WHEEL_KEYS), "sensors": None}
+    dipole = shipped["orbit"]["residual_dipole"]
+    off = {"wheels": dict.fromkeys(WHEEL_KEYS), "sensors": None,
+           "orbit": {"residual_dipole": None}}
 
-    def alone(label, wheel_keys=(), sensor_keys=None):
+    def alone(label, wheel_keys=(), sensor_keys=None, with_dipole=False):
         over = {"wheels": {k: (wheels[k] if k in wheel_keys else None) for k in WHEEL_KEYS},
                 "sensors": None if sensor_keys is None else
-                {k: sensors[k] for k in sensor_keys}}
+                {k: sensors[k] for k in sensor_keys},
+                "orbit": {"residual_dipole": dipole if with_dipole else None}}
         return rbenv.scene_variant("innocube-3u", over, name=label)
 
     return {
@@ -50,6 +53,7 @@ def variants() -> dict:
             "gyro", sensor_keys=("attitude", "gyro_bias_sigma_dps",
                                  "gyro_bias_walk_dps_sqrt_s", "gyro_noise_dps")),
         "+ one-step observation delay": alone("delay", sensor_keys=("delay_steps",)),
+        "+ residual dipole (m x B at every stage)": alone("dipole", with_dipole=True),
         "innocube-3u (all on)": rbenv.load_scene("innocube-3u"),
     }
 

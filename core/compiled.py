@@ -186,8 +186,9 @@ def _make_loop(kernel):
                           np.empty(n_bodies))
         w0, w1, w2 = np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies)
         for n in range(n_bodies):
+            # no internal momentum, no state-dependent torque: compiled rigid bodies only
             qn, wn = kernel(body, _at(q, n), _at(w, n), h, _at(tau_B, n), _at(tau_W, n), None,
-                            None)  # no internal momentum: compiled rigid bodies only
+                            None, None)
             q0[n], q1[n], q2[n], q3[n] = qn
             w0[n], w1[n], w2[n] = wn
         return (q0, q1, q2, q3), (w0, w1, w2)
@@ -243,7 +244,7 @@ class CompiledIntegrator:
         frozen = _compiled_body(body)
         args = (frozen, tuple(q), tuple(w), float(h), None if tau_B is None else tuple(tau_B),
                 None if tau_W is None else tuple(tau_W))
-        return self._entry(self.kernel, frozen, tau_B, tau_W)(*args, None, None)
+        return self._entry(self.kernel, frozen, tau_B, tau_W)(*args, None, None, None)
 
     def _entry(self, function, frozen, tau_B, tau_W):
         """``function`` compiled for this body and these torque arguments, as its entry point:
@@ -257,8 +258,8 @@ class CompiledIntegrator:
             vec = types.UniTuple(item, 3)
             sig = [numba.typeof(frozen), types.UniTuple(item, 4), vec, types.float64,
                    types.none if tau_B is None else vec, types.none if tau_W is None else vec]
-            if function is self.kernel:  # momentum_B, momentum_rate_B: none (rigid body)
-                sig += [types.none, types.none]
+            if function is self.kernel:  # momentum_B, momentum_rate_B, torque_fn: none
+                sig += [types.none, types.none, types.none]
             entry = self._entries[key] = function.compile(tuple(sig))
         return entry
 

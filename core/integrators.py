@@ -15,6 +15,14 @@ its rate, N·m; every integrator takes them as the keywords ``momentum_B`` and
 ``momentum_rate_B`` (components; None: zero), with ``h_B`` moving linearly over the step. With
 None the step is the rigid body's, unchanged to the bit. The motor torque that spins a wheel
 up is internal: it moves momentum between bus and wheels and leaves ``I ω_B + h_B`` alone.
+
+A torque that depends on the state (the orbit's: gravity gradient, ``m × B`` with the field
+fixed in inertial axes, drag, radiation pressure) is the keyword ``torque_fn``: a callable
+``torque_fn(s, q, w) -> τ_B`` (3 components, N·m) evaluated once per stage for the whole batch,
+``s`` the stage's time as a fraction of the step (0, ½ or 1; a Python float), ``q`` the
+stage's unit quaternion and ``w`` its rate. rk4 calls it at each of its four stages, the Euler
+schemes at the start, and the kick schemes (midpoint, splitting) at the start and end
+attitudes with ``w = None``: they refuse a torque_fn whose attribute ``needs_rate`` is true.
 """
 
 from __future__ import annotations
@@ -49,6 +57,25 @@ def body_torque(q, tau_B, tau_W):
     return total
 
 
+def stage_torque(q, w, tau_B, tau_W, torque_fn, s):
+    """Body torque of one integrator stage: ``τ_B + Rᵀ τ_W + torque_fn(s, q, ω)`` (N·m
+    components); ``s`` the stage's time as a fraction of the step (0, ½ or 1)."""
+    total = body_torque(q, tau_B, tau_W)
+    if torque_fn is not None:
+        total = k.add(total, torque_fn(s, q, w))
+    return total
+
+
+def _refuse_rate_torque(name: str, torque_fn) -> None:
+    """The kick schemes evaluate the torque at the end of the step before the new rate is
+    known: they take torques of (t, q) only."""
+    if torque_fn is not None and getattr(torque_fn, "needs_rate", False):
+        raise InvalidParameterError(
+            f"integrator {name!r} kicks with the torque at the start and end attitudes and "
+            f"cannot evaluate a torque that depends on the body rate (torque_fn.needs_rate "
+            f"is true); use 'rk4'")
+
+
 def angular_acceleration(body: RigidBody, w, tau, h_B=None, h_dot_B=None):
     """``ω̇_B = I⁻¹(τ_B − ω_B × (I ω_B + h_B) − ḣ_B)`` (rad/s²); without internal momentum the
     gyroscopic term vanishes when isotropic."""
@@ -69,7 +96,7 @@ def _momentum_at(h_B, h_dot_B, t):
 
 
 def euler_seed(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
-               momentum_rate_B=None):
+               momentum_rate_B=None, torque_fn=None):
     """The lecture, to the letter: ``q ← N(q + ½dt ω q)``, ``ω_W ← ω_W + dt I_W⁻¹ τ_W``.
 
     No gyroscopic term: inconsistent for asymmetric inertia (a torque-free body keeps ω_W fixed
@@ -81,6 +108,8 @@ def euler_seed(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     """
     w_W = k.rotate(q, w)
     tau = body_torque(q, tau_B, tau_W)  # = Rᵀ τ_W
+    if torque_fn is not None:
+        tau = k.add(tau, torque_fn(0.0, q, w))
     if momentum_rate_B is not None:
         tau = k.sub(tau, momentum_rate_B)
     if body.is_isotropic:
@@ -91,34 +120,36 @@ def euler_seed(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     return q_new, k.rotate_inverse(q_new, k.add(w_W, alpha_W, h))
 
 
-def euler(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None):
+def euler(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None,
+          torque_fn=None):
     """Explicit Euler with the gyroscopic term: the lecture's scheme made consistent (order 1).
 
     ``ω_W ← ω_W + h I_W⁻¹(τ_W − ω_W × I_W ω_W)`` at the old state, and the lecture's
     quaternion update with the old ω. Unstable for h·|ω| ≳ 0.5 on asymmetric bodies.
     """
-    alpha = angular_acceleration(body, w, body_torque(q, tau_B, tau_W), momentum_B,
-                                 momentum_rate_B)
+    alpha = angular_acceleration(body, w, stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0),
+                                 momentum_B, momentum_rate_B)
     q_new = k.cayley(q, w, h)
     return q_new, k.rotate_inverse(q_new, k.rotate(q, k.add(w, alpha, h)))
 
 
 def semi_implicit(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
-                  momentum_rate_B=None):
+                  momentum_rate_B=None, torque_fn=None):
     """Semi-implicit (symplectic) Euler, MuJoCo's default: velocity first, then exact exp map.
 
     ``ω_B ← ω_B + h α_B(q, ω_B)``, ``q ← q ⊗ exp(h ω_B⁺)``. Order 1; the explicit gyroscopic
     term still diverges at high spin (h·|ω| ≳ 0.5).
     """
-    w_new = k.add(w, angular_acceleration(body, w, body_torque(q, tau_B, tau_W), momentum_B,
-                                          momentum_rate_B), h)
+    tau = stage_torque(q, w, tau_B, tau_W, torque_fn, 0.0)
+    w_new = k.add(w, angular_acceleration(body, w, tau, momentum_B, momentum_rate_B), h)
     return k.qnormalize(k.qmul(q, k.exp(k.scale(w_new, h)))), w_new
 
 
-def _rk4_rate(body, q, w, tau_B, tau_W, h_B=None, h_dot_B=None):
+def _rk4_rate(body, q, w, tau_B, tau_W, h_B=None, h_dot_B=None, torque_fn=None, s=0.0):
     q_dot = k.qmul_vec(q, k.scale(w, 0.5))
-    q_unit = q if tau_W is None else k.qnormalize(q)
-    return q_dot, angular_acceleration(body, w, body_torque(q_unit, tau_B, tau_W), h_B, h_dot_B)
+    q_unit = q if tau_W is None and torque_fn is None else k.qnormalize(q)
+    return q_dot, angular_acceleration(body, w, stage_torque(q_unit, w, tau_B, tau_W, torque_fn,
+                                                             s), h_B, h_dot_B)
 
 
 def _qadd(q, dq, s):
@@ -142,7 +173,8 @@ def _rk4_combine_q(y, k1, k2, k3, k4, h):
     return (*_rk4_combine(y, k1, k2, k3, k4, h), _rk4_sum(y, k1, k2, k3, k4, h / 6.0, 3))
 
 
-def rk4(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None):
+def rk4(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=None,
+        torque_fn=None):
     """Classical fourth-order Runge–Kutta on (q, ω_B), q normalised at the end of the step.
 
     Order 4; not conservative: it slowly loses energy once h·|ω| ≳ 1.
@@ -152,12 +184,14 @@ def rk4(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None, momentum_rate_B=
         h_mid = h1 = h0
     else:
         h_mid, h1 = _momentum_at(h0, h_dot, 0.5 * h), _momentum_at(h0, h_dot, h)
-    k1q, k1w = _rk4_rate(body, q, w, tau_B, tau_W, h0, h_dot)
+    f = torque_fn
+    k1q, k1w = _rk4_rate(body, q, w, tau_B, tau_W, h0, h_dot, f, 0.0)
     k2q, k2w = _rk4_rate(body, _qadd(q, k1q, 0.5 * h), k.add(w, k1w, 0.5 * h), tau_B, tau_W,
-                         h_mid, h_dot)
+                         h_mid, h_dot, f, 0.5)
     k3q, k3w = _rk4_rate(body, _qadd(q, k2q, 0.5 * h), k.add(w, k2w, 0.5 * h), tau_B, tau_W,
-                         h_mid, h_dot)
-    k4q, k4w = _rk4_rate(body, _qadd(q, k3q, h), k.add(w, k3w, h), tau_B, tau_W, h1, h_dot)
+                         h_mid, h_dot, f, 0.5)
+    k4q, k4w = _rk4_rate(body, _qadd(q, k3q, h), k.add(w, k3w, h), tau_B, tau_W, h1, h_dot, f,
+                         1.0)
     q_new = _rk4_combine_q(q, k1q, k2q, k3q, k4q, h)
     w_new = _rk4_combine(w, k1w, k2w, k3w, k4w, h)
     return k.qnormalize(q_new), w_new
@@ -283,7 +317,7 @@ def _solve_midpoint(body, m, h, h_int=None):
 
 
 def midpoint(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
-             momentum_rate_B=None):
+             momentum_rate_B=None, torque_fn=None):
     """Implicit midpoint on body momentum + Cayley attitude update (the default integrator).
 
     Torque enters by Strang splitting (half kick, free step, half kick). The free step solves
@@ -292,41 +326,43 @@ def midpoint(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
     With internal momentum m is the total ``I ω + h_B``, the body rate ``I⁻¹(m − h_B)`` with
     h_B at the midpoint of the step, and ``|m|`` and L_W stay exact whatever ``ḣ_B``.
     """
+    _refuse_rate_torque("midpoint", torque_fn)
     if momentum_B is not None or momentum_rate_B is not None:
-        return _midpoint_internal(body, q, w, h, tau_B, tau_W, momentum_B, momentum_rate_B)
-    forced = tau_B is not None or tau_W is not None
+        return _midpoint_internal(body, q, w, h, tau_B, tau_W, momentum_B, momentum_rate_B,
+                                  torque_fn)
+    forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = body.inertia_times(w)
     if forced:
-        m = k.add(m, body_torque(q, tau_B, tau_W), 0.5 * h)
+        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
     # Isotropic: m × I⁻¹m = 0, so the free step keeps m and turns about it.
     m_mid = m if body.is_isotropic else _solve_midpoint(body, m, h)
     q_new = k.cayley(q, body.inverse_times(m_mid), h)
     m_new = k.add(k.scale(m_mid, 2.0), m, -1.0)
     if forced:
-        m_new = k.add(m_new, body_torque(q_new, tau_B, tau_W), 0.5 * h)
+        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
     return q_new, body.inverse_times(m_new)
 
 
-def _midpoint_internal(body, q, w, h, tau_B, tau_W, h_B, h_dot_B):
+def _midpoint_internal(body, q, w, h, tau_B, tau_W, h_B, h_dot_B, torque_fn=None):
     """:func:`midpoint` with internal momentum (the motor torque is internal: no kick)."""
     zero = k.scale(w, 0.0)
     h0 = zero if h_B is None else h_B
     h_mid = h0 if h_dot_B is None else k.add(h0, h_dot_B, 0.5 * h)
     h1 = h0 if h_dot_B is None else k.add(h0, h_dot_B, h)
-    forced = tau_B is not None or tau_W is not None
+    forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = k.add(body.inertia_times(w), h0)
     if forced:
-        m = k.add(m, body_torque(q, tau_B, tau_W), 0.5 * h)
+        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
     m_mid = _solve_midpoint(body, m, h, h_mid)
     q_new = k.cayley(q, body.inverse_times(k.sub(m_mid, h_mid)), h)
     m_new = k.add(k.scale(m_mid, 2.0), m, -1.0)
     if forced:
-        m_new = k.add(m_new, body_torque(q_new, tau_B, tau_W), 0.5 * h)
+        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
     return q_new, body.inverse_times(k.sub(m_new, h1))
 
 
 def splitting(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
-              momentum_rate_B=None):
+              momentum_rate_B=None, torque_fn=None):
     """Explicit symplectic splitting of the free body (:mod:`rbenv.core.splitting`), torque as
     kicks.
 
@@ -340,14 +376,15 @@ def splitting(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
             "integrator 'splitting' splits the free body into exact rotations about its "
             "principal axes, which do not exist with internal angular momentum (momentum_B); "
             "use 'midpoint' (exact invariants) or 'rk4'")
-    forced = tau_B is not None or tau_W is not None
+    _refuse_rate_torque("splitting", torque_fn)
+    forced = tau_B is not None or tau_W is not None or torque_fn is not None
     m = body.inertia_times(w)
     if forced:
-        m = k.add(m, body_torque(q, tau_B, tau_W), 0.5 * h)
+        m = k.add(m, stage_torque(q, None, tau_B, tau_W, torque_fn, 0.0), 0.5 * h)
     frame = split.principal_frame(body)
     q_new, m_new = frame.to_body(*split.free_flow(frame, *frame.to_work(q, m), h))
     if forced:
-        m_new = k.add(m_new, body_torque(q_new, tau_B, tau_W), 0.5 * h)
+        m_new = k.add(m_new, stage_torque(q_new, None, tau_B, tau_W, torque_fn, 1.0), 0.5 * h)
     return q_new, body.inverse_times(m_new)
 
 
@@ -370,11 +407,12 @@ def chunked(kernel: Kernel) -> Kernel:
     one body (floats) and batches up to 2·BATCH_CHUNK go straight to the kernel.
     """
     def advance(body, q, w, h, tau_B=None, tau_W=None, momentum_B=None,
-                momentum_rate_B=None):
+                momentum_rate_B=None, torque_fn=None):
         c = q[0]
-        if momentum_B is not None or momentum_rate_B is not None:
+        if momentum_B is not None or momentum_rate_B is not None or torque_fn is not None:
+            # torque_fn evaluates the whole batch at once (its lookups index all N bodies)
             return kernel(body, q, w, h, tau_B, tau_W, momentum_B=momentum_B,
-                          momentum_rate_B=momentum_rate_B)
+                          momentum_rate_B=momentum_rate_B, torque_fn=torque_fn)
         if type(c) is float or np.size(c) <= 2 * BATCH_CHUNK:
             return kernel(body, q, w, h, tau_B, tau_W)
         n = np.size(c)

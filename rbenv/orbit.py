@@ -53,6 +53,11 @@ class Orbit:
     earth_rotation_deg: float = 0.0
     gravity_gradient: bool = False
     magnetic_field: bool = False
+    # Nested opt-in tables (rbenv.disturbances): a dict from the scene, parsed to a frozen
+    # dataclass here, or None.
+    residual_dipole: object = None
+    drag: object = None
+    srp: object = None
     radius: float = field(init=False)  # m
     mean_motion: float = field(init=False)  # rad/s
     p_hat: tuple = field(init=False, repr=False)  # ECI unit vector to the ascending node
@@ -72,6 +77,10 @@ class Orbit:
             if flag and self.model == "none":
                 raise InvalidParameterError(
                     f"orbit.{name} is true but orbit.model is 'none'; set model = 'circular'")
+        from rbenv.disturbances import parse_tables
+
+        for name, value in parse_tables(self).items():
+            object.__setattr__(self, name, value)
         r = R_EQ + 1e3 * self.altitude_km
         inc, raan = math.radians(self.inclination_deg), math.radians(self.raan_deg)
         object.__setattr__(self, "radius", r)
@@ -87,8 +96,9 @@ class Orbit:
 
     @property
     def torques(self) -> bool:
-        """Whether the orbit applies a torque of its own (gravity gradient)."""
-        return self.gravity_gradient
+        """Whether the orbit applies a torque of its own (gravity gradient, residual dipole,
+        drag, solar radiation pressure)."""
+        return bool(self.gravity_gradient or self.residual_dipole or self.drag or self.srp)
 
     @property
     def period(self) -> float:
@@ -103,6 +113,13 @@ class Orbit:
         c, s = xp.cos(u), xp.sin(u)
         p, q = self.p_hat, self.q_hat
         return (c * p[0] + s * q[0], c * p[1] + s * q[1], c * p[2] + s * q[2])
+
+    def along_track_N(self, t, xp) -> tuple:
+        """Unit velocity direction (3 components, ECI) at time t: d r̂_N / du."""
+        u = math.radians(self.arg_latitude_deg) + self.mean_motion * t
+        c, s = xp.cos(u), xp.sin(u)
+        p, q = self.p_hat, self.q_hat
+        return (-s * p[0] + c * q[0], -s * p[1] + c * q[1], -s * p[2] + c * q[2])
 
     # ------------------------------------------------------------------- torques, field
 
@@ -136,52 +153,67 @@ def gravity_gradient_torque_B(body, q_BN, r_hat_N: tuple, mean_motion: float) ->
 
 
 class OrbitTable:
-    """The orbit's direction and field at every integrator step of an episode, computed once.
+    """The orbit's inertial vectors at every half integrator step of an episode, computed once.
 
-    A step then looks them up by its substep index ``k`` (time ``k·h``) instead of evaluating
-    four sines and cosines per satellite: an int for one satellite, an (N,) int array for N.
-    Past the table (a step after the episode's end) the values are computed directly for one
-    satellite and held at the last entry for a batch (those sub-envs are being reset).
+    Entry ``i`` holds time ``i·h/2``: a substep ``j`` starts at entry ``2j``, and the stages of
+    the integrators (at 0, h/2 and h into the substep) look up ``2j``, ``2j + 1`` and
+    ``2j + 2`` instead of evaluating sines and cosines per satellite; ``index`` is an int for
+    one satellite, an (N,) int array for N. Vectors: ``direction`` (r̂_N), ``field`` (T, with
+    the magnetic field), ``drag`` and ``srp`` (forces, N, with those tables) and ``lit`` (1 in
+    sunlight, with SRP). Past the table (a step after the episode's end) the values are computed
+    directly for one satellite and held at the last entry for a batch (those sub-envs are being
+    reset).
     """
 
     def __init__(self, orbit: Orbit, h: float, substeps_per_episode: int):
         import numpy as np
 
+        from rbenv import disturbances as dist
         from rbenv.core.backend import NUMPY
 
         self.orbit, self.h = orbit, h
         self.gravity_gradient = orbit.gravity_gradient
-        size = substeps_per_episode + 2 * max(1, substeps_per_episode // 1000) + 64
-        t = np.arange(size) * h
+        size = 2 * (substeps_per_episode + 2 * max(1, substeps_per_episode // 1000) + 64)
+        t = np.arange(size) * (0.5 * h)
         self.last = size - 1
-        self.direction = tuple(np.ascontiguousarray(c) for c in orbit.direction_N(t, NUMPY))
-        self.field = tuple(np.ascontiguousarray(c) for c in orbit.field_N(t, NUMPY)) \
-            if orbit.magnetic_field else None
-        self._direction_f = list(zip(*(c.tolist() for c in self.direction), strict=True))
-        self._field_f = None if self.field is None else list(
-            zip(*(c.tolist() for c in self.field), strict=True))
+        self.direct = {"direction": orbit.direction_N}
+        if orbit.magnetic_field:
+            self.direct["field"] = orbit.field_N
+        if orbit.drag is not None:
+            self.direct["drag"] = lambda t, xp: dist.drag_force_N(orbit, t, xp)
+        if orbit.srp is not None:
+            self.direct["srp"] = lambda t, xp: dist.srp_force_N(orbit, t, xp)
+            self.direct["lit"] = lambda t, xp: (dist.sun_and_shadow(orbit, t, xp)[1],)
+        self.arrays = {name: tuple(np.ascontiguousarray(np.broadcast_to(c, t.shape))
+                                   for c in fn(t, NUMPY))
+                       for name, fn in self.direct.items()}
+        self.floats = {name: list(zip(*(c.tolist() for c in cols), strict=True))
+                       for name, cols in self.arrays.items()}
+        self.direction = self.arrays["direction"]
+        self.field = self.arrays.get("field")
 
-    def _lookup(self, table, floats, index, xp, direct):
+    def lookup(self, name: str, index, xp) -> tuple:
+        """Vector ``name`` at half-step ``index`` (components)."""
         if type(index) is int:
-            return floats[index] if index <= self.last else direct(index * self.h, xp)
+            if index <= self.last:
+                return self.floats[name][index]
+            return tuple(float(c) for c in self.direct[name](index * 0.5 * self.h, xp))
         index = xp.minimum(index, self.last)
         const = xp.const
-        return (const(table[0])[index], const(table[1])[index], const(table[2])[index])
+        return tuple(const(c)[index] for c in self.arrays[name])
 
     def direction_N(self, index, xp) -> tuple:
-        """r̂_N at substep ``index``."""
-        return self._lookup(self.direction, self._direction_f, index, xp,
-                            self.orbit.direction_N)
+        """r̂_N at half-step ``index``."""
+        return self.lookup("direction", index, xp)
 
     def field_N(self, index, xp) -> tuple:
-        """Earth's field (T, ECI) at substep ``index``."""
-        return self._lookup(self.field, self._field_f, index, xp, self.orbit.field_N)
-
-    def gravity_gradient_B(self, body, q_BN, index, xp) -> tuple:
-        """Gravity-gradient torque at substep ``index`` (:func:`gravity_gradient_torque_B`)."""
-        return gravity_gradient_torque_B(body, q_BN, self.direction_N(index, xp),
-                                         self.orbit.mean_motion)
+        """Earth's field (T, ECI) at half-step ``index``."""
+        return self.lookup("field", index, xp)
 
     def field_B(self, q_BN, index, xp) -> tuple:
-        """Earth's field in body axes at substep ``index``, T."""
+        """Earth's field in body axes at half-step ``index``, T."""
         return k.rotate_inverse(q_BN, self.field_N(index, xp))
+
+    def lit(self, index, xp):
+        """1.0 in sunlight, 0.0 in the Earth's shadow, at half-step ``index`` (with SRP)."""
+        return self.lookup("lit", index, xp)[0]

@@ -31,6 +31,7 @@ from rbenv.core import INTEGRATORS, validation
 from rbenv.core import kernels as k
 from rbenv.core.dynamics import check_finite_state, translate
 from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
+from rbenv.disturbances import OrbitTorque
 from rbenv.orbit import OrbitTable
 from rbenv.randomization import Randomization, draw_episode_model
 from rbenv.scene import Scene
@@ -82,6 +83,9 @@ class Plant:
     body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
     orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
     orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
+    # rbenv.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
+    # integrator stage; None without them (the kernels then run as for a free body).
+    orbit_torque: object = field(init=False, repr=False)
     action_shape: tuple = field(init=False)
     action_slices: tuple = field(init=False, repr=False)  # each actuator's slice of the action
     advance_kernel: object = field(init=False, repr=False)
@@ -127,6 +131,9 @@ class Plant:
         values["orbit_table"] = None if values["orbit"] is None else OrbitTable(
             values["orbit"], self.scene.physics.h, self.scene.episode_steps
             * self.scene.physics.substeps)
+        values["orbit_torque"] = OrbitTorque(values["orbit_table"], self.scene.body,
+                                             values["substeps"]) \
+            if OrbitTorque.needed(self.scene.orbit, acts) else None
         if values["randomization"] is not None and values["body"] is not self.scene.body:
             raise InvalidParameterError(
                 "domain randomization of the inertia does not know the wheels' rotors yet; "
@@ -144,7 +151,8 @@ class Plant:
                 raise InvalidParameterError(
                     f"compiled=True compiles rigid-body kernels only, but the actuators "
                     f"{stores} store angular momentum; use compiled=False")
-            values["advance_kernel"] = _compiled_advance(self.scene, values["randomization"])
+            values["advance_kernel"] = _compiled_advance(self.scene, values["randomization"],
+                                                         values["orbit_torque"])
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
@@ -154,6 +162,16 @@ class Plant:
     def translation(self) -> bool:
         """Whether the centre of mass moves (the scene models translation)."""
         return self.scene.physics.translation
+
+    @property
+    def eclipse_known(self) -> bool:
+        """Whether the scene models the Sun (``[orbit.srp]``): info then has ``eclipse``."""
+        return self.orbit is not None and self.orbit.srp is not None
+
+    def eclipse(self, st, xp):
+        """True (bool, or (N,) bools) where the satellite is in the Earth's cylindrical
+        shadow now."""
+        return self.orbit_table.lit(2 * st.steps * self.substeps, xp) == 0.0
 
     @property
     def thrusters(self) -> Thrusters | None:
@@ -279,23 +297,21 @@ class Plant:
         h, advance = self.h, self.advance_kernel
         q, w = st.q, st.omega_B
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
-        table = self.orbit_table
-        gg = table is not None and table.gravity_gradient
-        tau_c = tau
+        table, orbit_torque = self.orbit_table, self.orbit_torque
         try:
             for j in range(self.substeps):
                 if st.x is not None:  # actuators without a force (wheels, rods) push nothing
                     self._translate(st, body, k.rotate(q, _ZERO if c.force_B is None
                                                        else c.force_B))
-                if gg:  # held over the substep, from its start
-                    tau = k.add(tau_c, table.gravity_gradient_B(
-                        self.scene.body, q, st.steps * self.substeps + j, xp))
-                if h_int is None and h_dot is None:
+                if orbit_torque is not None:  # torques of (t, q), at every stage
+                    f = orbit_torque.stage(st.steps, j, c.dipole_B, xp)
+                    q, w = advance(body, q, w, h, tau, None, h_int, h_dot, f)
+                elif h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
                 else:  # internal momentum (wheels), moving linearly over the step
                     q, w = advance(body, q, w, h, tau, None, h_int, h_dot)
-                    if h_int is not None and h_dot is not None:
-                        h_int = k.add(h_int, h_dot, h)
+                if h_int is not None and h_dot is not None:
+                    h_int = k.add(h_int, h_dot, h)
         except RbenvValueError:
             raise
         except (OverflowError, ZeroDivisionError, ValueError):  # e.g. int() of an inf or NaN
@@ -311,7 +327,7 @@ class Plant:
         st.steps = st.steps + 1
         if table is not None:  # the actuators' bookkeeping and the field come with the orbit
             if st.field_B_T is not None:
-                st.field_B_T = table.field_B(q, st.steps * self.substeps, xp)
+                st.field_B_T = table.field_B(q, 2 * st.steps * self.substeps, xp)
         for act in self.accounting:
             act.account(st, c, self.control_dt, xp)
         return xp.not_finite((*q, sq))
@@ -450,7 +466,7 @@ def sum_contributions(parts) -> Contribution:
         total = Contribution(k.add(total.torque_B, c.torque_B), _add(total.force_B, c.force_B),
                              _add(total.momentum_B, c.momentum_B),
                              _add(total.momentum_rate_B, c.momentum_rate_B),
-                             total.effort + c.effort)
+                             total.effort + c.effort, _add(total.dipole_B, c.dipole_B))
     return total
 
 
@@ -495,10 +511,16 @@ def _check_integrator_supports(sc: Scene, rnd: Randomization | None) -> None:
             "inertia_rotation_deg > 0); use 'rk4' or 'midpoint'")
 
 
-def _compiled_advance(sc: Scene, rnd: Randomization | None):
+def _compiled_advance(sc: Scene, rnd: Randomization | None, orbit_torque):
     """The numba-compiled kernel of the scene's integrator (the extra ``rbenv[fast]``)."""
     from rbenv.core import compiled
 
+    if orbit_torque is not None:
+        raise InvalidParameterError(
+            "compiled=True compiles rigid-body kernels under a held torque, but the scene's "
+            "orbit torques (orbit.gravity_gradient, [magnetorquers], [orbit.residual_dipole], "
+            "[orbit.drag], [orbit.srp]) are evaluated at every integrator stage; use "
+            "compiled=False")
     if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg):
         raise InvalidParameterError(
             "compiled=True compiles one fixed inertia into the loop, so it cannot step "

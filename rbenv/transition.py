@@ -108,6 +108,8 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
         out["sensed_attitude_error_deg"] = error_quaternion(st.q_target_conj, st.sensed_q,
                                                             xp)[1] * _DEG
     out["time_s"] = st.steps * plant.control_dt
+    if plant.eclipse_known:
+        out["eclipse"] = plant.eclipse(st, xp)
     out["is_success"] = success
     out.update(zip(task.reward_keys, terms))  # noqa: B905 (same length by construction)
     if st.x is not None:

@@ -33,7 +33,10 @@ class Contribution(NamedTuple):
     (no translation modelled). momentum_B: internal angular momentum h_B, 3 components, N·m·s,
     or None (stores none). momentum_rate_B: ḣ_B, 3 components, N·m, or None. effort: the
     fraction of the actuator's full effort rate spent in the step, in [0, 1] (propellant flow
-    for thrusters, electrical power for wheels and magnetorquers); tasks price it.
+    for thrusters, electrical power for wheels and magnetorquers); tasks price it. dipole_B:
+    magnetic dipole, 3 components, A·m², or None; its torque ``m_B × R(q)ᵀ B_N(t)`` depends on
+    the attitude, so the plant evaluates it at every integrator stage (build with all six
+    values when bypassing the constructor, ``tuple.__new__``).
     """
 
     torque_B: tuple
@@ -41,6 +44,7 @@ class Contribution(NamedTuple):
     momentum_B: tuple | None
     momentum_rate_B: tuple | None
     effort: object
+    dipole_B: tuple | None = None
 
 
 @runtime_checkable

@@ -3,9 +3,11 @@
 An actuator of the plant (:mod:`rbenv.actuators.base`), configured by the scene table
 ``[magnetorquers]``: rod axes (body frame) and the largest dipole of each rod (A·m²). The action
 (every mode) is one entry per rod, the dipole as a fraction of its maximum in [-1, 1]; the body
-dipole is ``m_B = G_t μ`` and the torque ``m_B × B_B`` with the field of the scene's orbit
-(:mod:`rbenv.orbit`) in body axes at the start of the control step (held over it, as the
-envs hold every command). Only the part of a torque perpendicular to B can be made.
+dipole is ``m_B = G_t μ``, held over the control step as the envs hold every command, and the
+torque ``m_B × R(q)ᵀ B_N(t)`` with the field of the scene's orbit (:mod:`rbenv.orbit`), fixed in
+inertial axes: the plant evaluates it at every integrator stage (:mod:`rbenv.disturbances`),
+since the body turns under the field. Only the part of a torque perpendicular to B can be
+made.
 
 Effort: electrical power ``Σ |μ_i|/μ_max,i · P_max,i`` over its maximum (``power_W`` per rod at
 full dipole); ``mtq_energy_J`` accounts it. Observation part: the magnetometer, ``B_B`` over
@@ -107,8 +109,9 @@ class Magnetorquers:
         return tuple([clip(c, -1.0, 1.0) for c in action_components(a, xp)])
 
     def actuate(self, st, fraction, noise, xp) -> Contribution:
-        """``m_B × B_B`` with the field at the start of the step (the plant's ``field_B_T``);
-        sets the mtq_* fields."""
+        """The body dipole ``m_B`` (the contribution's ``dipole_B``), held over the step; the
+        plant evaluates ``m_B × R(q)ᵀ B_N(t)`` at every integrator stage. Sets the mtq_*
+        fields."""
         f = fraction  # one component per rod
         m_B = k.scale(self.dipoles[0], f[0])  # Σ μ_i ĝ_i, A·m², body axes
         power = abs(f[0]) * self.powers[0]
@@ -117,8 +120,8 @@ class Magnetorquers:
             power = power + abs(f[i]) * self.powers[i]
         st.mtq_dipole_B = m_B
         st.mtq_energy_J = st.mtq_energy_J + power * self.control_dt
-        return _new(Contribution, (k.cross(m_B, st.field_B_T), None, None, None,
-                                   power * self.inv_max_power))
+        zero = k.scale(m_B, 0.0)  # the torque m_B × B is the plant's, at every stage
+        return _new(Contribution, (zero, None, None, None, power * self.inv_max_power, m_B))
 
     def account(self, st, contribution, dt, xp) -> None:
         """Nothing after the physics."""

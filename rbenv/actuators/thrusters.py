@@ -151,7 +151,7 @@ class Thrusters:
         st.fuel_kg = st.fuel_kg + impulse * self.fuel_per_impulse
         force = (parts[4], parts[5], parts[6]) if len(parts) > 4 else None
         return _new(Contribution, ((parts[0], parts[1], parts[2]), force, None, None,
-                                   thrust * self.inv_total_thrust))
+                                   thrust * self.inv_total_thrust, None))
 
     def _faults_and_delay(self, st, u: np.ndarray, fault_draw, rx) -> np.ndarray:
         """Throttles that actually fire: mid-episode faults, failed thrusters, control delay."""

@@ -341,7 +341,7 @@ class Wheels:
         st.wheel_momentum, st.wheel_torque = h, u
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
         return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
-                                   power * self.inv_max_power))
+                                   power * self.inv_max_power, None))
 
     def _as_flown(self, st, u: tuple, xp) -> tuple:
         """The motor torques the wheels realize of commanded ``u`` (components): zero below the

@@ -237,6 +237,12 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
 
     **Version History**
 
+    * v0, orbit torques evaluated where they act (a physics fix, same version): on a scene
+      with an orbit (``cubesat-6u-rw``) the gravity gradient and the rods' ``m × B`` (the
+      field fixed in inertial axes, the dipole command held) are evaluated at every
+      integrator stage instead of held over the substep in body axes, so its episodes
+      change: with idle wheels and random rod commands (seed 1,000,000) the attitude moves
+      by 8e-4 rad after 230 s at 10 s × 4. Scenes without an orbit are bit-identical.
     * v0: first release.
     """
 

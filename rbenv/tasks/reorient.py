@@ -255,8 +255,9 @@ OPTIONS_TABLE
     **Action** ``Box(-1, 1, (n,), float32)``, one entry per thruster: the throttle (duty cycle
     over the control step) is ``clip(a, 0, 1)``, so ``a ≤ 0`` is off. ``on_off``: ``a > 0``
     fires at full throttle. ``torque``: ``Box(-1, 1, (3,))``, a body torque as a fraction of
-    the per-axis authority, turned into throttles by the allocator. Values outside [-1, 1] are
-    clipped; NaN raises ``ValueError``.
+    the per-axis authority, turned into throttles by the allocator. ``acceleration`` (wheels):
+    one entry per wheel, the wheel acceleration as a fraction of the scene's command clamp
+    (``innocube-3u``). Values outside [-1, 1] are clipped; NaN raises ``ValueError``.
 
     **Observation** ``Box(-1, 1, (7,), float32)``, ``observation_structure``
     ``{"q_err": 4, "omega_B": 3}``: the canonical error quaternion ``q_target* ⊗ q`` (w ≥ 0;
@@ -279,11 +280,20 @@ OPTIONS_TABLE
     with faults.
 
     **Reset options**: ``{"q": (4,), "omega_B": (3,), "q_target": (4,)}`` replace the sampled
-    start. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a pure function of (s, e)
-    (:mod:`rbenv.draws`).
+    start; with wheels also ``"wheel_speed": (n,)`` (rad/s) and, with wheels as flown,
+    ``"wheel_clock_s": (1,)`` (s since their first command; −1 before it). With ``[sensors]``
+    the observation is the gyro-integrated, delayed measurement and info adds
+    ``sensed_attitude_error_deg``. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a
+    pure function of (s, e) (:mod:`rbenv.draws`).
 
     **Version History**
 
+    * v0, orbit torques evaluated where they act (a physics fix, same version): on a scene
+      with an orbit (``cubesat-6u-rw``) the gravity gradient and the rods' ``m × B`` (the
+      field fixed in inertial axes, the dipole command held) are evaluated at every
+      integrator stage instead of held over the substep in body axes, so its episodes
+      change: with idle wheels and random rod commands (seed 1,000,000) the attitude moves
+      by 2.3e-5 rad after its 80 s. Scenes without an orbit are bit-identical.
     * v0: first release. Episode starts are counter-based draws (since rbenv 0.2; rbenv 0.1
       drew them from ``np_random``, so seeded episodes differ between the two). rbenv 0.2 adds
       the ``precision`` reward term, weight 0 by default: default rewards are unchanged to the

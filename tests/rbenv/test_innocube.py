@@ -178,3 +178,20 @@ def test_flight_pd_stalls_with_the_wheels_as_flown_and_converges_without():
     flown = evaluate("innocube-pd", scene="innocube-3u", **kw).final_error_deg
     clean = evaluate("innocube-pd", scene=ideal, **kw).final_error_deg
     assert np.all(clean < 0.2) and np.median(flown) > 1.0
+
+
+def test_scene_variant_switches_single_effects_off():
+    shipped = rbenv.load_scene("innocube-3u")
+    assert shipped.actuators["wheels"].as_flown and shipped.sensors.enabled
+    assert shipped.orbit.residual_dipole is not None
+    ideal = rbenv.scene_variant("innocube-3u", {
+        "wheels": {"deadband_rpm_s": None, "realized_gain": None, "startup_delay_s": None},
+        "sensors": None, "orbit": {"residual_dipole": None}}, name="ideal")
+    assert ideal.name == "ideal" and not ideal.actuators["wheels"].as_flown
+    assert not ideal.sensors.enabled and ideal.orbit.residual_dipole is None
+    fixed = rbenv.scene_variant("innocube-3u", {"wheels": {"realized_gain": 0.8}})
+    assert fixed.actuators["wheels"].realized_gain == 0.8
+    with pytest.raises(InvalidParameterError, match="overrides must be a dict"):
+        rbenv.scene_variant("innocube-3u", [("wheels", {})])
+    with pytest.raises(InvalidParameterError, match="shipped name"):
+        rbenv.scene_variant("no-such-scene", {})
