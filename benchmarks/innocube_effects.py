@@ -6,13 +6,13 @@ every logged start of InnoCube telemetry, with innocube-3u's effects switched on
 DIR is a telemetry folder (e.g. ``lelar-in-orbit-data/maneuver_data/pd``; the data is not in
 this repository). Rows, each with everything of the row above: ideal wheels and the true
 attitude; + the command deadband; + the realized gain; + the start-up delay; + the wheel-speed
-quantization; + the sensors as flown (gyro-integrated attitude, one-step delay) = innocube-3u
-as shipped; and, with ``--identified``, an identified scene. Ranges of the scene (and the
-gyro's noise) are drawn per episode from each seed 0..N-1 (``--seeds``, default 5). Per row,
-as the mean over the seeds (with their range): the median |error(rbenv) − error(flight)| over
-every logged sample, the mean of the sub-maneuvers' steady errors (last 20 s); and the mean
-over the seeds of the median steady error and of the median settle time below 1°. The figure
-is seed 0's.
+quantization; + the sensors as flown (gyro-integrated attitude, one-step delay); + the residual
+magnetic dipole = innocube-3u as shipped; and, with ``--identified``, an identified scene.
+Ranges of the scene (and the gyro's noise) are drawn per episode from each seed 0..N-1
+(``--seeds``, default 5). Per row, as the mean over the seeds (with their range): the median
+|error(rbenv) − error(flight)| over every logged sample, the mean of the sub-maneuvers' steady
+errors (last 20 s); and the mean over the seeds of the median steady error and of the median
+settle time below 1°. The figure is seed 0's.
 
 Writes ``innocube_effects.json``, ``innocube_effects.md`` (the table) and ``replay_pd.png``
 (flight against innocube-3u as shipped, and the identified scene) into FOLDER (default
@@ -43,11 +43,14 @@ ROWS = (("ideal wheels, true attitude", ()),
 def variants(identified: str | None) -> dict:
     """Row label → scene (a Scene, or a name/path)."""
     out, wheels = {}, scene_table("innocube-3u")["wheels"]
+    no_dipole = {"orbit": {"residual_dipole": None}}
     for label, keys in ROWS:
         over = {"wheels": {k: (wheels[k] if k in keys else None) for k in WHEEL_KEYS},
-                "sensors": None}
+                "sensors": None, **no_dipole}
         out[label] = rbenv.scene_variant("innocube-3u", over, name="innocube-3u")
-    out["+ sensors as flown (gyro attitude, delay) = innocube-3u"] = "innocube-3u"
+    out["+ sensors as flown (gyro attitude, delay)"] = rbenv.scene_variant(
+        "innocube-3u", no_dipole, name="innocube-3u")
+    out["+ residual dipole = innocube-3u"] = "innocube-3u"
     if identified:
         out[f"identified ({Path(identified).name})"] = identified
     return out

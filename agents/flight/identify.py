@@ -20,8 +20,9 @@ What the data can tell, and so what is fitted (each where the scene has it):
   one σ² of its minimum;
 * the gyro's white noise ``sensors.gyro_noise_dps``, where the scene has sensors as flown: it
   dithers the controller across the deadband, so it sets the steady error;
-* a residual magnetic dipole along body z (``orbit.residual_dipole``), where this rbenv has
-  the key and the scene Earth's field.
+* a residual magnetic dipole (``orbit.residual_dipole``, three body components, A m²), where
+  the scene has Earth's field; its torque m × B turns with the orbit, which a slew's two minutes
+  barely see, so expect wide uncertainties.
 
 The identified scene is written as TOML beside the scene it started from, every fitted value
 quoted in ``sources``.
@@ -100,7 +101,9 @@ def parameters(table: dict) -> list[Parameter]:
                              1e-4, 0.1))  # > 0: relative finite-difference steps
     orbit = table.get("orbit", {})
     if orbit.get("magnetic_field") and _has_residual_dipole():
-        out.append(Parameter("residual_dipole_z", "A m^2", 0.01, -1.0, 1.0))  # not 0: steps
+        start = orbit.get("residual_dipole", {}).get("moment_B_Am2", [0.0, 0.0, 0.0])
+        out += [Parameter(f"residual_dipole_{axis}", "A m^2", float(m) or 0.01, -1.0, 1.0)
+                for axis, m in zip("xyz", start, strict=True)]  # 0.01: relative steps
     return out
 
 
@@ -122,8 +125,9 @@ def overrides(params: list[Parameter], x, table: dict, delay_s: float | None) ->
         out["body"] = {"inertia": [ix, ix * v["inertia_ratio_y_x"], ix * v["inertia_ratio_z_x"]]}
     if "gyro_noise_dps" in v:
         out["sensors"] = {"gyro_noise_dps": v["gyro_noise_dps"]}
-    if "residual_dipole_z" in v:
-        out["orbit"] = {"residual_dipole": {"moment_B_Am2": [0.0, 0.0, v["residual_dipole_z"]]}}
+    if "residual_dipole_x" in v:
+        out["orbit"] = {"residual_dipole": {"moment_B_Am2": [v[f"residual_dipole_{a}"]
+                                                             for a in "xyz"]}}
     return out
 
 
@@ -178,7 +182,7 @@ def identify(root, scene, *, policy: str = "innocube-pd", env_id: str | None = N
     if isinstance(table["wheels"]["inertia"], (int, float)):
         fit.cross_checks["rotor_inertia_momentum"] = rotor_inertia_from_momentum(
             logged, base.body.inertia, parse_wheels(table["wheels"]).axes_B)
-    if not any(p.name == "residual_dipole_z" for p in params):
+    if not any(p.name.startswith("residual_dipole") for p in params):
         fit.notes.append("residual dipole not fitted: this rbenv's scenes have no "
                          "orbit.residual_dipole key, or the scene no magnetic field")
     fit.notes.append("gyro bias not fitted: the logged attitude is the on-board estimate, and "
