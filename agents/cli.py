@@ -8,6 +8,8 @@
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv export RUN_DIR|policy.pt --format c|onnx --out DIR [--trust-pickle]
     rbenv bench NAME [--out DIR]
+    rbenv replay DIR --scene S --policy P [--json OUT] [--plot PNG]   (flight telemetry)
+    rbenv identify DIR --scene S [--out SCENE.toml]
 
 Only what is asked for is written: evaluate prints its table and writes files only with
 --json, --plot, --video or --out. Torch, Stable-Baselines3 and matplotlib are imported only
@@ -24,6 +26,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from rbenv.agents.flight import commands as flight
 from rbenv.agents.policies import compiled, runfolder
 from rbenv.agents.policies.evaluate import (
     check_policy,
@@ -214,6 +217,7 @@ def _parser() -> Parser:
                         "pass benchmarks/results in a checkout to refresh the committed ones)")
     tune.add_arguments(suite.add_arguments(sub.add_parser(
         "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
+    flight.add_arguments(sub)  # replay, identify: flight telemetry
     return p
 
 
@@ -417,7 +421,7 @@ def parse(argv: list[str] | None = None, parser: Parser | None = None) -> argpar
 
 
 COMMANDS = {"train": _train, "evaluate": _evaluate, "bench": _bench, "suite": _suite,
-            "export": _export}
+            "export": _export, **flight.COMMANDS}
 
 
 def _feature(args) -> str:

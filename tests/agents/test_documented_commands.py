@@ -15,7 +15,7 @@ from rbenv.agents import cli
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 COMMAND = re.compile(r"(?:^|[`\s])(?:\.venv/bin/)?(?:python -m rbenv|rbenv)"
-                     r" ((?:train|evaluate|bench|suite|export)\b[^`\n#|]*)")
+                     r" ((?:train|evaluate|bench|suite|export|replay|identify)\b[^`\n#|]*)")
 MODULE = re.compile(r"python -m ((?:rbenv|benchmarks)[\w.]*)")
 
 
