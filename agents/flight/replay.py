@@ -29,7 +29,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from rbenv.agents.policies.evaluate import SCRIPTED, make_policy
+from rbenv.agents.policies.evaluate import make_policy, scripted
 from rbenv.agents.policies.load import load_policy
 
 from rbenv.scene import Scene, load_scene
@@ -89,7 +89,7 @@ def replay(root, scene, policy, *, env_id: str | None = None, env_kwargs: dict |
     maneuvers = load(root)
     label = policy if isinstance(policy, str) else type(policy).__name__
     kwargs = dict(DEFAULT_ENV_KWARGS)
-    if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
+    if isinstance(policy, str) and policy not in scripted() and Path(policy).exists():
         policy = load_policy(policy, trust_pickle=trust_pickle)
         kwargs.update(policy.env_kwargs)
         env_id = env_id or policy.env_id
