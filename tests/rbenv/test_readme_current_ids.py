@@ -30,7 +30,7 @@ def test_the_defaults_are_the_current_versions():
 
 def test_no_readme_command_makes_an_out_of_date_id():
     lines = [line for line in README.read_text().splitlines() if MAKES.search(line)]
-    assert len(lines) >= 5
+    assert len(lines) >= 3  # the Quick start's makes (by rbenv.ENV_ID: checked above)
     old = [(line, m.group(0)) for line in lines for m in ID.finditer(line)
            if int(m.group(2)) < _latest(m.group(1))]
     assert not old, old
