@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
+from rbenv.actuators.thrusters import G0
 from rbenv.core.errors import InvalidParameterError
-from rbenv.scene import G0, Scene, load_scene
+from rbenv.scene import Scene, load_scene
 
 __all__ = [
     "SceneLimits",
