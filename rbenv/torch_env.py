@@ -55,18 +55,17 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array
+from rbenv.adapter import TaskAdapter, action_array, autoreset_mode_of, unknown_options
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
 from rbenv.draws import check_seed
-from rbenv.env import unknown_options
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import State
 from rbenv.torch_draws import TorchDraws
 
-__all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv", "torch_env_class", "torch_vector_env_class"]
+__all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv"]
 
 DTYPES = {"float64": torch.float64, "float32": torch.float32}
 IMPLICIT = ("midpoint", "splitting")
@@ -160,9 +159,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
                  autoreset_mode=AutoresetMode.SAME_STEP, render_mode=None, compiled=False,
-                 device="cpu", dtype="float64", compile=False, check_every=1, **unknown):
-        from rbenv.vector_env import _autoreset_mode
-
+                 device="cpu", dtype="float64", compile=False, check_every=1, task=None,
+                 **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
@@ -176,8 +174,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                                         f"dtype), got {dtype!r}")
         self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
-        self.autoreset_mode = _autoreset_mode(autoreset_mode)
-        single_action, single_obs = self._setup(options, None, ())
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        single_action, single_obs = self._setup(task, options, None, ())
         check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
         # Both spaces in the env's dtype: what it returns, and what it computes actions in.
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, single_action.shape,
@@ -487,7 +485,6 @@ class TorchEnv(gym.Env):
     """
 
     metadata: ClassVar[dict] = {"render_modes": []}
-    vector_class: ClassVar[type]
 
     def __init__(self, scene=None, **options):
         for name in ("num_envs", "autoreset_mode"):
@@ -496,7 +493,7 @@ class TorchEnv(gym.Env):
                                 f"argument {name!r}: it is "
                                 f"one satellite; use gym.make_vec(ID, backend='torch') for a "
                                 f"batch")
-        self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,
+        self.env = TorchVectorEnv(1, scene, autoreset_mode=AutoresetMode.DISABLED,
                                      **options)
         # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
         # gymnasium.Env); the vector env's spaces are in its dtype.
@@ -534,27 +531,3 @@ class TorchEnv(gym.Env):
 
     def close(self):
         self.env.close()
-
-
-def _task_class(name: str, parent: type, task_name: str, **attrs) -> type:
-    """``parent`` for one task (``task_name``), made once and kept in this module, so that it
-    pickles by reference."""
-    cls = globals().get(name)
-    if cls is None or cls.task_name != task_name:
-        cls = type(name, (parent,), {"task_name": task_name, "__module__": __name__,
-                                     "__qualname__": name, **attrs})
-        globals()[name] = cls
-    return cls
-
-
-def torch_vector_env_class(base: type) -> type:
-    """The torch vector-env class for a task's NumPy vector-env class (same ``task_name``)."""
-    return _task_class(base.__name__.replace("VectorEnv", "TorchVectorEnv"), TorchVectorEnv,
-                       base.task_name)
-
-
-def torch_env_class(base: type) -> type:
-    """The torch single-env class for a task's NumPy single-env class (same ``task_name``)."""
-    stem = base.__name__.removesuffix("Env")
-    vector = _task_class(stem + "TorchVectorEnv", TorchVectorEnv, base.task_name)
-    return _task_class(stem + "TorchEnv", TorchEnv, base.task_name, vector_class=vector)

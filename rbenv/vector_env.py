@@ -1,8 +1,8 @@
 """Native NumPy vector envs: N satellites stepped by the same transition as the single env.
 
 :class:`AttitudeVectorEnv` is the thin ``gymnasium.vector.VectorEnv`` adapter over
-:mod:`rbenv.transition` with (N,) arrays; each registered id has a subclass naming its task, set
-as the id's ``vector_entry_point``.
+:mod:`rbenv.transition` with (N,) arrays; each shipped id has a subclass naming its task entry,
+set as the id's ``vector_entry_point``.
 """
 
 from __future__ import annotations
@@ -15,25 +15,21 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array, backend_twin
+from rbenv.adapter import (
+    TaskAdapter,
+    action_array,
+    autoreset_mode_of,
+    check_backend,
+    task_of,
+    unknown_options,
+)
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws, check_seed
-from rbenv.env import unknown_options
 from rbenv.options import ENV_OPTIONS
 from rbenv.state import State, assign, from_start
-
-_MODES = {mode.value: mode for mode in AutoresetMode}
-
-
-def _autoreset_mode(value) -> AutoresetMode:
-    mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
-    if mode is None:
-        raise InvalidParameterError(
-            f"autoreset_mode must be an AutoresetMode (NEXT_STEP, SAME_STEP or DISABLED) or one "
-            f"of their values {sorted(_MODES)}, got {value!r}")
-    return mode
+from rbenv.tasks import desaturate, detumble, reorient, track
 
 
 class AttitudeVectorEnv(TaskAdapter, VectorEnv):
@@ -68,18 +64,21 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
                                 "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def __new__(cls, *args, backend="numpy", **kwargs):
+    def __new__(cls, *args, backend="numpy", task=None, **kwargs):
         """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
         needs torch); "numpy" (default) this one."""
-        twin = backend_twin(cls, backend)
-        return super().__new__(cls) if twin is None else twin(*args, **kwargs)
+        if check_backend(backend):
+            from rbenv.torch_env import TorchVectorEnv
+
+            return TorchVectorEnv(*args, task=task_of(cls, task), **kwargs)
+        return super().__new__(cls)
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
                  autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False,
-                 backend="numpy", **unknown):
+                 backend="numpy", task=None, **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
@@ -87,8 +86,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
-            options, render_mode, ("rgb_array",))
-        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+            task, options, render_mode, ("rgb_array",))
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -306,19 +305,56 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             self._renderer = None
 
 
-def vector_env_class(spec) -> type:
-    """The vector-env class of a registry entry (:mod:`rbenv.registry`), e.g.
-    ``SatelliteReorientVectorEnv``: :class:`AttitudeVectorEnv` naming the entry's task. It is
-    made once per entry and kept in this module, so it pickles by reference."""
-    name = spec.class_stem + "VectorEnv"
-    cls = globals().get(name)
-    if cls is None or cls.task_name != spec.name:
-        doc = (f"Vector form of :class:`rbenv.{spec.class_stem}Env` (see "
-               ":class:`AttitudeVectorEnv`).")
-        cls = type(name, (AttitudeVectorEnv,), {"task_name": spec.name, "__doc__": doc,
-                                                "__module__": __name__, "__qualname__": name})
-        globals()[name] = cls
-    return cls
+# One class per shipped id (rbenv.registry registers each as the id's vector entry point).
+
+
+class SatelliteReorientVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteReorientEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = reorient.SPEC
+
+
+class SatelliteDetumbleVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDetumbleEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = detumble.SPEC
+
+
+class SatelliteTrackVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteTrackEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = track.SPEC
+
+
+class SatelliteDesaturateVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDesaturateEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = desaturate.SPEC
+
+
+class SatelliteReorientV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteReorientV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = reorient.SPEC_V1
+
+
+class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDetumbleV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = detumble.SPEC_V1
+
+
+class SatelliteTrackV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteTrackV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = track.SPEC_V1
+
+
+# env id -> its class.
+SHELLS = {cls.task_spec.env_id: cls for cls in (
+    SatelliteReorientVectorEnv, SatelliteDetumbleVectorEnv, SatelliteTrackVectorEnv,
+    SatelliteDesaturateVectorEnv, SatelliteReorientV1VectorEnv, SatelliteDetumbleV1VectorEnv,
+    SatelliteTrackV1VectorEnv)}
 
 
 def _array_ids(st) -> set:

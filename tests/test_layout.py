@@ -13,12 +13,14 @@ TESTS = ROOT / "tests"
 # Each package folder and the test folder that mirrors it.
 MIRROR = {"core": "core", "rbenv": "rbenv", "agents": "agents",
           "agents/baselines": "agents/baselines", "agents/policies": "agents/policies",
-          "agents/training": "agents/training", "benchmarks": "benchmarks"}
+          "agents/training": "agents/training", "agents/settings": "agents/settings",
+          "benchmarks": "benchmarks"}
 # What a test folder's files must import (one name at least); benchmarks/ is above every package,
 # and the rest of rbenv above core.
 SUBJECT = {"core": "rbenv.core", "rbenv": "rbenv", "agents": "rbenv.agents",
            "agents/baselines": "rbenv.agents.baselines", "agents/policies": "rbenv.agents.policies",
-           "agents/training": "rbenv.agents.training", "benchmarks": "benchmarks"}
+           "agents/training": "rbenv.agents.training", "agents/settings": "rbenv.agents.settings",
+           "benchmarks": "benchmarks"}
 
 
 def _under(name: str, package: str) -> bool:

@@ -25,9 +25,10 @@ from rbenv.agents.baselines.controllers import (
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
+from rbenv.registry import plain_env
 from rbenv.rendering import save_video
 from rbenv.scene import DEFAULT_SCENE
-from rbenv.usage import InvalidChoiceError, invalid_choice, plain_env
+from rbenv.usage import InvalidChoiceError, invalid_choice
 
 ANY_TASK = ("zero", "random")  # scripted policies of every task, beside the registry's baselines
 

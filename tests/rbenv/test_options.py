@@ -25,14 +25,14 @@ SCENES = rbenv.list_scenes()
 def _keywords(function, skip=()) -> dict:
     return {name: p.default for name, p in inspect.signature(function).parameters.items()
             if p.kind is p.KEYWORD_ONLY or (p.kind is p.POSITIONAL_OR_KEYWORD and
-                                             name not in ("self", "task_name", "num_envs"))
+                                             name not in ("self", "spec", "num_envs"))
             if name not in skip}
 
 
 @pytest.mark.parametrize("constructor", [AttitudeEnv.__init__, AttitudeVectorEnv.__init__, build],
                          ids=["env", "vector_env", "tasks.build"])
 def test_constructors_take_exactly_the_declared_options_with_their_defaults(constructor):
-    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend")  # backend: vector
+    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend", "task")
     assert _keywords(constructor, skip=extra) == options.DEFAULTS
 
 
