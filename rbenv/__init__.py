@@ -1,4 +1,5 @@
-"""rbenv: attitude control of a thruster-actuated satellite, as Gymnasium environments.
+"""rbenv: attitude control of a satellite (thrusters, reaction wheels, torque rods), as Gymnasium
+environments.
 
 ``import rbenv`` registers four tasks on one plant, each with a single env and a native NumPy
 vector env (its ``vector_entry_point``)::
