@@ -17,6 +17,7 @@ from gymnasium.vector import AutoresetMode
 from rbenv import transition
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
+from rbenv.options import AUTORESET_DEFAULT
 from rbenv.tasks import build
 from rbenv.tasks.spec import TaskSpec
 
@@ -65,8 +66,11 @@ def unknown_options(owner: str, unknown: dict, valid) -> None:
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
-def autoreset_mode_of(value) -> AutoresetMode:
-    """``value`` as an :class:`AutoresetMode` (the mode or its value); a named error else."""
+def autoreset_mode_of(value, backend: str) -> AutoresetMode:
+    """``value`` as an :class:`AutoresetMode` (the mode or its value; None: ``backend``'s
+    default, :data:`rbenv.options.AUTORESET_DEFAULT`); a named error else."""
+    if value is None:
+        return AUTORESET_DEFAULT[backend]
     mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
     if mode is None:
         raise InvalidParameterError(

@@ -98,7 +98,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
             a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
-        st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True)
+        st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True,
+                                  max_steps=self._max_steps)
         if out.diverged:  # the step updated the state it was given: the episode is over
             self._st = None
             self._diverged = True
@@ -106,9 +107,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._st = st
         if self.render_mode == "human":
             self.render()
-        terminated = bool(out.failure or (out.success and self.task.success_terminates))
-        return (np.array(out.obs, dtype=np.float32), out.reward, terminated,
-                st.steps >= self._max_steps, out.info)
+        return (np.array(out.obs, dtype=np.float32), out.reward, bool(out.terminated),
+                out.truncated, out.info)
 
     # ------------------------------------------------------------------- rendering
 

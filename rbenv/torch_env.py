@@ -60,7 +60,7 @@ from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
 from rbenv.draws import check_seed
-from rbenv.options import ENV_OPTIONS
+from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import State
 from rbenv.torch_draws import TorchDraws
@@ -152,13 +152,13 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
     between divergence checks on the host; 0: only at reset and :meth:`check`).
     """
 
-    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT["torch"]}
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.SAME_STEP, render_mode=None, compiled=False,
+                 autoreset_mode=None, render_mode=None, compiled=False,
                  device="cpu", dtype="float64", compile=False, check_every=1, task=None,
                  **unknown):
         if unknown:
@@ -174,7 +174,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                                         f"dtype), got {dtype!r}")
         self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
-        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "torch")
         single_action, single_obs = self._setup(task, options, None, ())
         check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
         # Both spaces in the env's dtype: what it returns, and what it computes actions in.
@@ -359,12 +359,10 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         """The transition on the batch: (new state, obs (N, d), reward, terminated, truncated,
         terms, success, diverged). No host reads (the step that ``compile=True`` compiles)."""
         new, out = transition.step(self.plant, self.task, st, action, NO_NOISE, self.xp,
-                                   own_action=True)
+                                   own_action=True, max_steps=self._max_steps)
         diverged = out.diverged | torch.isnan(action).any(dim=1)
-        terminated = out.failure | (out.success & self.task.success_terminates)
-        truncated = new.steps >= self._max_steps
-        return (new, self._stack(out.obs), self._tensor(out.reward), terminated, truncated,
-                out.terms, out.success, diverged)
+        return (new, self._stack(out.obs), self._tensor(out.reward), out.terminated,
+                out.truncated, out.terms, out.success, diverged)
 
     def step(self, actions):
         """Step all sub-envs. actions: an (N, k) tensor (moved to the env's device)."""

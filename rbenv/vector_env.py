@@ -27,7 +27,7 @@ from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
 from rbenv.draws import EpisodeDraws, check_seed
-from rbenv.options import ENV_OPTIONS
+from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.state import State, assign, from_start
 from rbenv.tasks import desaturate, detumble, reorient, track
 
@@ -37,7 +37,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
     ``max_episode_steps`` (``make_vec`` passes the registered value; the scene's duration also
-    applies, whichever is shorter), ``autoreset_mode``, and ``compiled`` (True: step with the
+    applies, whichever is shorter), ``autoreset_mode`` (unset: NEXT_STEP,
+    :data:`rbenv.options.AUTORESET_DEFAULT`), and ``compiled`` (True: step with the
     numba-compiled kernels of :mod:`rbenv.core.compiled`, from the extra ``rbenv[fast]``; the first
     step pays a few seconds of compilation).
 
@@ -62,7 +63,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
-                                "autoreset_mode": AutoresetMode.NEXT_STEP}
+                                "autoreset_mode": AUTORESET_DEFAULT["numpy"]}
 
     def __new__(cls, *args, backend="numpy", task=None, **kwargs):
         """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
@@ -77,7 +78,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False,
+                 autoreset_mode=None, render_mode=None, compiled=False,
                  backend="numpy", task=None, **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
@@ -87,7 +88,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
             task, options, render_mode, ("rgb_array",))
-        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "numpy")
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -200,44 +201,50 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                 "before the next step")
         st, out = transition.step(self.plant, self.task, st, a,
                                   self.plant.draw_step_noise(self.np_random, self.num_envs),
-                                  NUMPY, own_action=True)
+                                  NUMPY, own_action=True, max_steps=self._max_steps)
         if out.diverged.any():
             transition.raise_diverged(self.plant, st, a)
         self._st = st
         terms, reward, success = out.terms, out.reward, out.success
-        terminated = out.failure | (success & self.task.success_terminates)
-        truncated = st.steps >= self._max_steps
+        terminated, truncated = out.terminated, out.truncated
         obs, extra = self._stack(out.obs), {}
+        info = self._own_info(out.info)  # the step's info, built once
         flags = (reward, success, terminated, truncated)
         mode = self.autoreset_mode
         if mode is AutoresetMode.NEXT_STEP:
             if self._prev_done.any():
-                self._restart(np.flatnonzero(self._prev_done), obs, terms, flags)
+                self._restart(np.flatnonzero(self._prev_done), obs, info, terms, flags)
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.DISABLED:
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.SAME_STEP:
             done = terminated | truncated
             if done.any():
-                extra = self._final(done, obs, self._info(terms, success))
-                self._restart(np.flatnonzero(done), obs, terms, (success,))
-        info = self._info(terms, success)
+                extra = self._final(done, obs, info)
+                self._restart(np.flatnonzero(done), obs, info, terms, (success,))
         info.update(extra)
         self._obs = obs
         return obs, reward, terminated, truncated, info
 
-    def _restart(self, idx: np.ndarray, obs: np.ndarray, terms, flags) -> None:
-        """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``,
-        and their rows of ``terms`` and ``flags`` (this step's fresh arrays) zeroed in place."""
+    def _restart(self, idx: np.ndarray, obs: np.ndarray, info: dict, terms, flags) -> None:
+        """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``
+        and their reset info into the rows of ``info``, and their rows of ``terms`` and
+        ``flags`` (this step's fresh arrays) zeroed in place."""
         start = self._start(idx)
         assign(self._st, self._layout, idx, start)
-        view = State()
-        view.__dict__.update(start)  # the new episodes alone, as a state of len(idx)
+        view = State()  # the new episodes alone, as a state of len(idx)
+        view.__dict__.update({name: start.get(name) for name in self._layout.kinds}, **start)
         noise = self.plant.draw_sensor_noise(self.np_random, len(idx))
         obs[idx] = self._stack(transition.observe(self.plant, self.task, view, noise, NUMPY),
                                len(idx))
         for arr in (*terms, *flags):
             arr[idx] = 0
+        k = len(idx)
+        fresh = transition.info(self.plant, self.task, view,
+                                transition.zero_terms(self.task, np.zeros(k)),
+                                np.zeros(k, dtype=bool), NUMPY)
+        for key, value in fresh.items():
+            info[key][idx] = value
 
     def _actions(self, actions) -> np.ndarray:
         """Actions as float64 (N, k); TypeError for a non-array or non-real values (None,
@@ -271,6 +278,22 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     def _observation(self) -> np.ndarray:
         noise = self.plant.draw_sensor_noise(self.np_random, self.num_envs)
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
+
+    def _own_info(self, values: dict) -> dict:
+        """A step's info dict (:func:`rbenv.transition.info` of every sub-env) as this env
+        returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
+        writes the state in place, and SyncVectorEnv's info never changes), each with its
+        ``_key`` mask."""
+        out, mask = {}, self._mask
+        owned = _array_ids(self._st)
+        for key, value in values.items():
+            if np.ndim(value) == 0:
+                value = np.array(np.broadcast_to(value, mask.shape))
+            elif id(value) in owned:
+                value = value.copy()
+            out[key] = value
+            out["_" + key] = mask
+        return out
 
     def _info(self, terms, success) -> dict:
         """Info of every sub-env, or, in a partial reset (the mask :meth:`_reset_mask` kept),
