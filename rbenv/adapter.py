@@ -17,6 +17,7 @@ from gymnasium.vector import AutoresetMode
 from rbenv import transition
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
+from rbenv.draws import check_seed
 from rbenv.options import AUTORESET_DEFAULT
 from rbenv.tasks import build
 from rbenv.tasks.spec import TaskSpec
@@ -77,6 +78,23 @@ def autoreset_mode_of(value, backend: str) -> AutoresetMode:
             f"autoreset_mode must be an AutoresetMode (NEXT_STEP, SAME_STEP or DISABLED) or one "
             f"of their values {sorted(_MODES)}, got {value!r}")
     return mode
+
+
+def seed_list(seed, num_envs: int) -> list[int] | None:
+    """The episode-start seed of each sub-env for a vector env's ``reset(seed=)``: sub-env i
+    gets s + i for an int s, or entry i of a list (array, tensor) of ``num_envs`` seeds, each
+    checked by :func:`rbenv.draws.check_seed`; None for None."""
+    if seed is None:
+        return None
+    if isinstance(seed, (list, tuple, np.ndarray)) or (hasattr(seed, "tolist")
+                                                       and not np.isscalar(seed)):
+        if len(seed) != num_envs:
+            raise InvalidParameterError(
+                f"seed list must have num_envs = {num_envs} entries, got {len(seed)}")
+        return [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
+                for i, s in enumerate(seed)]
+    s = check_seed(seed)
+    return [s + i for i in range(num_envs)]
 
 
 def check_backend(backend) -> bool:

@@ -55,11 +55,16 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array, autoreset_mode_of, unknown_options
+from rbenv.adapter import (
+    TaskAdapter,
+    action_array,
+    autoreset_mode_of,
+    seed_list,
+    unknown_options,
+)
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
-from rbenv.draws import check_seed
 from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import State
@@ -320,18 +325,9 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return obs, info
 
     def _seed_tensor(self, seed):
-        if seed is None:
+        values = seed_list(seed, self.num_envs)
+        if values is None:
             return None
-        n = self.num_envs
-        if isinstance(seed, (list, tuple, np.ndarray, torch.Tensor)):
-            if len(seed) != n:
-                raise InvalidParameterError(
-                    f"seed list must have num_envs = {n} entries, got {len(seed)}")
-            values = [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
-                      for i, s in enumerate(seed)]
-        else:
-            s = check_seed(seed)
-            values = [s + i for i in range(n)]
         if max(values) >= 2**63:
             raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
                                         f"{max(values)}")

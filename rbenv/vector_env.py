@@ -20,13 +20,14 @@ from rbenv.adapter import (
     action_array,
     autoreset_mode_of,
     check_backend,
+    seed_list,
     task_of,
     unknown_options,
 )
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
-from rbenv.draws import EpisodeDraws, check_seed
+from rbenv.draws import EpisodeDraws
 from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.state import State, assign, from_start
 from rbenv.tasks import desaturate, detumble, reorient, track
@@ -118,7 +119,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         n = self.num_envs
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
-        seeds = self._seed_list(seed)
+        seeds = seed_list(seed, self.num_envs)
         super().reset(seed=None if seeds is None else int(seeds[0]))
         if seeds is not None:
             self._seeds = np.array(seeds, dtype=np.uint64) if self._seeds is None or mask.all() \
@@ -142,17 +143,6 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             info.update({key: mask for key in info if key.startswith("_")})
         self._obs = obs
         return obs, info
-
-    def _seed_list(self, seed):
-        if seed is None:
-            return None
-        if isinstance(seed, (list, tuple, np.ndarray)):
-            if len(seed) != self.num_envs:
-                raise InvalidParameterError(
-                    f"seed list must have num_envs = {self.num_envs} entries, got {len(seed)}")
-            return [check_seed(s, f"seed[{i}]") for i, s in enumerate(seed)]
-        s = check_seed(seed)
-        return [s + i for i in range(self.num_envs)]
 
     def _reset_mask(self, mask) -> np.ndarray:
         """The (N,) bool mask of ``options["reset_mask"]``, checked in Gymnasium's order and
