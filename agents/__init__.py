@@ -1,5 +1,7 @@
-"""rbenv agents, in three parts, each importing only the parts below it:
+"""rbenv agents, in four parts, each importing only the parts below it:
 
+- :mod:`rbenv.agents.settings`: the training settings of each env id (scripted baselines,
+  hyperparameters, budgets), apart from the envs;
 - :mod:`rbenv.agents.baselines`: scripted controllers and the trajectory optimiser;
 - :mod:`rbenv.agents.policies`: trained and scripted policies behind one ``predict()``
   (loading SB3 and RLlib models from run folders) and their seeded evaluation;

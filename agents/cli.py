@@ -54,7 +54,7 @@ from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv import usage
+from rbenv import registry, usage
 
 BENCH_OUT = "bench-results"
 
@@ -267,7 +267,7 @@ def _train(args) -> int:
         if cfg.algo != "ppo":
             raise usage.invalid_choice("algo", cfg.algo, ["ppo"],
                                        what="one of --engine torchrl's algorithms:")
-        usage.check_env_options(cfg.env_id, {"scene": cfg.scene})
+        registry.check_env_options(cfg.env_id, {"scene": cfg.scene})
         from rbenv.agents.training import torchrl  # the ecosystem extra (torch, TorchRL)
 
         return torchrl.train_from_config(cfg, TorchRLOptions(**flags.given(args, options)))
@@ -295,7 +295,7 @@ def _check_evaluate(args) -> None:
         options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}
     if args.scene is not None:
         options["scene"] = args.scene
-    usage.check_env_options(env_id, options)
+    registry.check_env_options(env_id, options)
     check_policy(args.policy, env_id, options)  # a baseline the scene cannot run: where it can
     for name in ("json", "plot", "video"):
         path = getattr(args, name)

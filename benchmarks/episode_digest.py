@@ -5,8 +5,10 @@
 Each case runs seeded episodes with fixed random actions through ``gym.make`` (single env) or
 ``gym.make_vec`` (native vector env, N = 1, 7 and 40 000) and hashes, step by step, the raw
 bytes of every observation, reward, termination and truncation flag and every info value
-(keys sorted). The cases cover every task, scene, action mode, allocator and integrator, with
-and without the compiled kernels, in all three autoreset modes. The probe runs in a fresh
+(keys sorted). The cases cover every shipped id (v0 and v1), scene, action mode, allocator and
+integrator, with and without the compiled kernels, in all three autoreset modes, and the torch
+vector env (CPU, float64) in its two. A case that raises (a task on a scene it cannot run on)
+digests its error message. The probe runs in a fresh
 interpreter per source tree (``PYTHONPATH`` set to it); the two trees' digests must be equal.
 
 Writes ``<out>/episode_digest.json`` (default ``benchmarks/results``) with the digest of every
@@ -32,7 +34,9 @@ from gymnasium.vector import AutoresetMode
 warnings.simplefilter("ignore")
 QUICK = sys.argv[1] == "1"
 IDS = {"reorient": "rbenv/SatelliteReorient-v0", "detumble": "rbenv/SatelliteDetumble-v0",
-       "track": "rbenv/SatelliteTrack-v0"}
+       "track": "rbenv/SatelliteTrack-v0", "desaturate": "rbenv/SatelliteDesaturate-v0",
+       "reorient_v1": "rbenv/SatelliteReorient-v1", "detumble_v1": "rbenv/SatelliteDetumble-v1",
+       "track_v1": "rbenv/SatelliteTrack-v1"}
 INTEGRATORS = ("euler_seed", "euler", "semi_implicit", "rk4", "midpoint", "splitting")
 
 
@@ -47,6 +51,8 @@ def feed(h, value):
             feed(h, v)
     elif value is None:
         h.update(b"None")
+    elif hasattr(value, "detach"):  # a torch tensor: its values, as NumPy
+        feed(h, value.detach().cpu().numpy())
     else:
         arr = np.asarray(value)
         h.update(str(arr.dtype).encode())
@@ -81,6 +87,24 @@ def vector(task, kw, n, steps, mode):
     return h.hexdigest()
 
 
+def torch_vector(task, kw, n, steps, mode):
+    import torch
+
+    torch.set_num_threads(1)
+    env = gym.make_vec(IDS[task], num_envs=n, backend="torch", autoreset_mode=mode, **kw)
+    h = hashlib.sha256()
+    rng = np.random.default_rng(7)
+    feed(h, env.reset(seed=11))
+    for _ in range(steps):
+        out = env.step(torch.as_tensor(rng.uniform(-1.2, 1.2, env.action_space.shape)))
+        feed(h, out)
+        if mode is AutoresetMode.DISABLED:
+            done = out[2] | out[3]
+            if bool(done.any()):
+                feed(h, env.reset(options={"reset_mask": done}))
+    return h.hexdigest()
+
+
 def cases():
     scenes = rbenv.list_scenes()
     steps = 120 if QUICK else 400
@@ -102,6 +126,8 @@ def cases():
         yield f"vector7/{task}/torque", vector, (task, {"action_mode": "torque"}, 7, steps, AutoresetMode.SAME_STEP)
         yield f"vector40000/{task}", vector, (task, {}, 40_000, 3 if QUICK else 12, AutoresetMode.NEXT_STEP)
         yield f"vector40000/{task}/dr", vector, (task, {"scene": "cubesat-12u-dr"}, 40_000, 3 if QUICK else 8, AutoresetMode.SAME_STEP)
+        for mode in (AutoresetMode.SAME_STEP, AutoresetMode.DISABLED):
+            yield f"torch7/{task}/{mode.value}", torch_vector, (task, {"integrator": "rk4"}, 7, steps, mode)
         try:
             import numba  # noqa: F401
         except ImportError:

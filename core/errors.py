@@ -6,6 +6,8 @@ the rule it broke, so that a user can fix the input without reading the source.
 
 from __future__ import annotations
 
+import reprlib
+
 import numpy as np
 
 
@@ -29,23 +31,24 @@ class NonFiniteError(InvalidParameterError):
     """
 
 
+# Bounds of describe()'s repr: long strings, deep nesting and big containers are cut short.
+_repr = reprlib.Repr()
+_repr.maxstring = 60
+_repr.maxother = 60
+_repr.maxlevel = 3
+_repr.maxlist = _repr.maxtuple = _repr.maxdict = _repr.maxset = 6
+
+
 def describe(value) -> str:
-    """Short, readable rendering of a value for error messages; see
-    :func:`rbenv.core.validation.show`."""
-    from rbenv.core.validation import show
-
-    return show(value)
-
-
-def require_finite(name: str, value) -> np.ndarray:
-    """``value`` as a finite float array; see :func:`rbenv.core.validation.finite_array`."""
-    from rbenv.core.validation import finite_array
-
-    return finite_array(name, value)
-
-
-def require_positive(name: str, value) -> float:
-    """``value`` as a finite float > 0; see :func:`rbenv.core.validation.positive`."""
-    from rbenv.core.validation import positive
-
-    return positive(name, value)
+    """A short repr of any value for error messages (bounded in length and nesting depth);
+    :func:`rbenv.core.validation.show` is this function."""
+    if (isinstance(value, np.ndarray) and value.ndim == 0) or isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, np.ndarray):
+        if value.size <= 9:
+            return np.array2string(value, precision=6, separator=", ", threshold=9)
+        return f"array of shape {value.shape}, dtype {value.dtype}"
+    try:
+        return _repr.repr(value)
+    except Exception:  # a hostile __repr__ must not replace the real error
+        return f"<{type(value).__name__}>"

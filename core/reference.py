@@ -27,8 +27,9 @@ from itertools import pairwise
 
 import numpy as np
 from rbenv.core import quaternion as quat
-from rbenv.core.errors import InvalidParameterError, describe, require_finite
+from rbenv.core.errors import InvalidParameterError, describe
 from rbenv.core.inertia import validate as _validate_inertia
+from rbenv.core.validation import finite_array
 from rbenv.core.vec import cross
 from scipy.integrate import solve_ivp
 from scipy.special import ellipj, ellipkinc, ellipkm1, elliprf
@@ -55,7 +56,7 @@ _MAX_PANELS = 1 << 16
 
 
 def _moments(moments, name: str = "moments") -> np.ndarray:
-    arr = require_finite(name, moments)
+    arr = finite_array(name, moments)
     if arr.shape != (3,):
         raise InvalidParameterError(
             f"{name} must be the three principal moments, shape (3,), got shape {arr.shape}"
@@ -65,7 +66,7 @@ def _moments(moments, name: str = "moments") -> np.ndarray:
 
 
 def _vector(name: str, value, size: int) -> np.ndarray:
-    arr = require_finite(name, value)
+    arr = finite_array(name, value)
     if arr.shape != (size,):
         raise InvalidParameterError(f"{name} must have shape ({size},), got shape {arr.shape}")
     return arr
@@ -82,7 +83,7 @@ def _unit_quaternion(name: str, value) -> np.ndarray:
 
 
 def _times(t) -> np.ndarray:
-    return require_finite("t", t)
+    return finite_array("t", t)
 
 
 def _axis_quat(axis: int, angle: np.ndarray) -> np.ndarray:
@@ -551,7 +552,7 @@ def symmetric_top(moments, omega_B0, q0, t) -> tuple[np.ndarray, np.ndarray]:
     ``q(t) = qexp(t L_W/I⊥) ⊗ q0 ⊗ qexp(s t e_a)``, ``s = (I⊥ − I∥)/I⊥ · ω_a0``, and ω_B rotates
     about the symmetry axis e_a by −s t.
     """
-    arr = require_finite("moments", moments)
+    arr = finite_array("moments", moments)
     if arr.shape == (2,):
         arr = np.array([arr[0], arr[0], arr[1]])
     moments = _moments(arr)
@@ -655,7 +656,7 @@ def solve_ivp_reference(
     tolerance is met across the discontinuity.
     Returns ``q`` (..., 4) body→world, renormalised, and ``omega_B`` (..., 3) rad/s, body.
     """
-    arr = require_finite("moments", moments)
+    arr = finite_array("moments", moments)
     if arr.shape == (3,):
         inertia = np.diag(_moments(arr))
     else:

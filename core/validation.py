@@ -25,12 +25,11 @@ from __future__ import annotations
 
 import math
 import os
-import reprlib
 import stat
 from pathlib import Path
 
 import numpy as np
-from rbenv.core.errors import InvalidParameterError, NonFiniteError
+from rbenv.core.errors import InvalidParameterError, NonFiniteError, describe
 
 __all__ = [
     "UNIT_TOL",
@@ -55,25 +54,7 @@ UNIT_TOL = 1e-6
 # Object arrays (e.g. huge Python ints) larger than this are refused without inspecting them.
 _MAX_OBJECT_ENTRIES = 100_000
 
-_repr = reprlib.Repr()
-_repr.maxstring = 60
-_repr.maxother = 60
-_repr.maxlevel = 3
-_repr.maxlist = _repr.maxtuple = _repr.maxdict = _repr.maxset = 6
-
-
-def show(value) -> str:
-    """A short repr of any value for error messages (bounded in length and nesting depth)."""
-    if (isinstance(value, np.ndarray) and value.ndim == 0) or isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, np.ndarray):
-        if value.size <= 9:
-            return np.array2string(value, precision=6, separator=", ", threshold=9)
-        return f"array of shape {value.shape}, dtype {value.dtype}"
-    try:
-        return _repr.repr(value)
-    except Exception:  # a hostile __repr__ must not replace the real error
-        return f"<{type(value).__name__}>"
+show = describe  # one repr for every error message (rbenv.core.errors)
 
 
 def _type_name(value) -> str:

@@ -1,4 +1,5 @@
-"""rbenv: attitude control of a thruster-actuated satellite, as Gymnasium environments.
+"""rbenv: attitude control of a satellite (thrusters, reaction wheels, torque rods), as Gymnasium
+environments.
 
 ``import rbenv`` registers four tasks on one plant, each with a single env and a native NumPy
 vector env (its ``vector_entry_point``)::
@@ -30,31 +31,24 @@ if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
         _os.path.join(_checkout, "core", "__init__.py")):
     __path__.append(_checkout)
 
-from rbenv import registry
+from rbenv import goal, registry
+from rbenv.env import SatelliteDetumbleEnv, SatelliteReorientEnv, SatelliteTrackEnv
 from rbenv.randomization import Randomization
 from rbenv.scene import Scene, list_scenes, load_scene, scene_variant
 from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
+from rbenv.vector_env import (
+    SatelliteDetumbleVectorEnv,
+    SatelliteReorientVectorEnv,
+    SatelliteTrackVectorEnv,
+)
 
 # The shipped tasks: one registry entry each (rbenv.registry). A new task adds its line here.
 for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC,
               reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1):
     registry.register(_spec)
 
-from rbenv import goal  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
-
-goal.register()
-
-from rbenv.env import (  # made by the registrations above
-    SatelliteDetumbleEnv,
-    SatelliteReorientEnv,
-    SatelliteTrackEnv,
-)
-from rbenv.vector_env import (
-    SatelliteDetumbleVectorEnv,
-    SatelliteReorientVectorEnv,
-    SatelliteTrackVectorEnv,
-)
+goal.register()  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
 
 try:
     __version__ = version("rbenv")

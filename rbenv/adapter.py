@@ -12,11 +12,15 @@ from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 from rbenv import transition
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
+from rbenv.draws import check_seed
+from rbenv.options import AUTORESET_DEFAULT
 from rbenv.tasks import build
+from rbenv.tasks.spec import TaskSpec
 
 
 def action_array(value, shape: tuple, *, copy: bool = False, name: str = "action") -> np.ndarray:
@@ -48,33 +52,86 @@ def _as_array(value, shape: tuple, name: str) -> np.ndarray:
                         f"{validation.show(value)} of type {type(value).__name__}") from None
 
 
-def backend_twin(cls: type, backend) -> type | None:
-    """The class an env class's constructor makes for ``backend``: None for "numpy" (``cls``
-    itself), its torch twin for "torch" (:mod:`rbenv.torch_env`, needs torch: the torch vector
-    env for a vector-env class, the torch single env for a single-env class)."""
-    if backend == "torch":
-        from rbenv import torch_env
+def unknown_options(owner: str, unknown: dict, valid) -> None:
+    """Raise the TypeError of an unexpected keyword, naming the valid ones.
 
-        vector = issubclass(cls, gym.vector.VectorEnv)
-        return (torch_env.torch_vector_env_class if vector else torch_env.torch_env_class)(cls)
-    if backend != "numpy":
+    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
+    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
+    drops ``frameskip`` so)."""
+    first, *rest = sorted(unknown)
+    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
+    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
+                    f"the valid options are {', '.join(sorted(valid))}")
+
+
+_MODES = {mode.value: mode for mode in AutoresetMode}
+
+
+def autoreset_mode_of(value, backend: str) -> AutoresetMode:
+    """``value`` as an :class:`AutoresetMode` (the mode or its value; None: ``backend``'s
+    default, :data:`rbenv.options.AUTORESET_DEFAULT`); a named error else."""
+    if value is None:
+        return AUTORESET_DEFAULT[backend]
+    mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
+    if mode is None:
+        raise InvalidParameterError(
+            f"autoreset_mode must be an AutoresetMode (NEXT_STEP, SAME_STEP or DISABLED) or one "
+            f"of their values {sorted(_MODES)}, got {value!r}")
+    return mode
+
+
+def seed_list(seed, num_envs: int) -> list[int] | None:
+    """The episode-start seed of each sub-env for a vector env's ``reset(seed=)``: sub-env i
+    gets s + i for an int s, or entry i of a list (array, tensor) of ``num_envs`` seeds, each
+    checked by :func:`rbenv.draws.check_seed`; None for None."""
+    if seed is None:
+        return None
+    if isinstance(seed, (list, tuple, np.ndarray)) or (hasattr(seed, "tolist")
+                                                       and not np.isscalar(seed)):
+        if len(seed) != num_envs:
+            raise InvalidParameterError(
+                f"seed list must have num_envs = {num_envs} entries, got {len(seed)}")
+        return [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
+                for i, s in enumerate(seed)]
+    s = check_seed(seed)
+    return [s + i for i in range(num_envs)]
+
+
+def check_backend(backend) -> bool:
+    """True for ``backend="torch"``, False for "numpy"; a named error for anything else."""
+    if backend not in ("numpy", "torch"):
         raise InvalidParameterError(
             f"backend must be 'numpy' or 'torch', got {validation.show(backend)}")
-    return None
+    return backend == "torch"
+
+
+def task_of(cls: type, task) -> TaskSpec:
+    """The entry an env runs: ``task`` (a :class:`TaskSpec`) if given, else the class's
+    ``task_spec`` (set by each shipped id's class); a named error if neither."""
+    spec = cls.task_spec if task is None else task
+    if not isinstance(spec, TaskSpec):
+        raise InvalidParameterError(
+            f"{cls.__name__} needs task=<a rbenv.tasks.TaskSpec>, got {validation.show(task)}; "
+            "gym.make(env_id) passes it for a registered id")
+    return spec
 
 
 class TaskAdapter:
-    """Mixin of :class:`rbenv.env.AttitudeEnv` and :class:`rbenv.vector_env.AttitudeVectorEnv`.
+    """Mixin of the env classes (:class:`rbenv.env.AttitudeEnv`,
+    :class:`rbenv.vector_env.AttitudeVectorEnv`, :class:`rbenv.torch_env.TorchVectorEnv`).
 
-    Subclasses name their task in ``task_name``.
+    A shipped id's class names its entry in ``task_spec``; the generic classes take it as the
+    ``task`` option (``gym.make`` passes it for an id registered without classes of its own).
     """
 
-    task_name: ClassVar[str] = "reorient"
+    task_spec: ClassVar[TaskSpec | None] = None
 
-    def _setup(self, options: dict, render_mode, render_modes) -> tuple[gym.Space, gym.Space]:
-        """Build plant and task from ``options`` (the env options by name); returns the
-        single-satellite action and observation spaces."""
-        self.plant, self.task = build(self.task_name, **options)
+    def _setup(self, task, options: dict, render_mode,
+               render_modes) -> tuple[gym.Space, gym.Space]:
+        """Build plant and task from ``options`` (the env options by name) for ``task`` (None:
+        the class's entry); returns the single-satellite action and observation spaces."""
+        self.task_spec = task_of(type(self), task)
+        self.plant, self.task = build(self.task_spec, **options)
         if render_mode is not None and render_mode not in render_modes:
             raise InvalidParameterError(
                 f"render_mode must be None or one of {list(render_modes)}, got {render_mode!r}")

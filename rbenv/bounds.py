@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
+from rbenv.actuators.thrusters import G0
 from rbenv.core.errors import InvalidParameterError
-from rbenv.scene import G0, Scene, load_scene
+from rbenv.scene import Scene, load_scene
 
 __all__ = [
     "SceneLimits",
@@ -356,15 +357,14 @@ def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = No
     """
     import gymnasium as gym
 
-    import rbenv
+    from rbenv import transition
+    from rbenv.draws import EpisodeDraws
+    from rbenv.tasks import reorient
 
     kwargs = dict(env_kwargs)
     if scene is not None:
         kwargs["scene"] = scene
-    from rbenv import transition
-    from rbenv.draws import EpisodeDraws
-
-    envs = gym.make_vec(env_id or rbenv.ENV_ID, num_envs=episodes,
+    envs = gym.make_vec(env_id or reorient.SPEC.env_id, num_envs=episodes,
                         vectorization_mode="vector_entry_point", **kwargs)
     try:
         env = envs.unwrapped

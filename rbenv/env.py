@@ -1,8 +1,9 @@
 """Single-satellite Gymnasium envs: a thin adapter over :mod:`rbenv.transition`.
 
-One class, :class:`AttitudeEnv`, serves every task; each registered id has a subclass that
-names its task and carries its documentation (``SatelliteReorientEnv``,
-``SatelliteDetumbleEnv``, ``SatelliteTrackEnv``). The state is held as Python floats, so a step
+One class, :class:`AttitudeEnv`, serves every task; each shipped id has a subclass that names
+its task entry and carries its documentation (``SatelliteReorientEnv``,
+``SatelliteDetumbleEnv``, ...); an id registered without one runs on :class:`AttitudeEnv`,
+given its entry as ``task``. The state is held as Python floats, so a step
 costs tens of nanoseconds per arithmetic operation and no NumPy call in the physics.
 """
 
@@ -14,27 +15,16 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array, backend_twin
+from rbenv.adapter import TaskAdapter, action_array, check_backend, task_of, unknown_options
 from rbenv.core.backend import FLOAT
 from rbenv.draws import EpisodeDraws, check_seed
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
+from rbenv.tasks import desaturate, detumble, reorient, track
 
 RENDER_MODES = ("human", "rgb_array")
 _F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
-
-
-def unknown_options(owner: str, unknown: dict, valid) -> None:
-    """Raise the TypeError of an unexpected keyword, naming the valid ones.
-
-    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
-    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
-    drops ``frameskip`` so)."""
-    first, *rest = sorted(unknown)
-    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
-    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
-                    f"the valid options are {', '.join(sorted(valid))}")
 
 
 class AttitudeEnv(TaskAdapter, gym.Env):
@@ -42,21 +32,24 @@ class AttitudeEnv(TaskAdapter, gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
 
-    def __new__(cls, *args, backend="numpy", **kwargs):
+    def __new__(cls, *args, backend="numpy", task=None, **kwargs):
         """``backend="torch"`` makes the torch single env instead (:class:`rbenv.torch_env.
         TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
-        twin = backend_twin(cls, backend)
-        return super().__new__(cls) if twin is None else twin(*args, **kwargs)
+        if check_backend(backend):
+            from rbenv.torch_env import TorchEnv
+
+            return TorchEnv(*args, task=task_of(cls, task), **kwargs)
+        return super().__new__(cls)
 
     def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
                  action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
                  max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
-                 render_mode=None, compiled=False, backend="numpy", **unknown):
+                 render_mode=None, compiled=False, backend="numpy", task=None, **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "render_mode", "backend"))
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
-        self.action_space, self.observation_space = self._setup(options, render_mode,
+        self.action_space, self.observation_space = self._setup(task, options, render_mode,
                                                                 RENDER_MODES)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.plant.control_dt}
         self._max_steps = self.plant.scene.episode_steps
@@ -105,7 +98,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         else:  # lists, other dtypes (strings, complex: refused), wrong shapes: named errors
             a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
-        st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True)
+        st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True,
+                                  max_steps=self._max_steps)
         if out.diverged:  # the step updated the state it was given: the episode is over
             self._st = None
             self._diverged = True
@@ -113,9 +107,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._st = st
         if self.render_mode == "human":
             self.render()
-        terminated = bool(out.failure or (out.success and self.task.success_terminates))
-        return (np.array(out.obs, dtype=np.float32), out.reward, terminated,
-                st.steps >= self._max_steps, out.info)
+        return (np.array(out.obs, dtype=np.float32), out.reward, bool(out.terminated),
+                out.truncated, out.info)
 
     # ------------------------------------------------------------------- rendering
 
@@ -137,14 +130,45 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             self._renderer = None
 
 
-def env_class(spec) -> type:
-    """The single-env class of a registry entry (:mod:`rbenv.registry`), e.g.
-    ``SatelliteReorientEnv``: :class:`AttitudeEnv` naming the entry's task, with its docs.
-    It is made once per entry and kept in this module, so it pickles by reference."""
-    name = spec.class_stem + "Env"
-    cls = globals().get(name)
-    if cls is None or cls.task_name != spec.name:
-        cls = type(name, (AttitudeEnv,), {"task_name": spec.name, "__doc__": spec.env_doc,
-                                          "__module__": __name__, "__qualname__": name})
-        globals()[name] = cls
-    return cls
+# One class per shipped id (rbenv.registry registers each as the id's entry point).
+
+
+class SatelliteReorientEnv(AttitudeEnv):
+    __doc__ = reorient.SPEC.env_doc
+    task_spec = reorient.SPEC
+
+
+class SatelliteDetumbleEnv(AttitudeEnv):
+    __doc__ = detumble.SPEC.env_doc
+    task_spec = detumble.SPEC
+
+
+class SatelliteTrackEnv(AttitudeEnv):
+    __doc__ = track.SPEC.env_doc
+    task_spec = track.SPEC
+
+
+class SatelliteDesaturateEnv(AttitudeEnv):
+    __doc__ = desaturate.SPEC.env_doc
+    task_spec = desaturate.SPEC
+
+
+class SatelliteReorientV1Env(AttitudeEnv):
+    __doc__ = reorient.SPEC_V1.env_doc
+    task_spec = reorient.SPEC_V1
+
+
+class SatelliteDetumbleV1Env(AttitudeEnv):
+    __doc__ = detumble.SPEC_V1.env_doc
+    task_spec = detumble.SPEC_V1
+
+
+class SatelliteTrackV1Env(AttitudeEnv):
+    __doc__ = track.SPEC_V1.env_doc
+    task_spec = track.SPEC_V1
+
+
+# env id -> its class.
+SHELLS = {cls.task_spec.env_id: cls for cls in (
+    SatelliteReorientEnv, SatelliteDetumbleEnv, SatelliteTrackEnv, SatelliteDesaturateEnv,
+    SatelliteReorientV1Env, SatelliteDetumbleV1Env, SatelliteTrackV1Env)}

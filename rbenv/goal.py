@@ -36,6 +36,7 @@ import numpy as np
 from rbenv.core.backend import FLOAT
 from rbenv.draws import check_seed
 from rbenv.tasks import v1
+from rbenv.tasks.spec import MAX_EPISODE_STEPS
 
 GOAL_ID = "rbenv/SatelliteReorientGoal-v1"
 GOAL_FREE = ("reward_rate", "reward_fuel", "reward_failure")  # terms no goal changes
@@ -186,8 +187,6 @@ def make_goal_env(**kwargs) -> GoalReorientEnv:
 
 def register() -> None:
     """Register :data:`GOAL_ID` with Gymnasium (done by ``import rbenv``)."""
-    from rbenv.registry import MAX_EPISODE_STEPS
-
     if GOAL_ID in gym.registry:
         del gym.registry[GOAL_ID]
     gym.register(id=GOAL_ID, entry_point="rbenv.goal:make_goal_env",

@@ -17,6 +17,8 @@ import itertools
 import textwrap
 from functools import cache
 
+from gymnasium.vector import AutoresetMode
+
 
 @dataclasses.dataclass(frozen=True)
 class EnvOptions:
@@ -79,6 +81,14 @@ class BackendOptions:
 
 ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions))
 BACKEND_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BackendOptions))
+
+# The vector envs' autoreset mode when ``autoreset_mode`` is not given, per backend; the one
+# place that says it (every vector env reads it when made). NumPy: NEXT_STEP, Gymnasium's own
+# default (SyncVectorEnv's). Torch: SAME_STEP, the convention of the GPU learners it serves
+# (rsl_rl, skrl, Isaac Lab), and the only one that keeps a step free of host reads (NEXT_STEP
+# would branch on the last step's flags).
+AUTORESET_DEFAULT: dict[str, AutoresetMode] = {"numpy": AutoresetMode.NEXT_STEP,
+                                               "torch": AutoresetMode.SAME_STEP}
 DEFAULTS: dict = {f.name: f.default for f in dataclasses.fields(EnvOptions)}
 
 

@@ -129,7 +129,6 @@ __all__ = [
 ]
 
 DEFAULT_SCENE = "cubesat-12u"
-G0 = 9.80665  # m/s², standard gravity (defines specific impulse)
 # Documented caps (see the table in the module docstring).
 MAX_SCENE_BYTES = 1 << 20
 MAX_SUBSTEPS = 1000

@@ -55,18 +55,22 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array
+from rbenv.adapter import (
+    TaskAdapter,
+    action_array,
+    autoreset_mode_of,
+    seed_list,
+    unknown_options,
+)
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
-from rbenv.draws import check_seed
-from rbenv.env import unknown_options
-from rbenv.options import ENV_OPTIONS
+from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import State
 from rbenv.torch_draws import TorchDraws
 
-__all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv", "torch_env_class", "torch_vector_env_class"]
+__all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv"]
 
 DTYPES = {"float64": torch.float64, "float32": torch.float32}
 IMPLICIT = ("midpoint", "splitting")
@@ -156,16 +160,15 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
     between divergence checks on the host; 0: only at reset and :meth:`check`).
     """
 
-    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT["torch"]}
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.SAME_STEP, render_mode=None, compiled=False,
-                 device="cpu", dtype="float64", compile=False, check_every=1, **unknown):
-        from rbenv.vector_env import _autoreset_mode
-
+                 autoreset_mode=None, render_mode=None, compiled=False,
+                 device="cpu", dtype="float64", compile=False, check_every=1, task=None,
+                 **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
@@ -179,8 +182,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                                         f"dtype), got {dtype!r}")
         self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
-        self.autoreset_mode = _autoreset_mode(autoreset_mode)
-        single_action, single_obs = self._setup(options, None, ())
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "torch")
+        single_action, single_obs = self._setup(task, options, None, ())
         check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
         # Both spaces in the env's dtype: what it returns, and what it computes actions in.
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, single_action.shape,
@@ -325,18 +328,9 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return obs, info
 
     def _seed_tensor(self, seed):
-        if seed is None:
+        values = seed_list(seed, self.num_envs)
+        if values is None:
             return None
-        n = self.num_envs
-        if isinstance(seed, (list, tuple, np.ndarray, torch.Tensor)):
-            if len(seed) != n:
-                raise InvalidParameterError(
-                    f"seed list must have num_envs = {n} entries, got {len(seed)}")
-            values = [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
-                      for i, s in enumerate(seed)]
-        else:
-            s = check_seed(seed)
-            values = [s + i for i in range(n)]
         if max(values) >= 2**63:
             raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
                                         f"{max(values)}")
@@ -364,12 +358,10 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         """The transition on the batch: (new state, obs (N, d), reward, terminated, truncated,
         terms, success, diverged). No host reads (the step that ``compile=True`` compiles)."""
         new, out = transition.step(self.plant, self.task, st, action, NO_NOISE, self.xp,
-                                   own_action=True)
+                                   own_action=True, max_steps=self._max_steps)
         diverged = out.diverged | torch.isnan(action).any(dim=1)
-        terminated = out.failure | (out.success & self.task.success_terminates)
-        truncated = new.steps >= self._max_steps
-        return (new, self._stack(out.obs), self._tensor(out.reward), terminated, truncated,
-                out.terms, out.success, diverged)
+        return (new, self._stack(out.obs), self._tensor(out.reward), out.terminated,
+                out.truncated, out.terms, out.success, diverged)
 
     def step(self, actions):
         """Step all sub-envs. actions: an (N, k) tensor (moved to the env's device)."""
@@ -490,7 +482,6 @@ class TorchEnv(gym.Env):
     """
 
     metadata: ClassVar[dict] = {"render_modes": []}
-    vector_class: ClassVar[type]
 
     def __init__(self, scene=None, **options):
         for name in ("num_envs", "autoreset_mode"):
@@ -499,7 +490,7 @@ class TorchEnv(gym.Env):
                                 f"argument {name!r}: it is "
                                 f"one satellite; use gym.make_vec(ID, backend='torch') for a "
                                 f"batch")
-        self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,
+        self.env = TorchVectorEnv(1, scene, autoreset_mode=AutoresetMode.DISABLED,
                                      **options)
         # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
         # gymnasium.Env); the vector env's spaces are in its dtype.
@@ -537,27 +528,3 @@ class TorchEnv(gym.Env):
 
     def close(self):
         self.env.close()
-
-
-def _task_class(name: str, parent: type, task_name: str, **attrs) -> type:
-    """``parent`` for one task (``task_name``), made once and kept in this module, so that it
-    pickles by reference."""
-    cls = globals().get(name)
-    if cls is None or cls.task_name != task_name:
-        cls = type(name, (parent,), {"task_name": task_name, "__module__": __name__,
-                                     "__qualname__": name, **attrs})
-        globals()[name] = cls
-    return cls
-
-
-def torch_vector_env_class(base: type) -> type:
-    """The torch vector-env class for a task's NumPy vector-env class (same ``task_name``)."""
-    return _task_class(base.__name__.replace("VectorEnv", "TorchVectorEnv"), TorchVectorEnv,
-                       base.task_name)
-
-
-def torch_env_class(base: type) -> type:
-    """The torch single-env class for a task's NumPy single-env class (same ``task_name``)."""
-    stem = base.__name__.removesuffix("Env")
-    vector = _task_class(stem + "TorchVectorEnv", TorchVectorEnv, base.task_name)
-    return _task_class(stem + "TorchEnv", TorchEnv, base.task_name, vector_class=vector)

@@ -31,8 +31,10 @@ MAX_RESET_RATE = 1e6  # rad/s: |ω_B| allowed in reset options (squares stay far
 
 class Outcome(NamedTuple):
     """What one step returns besides the new state: observation components, reward, its terms
-    (the task's NamedTuple), success and failure flags, the info dict, and ``diverged`` (bool,
-    or (N,) bool: the state left float64; the other fields are then None)."""
+    (the task's NamedTuple), success and failure flags, the info dict, ``diverged`` (bool, or
+    (N,) bool: the state left float64; the other fields are then None), and Gymnasium's
+    ``terminated`` (failure, or success where the task ends on it) and ``truncated`` (the
+    episode's step limit reached)."""
 
     obs: tuple
     reward: object
@@ -41,6 +43,8 @@ class Outcome(NamedTuple):
     failure: object
     info: dict
     diverged: object
+    terminated: object
+    truncated: object
 
 
 def layout(plant: Plant, task) -> Layout:
@@ -49,10 +53,11 @@ def layout(plant: Plant, task) -> Layout:
 
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
-         own_action: bool = False, donate: bool = False) -> tuple:
+         own_action: bool = False, donate: bool = False, max_steps: int | None = None) -> tuple:
     """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64 or
     float32, validated shape; the actuators' commands clip it into float64 arrays or floats).
-    ``st`` is not changed, unless donated.
+    ``st`` is not changed, unless donated. max_steps: the episode's step limit (``truncated``);
+    None: the scene's duration.
 
     own_action: the caller made ``action`` for this call, so it may be clipped in place.
     donate: the caller gives ``st`` up (it keeps only the new state), so the step updates it
@@ -62,7 +67,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
     if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises
-        return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged))
+        return new, tuple.__new__(Outcome, (None, None, None, None, None, None, diverged,
+                                            None, None))
     if plant.sensors is not None:
         plant.sense(new, noise)
     if task.moving_target:
@@ -72,8 +78,11 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
         not plant.observed and plant.sensors is None else \
         observe(plant, task, new, noise.sensor, xp)
     reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
+    terminated = failure | (success & task.success_terminates)
+    truncated = new.steps >= (plant.scene.episode_steps if max_steps is None else max_steps)
     return new, tuple.__new__(Outcome, (obs, reward, terms, success, failure,
-                                        info(plant, task, new, terms, success, xp), diverged))
+                                        info(plant, task, new, terms, success, xp), diverged,
+                                        terminated, truncated))
 
 
 def raise_diverged(plant: Plant, st, action) -> None:

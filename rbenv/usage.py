@@ -114,37 +114,3 @@ def require(module: str, feature: str):
         if error is None:
             raise
         raise error from None
-
-
-def check_env_options(env_id: str, options: dict) -> None:
-    """Make ``env_id``'s single env once with ``options`` (``gym.make`` keyword arguments, the
-    scene among them; :data:`VECTOR_OPTIONS` are checked by name only) and close it, so that a
-    wrong id, scene, option name or value is named before anything is trained or written.
-    Raises the named errors of :mod:`rbenv.core.errors` (:class:`InvalidChoiceError` for an id,
-    scene or option name not known)."""
-    from rbenv import registry
-    from rbenv.options import ENV_OPTIONS
-    from rbenv.scene import load_scene
-
-    known = [spec.env_id for spec in registry.specs()]
-    check_choice("env_id", env_id, known, what="a registered rbenv task:")
-    for name in options:
-        check_choice("env_kwargs", name, (*ENV_OPTIONS, *VECTOR_OPTIONS),
-                     what="an env option:")
-    if options.get("scene") is not None:
-        load_scene(options["scene"])
-    plain_env(env_id, {k: v for k, v in options.items() if k not in VECTOR_OPTIONS}).close()
-
-
-# Options of the vector env that a caller of ``rbenv train`` or ``evaluate`` may set (the
-# commands set num_envs and autoreset_mode themselves).
-VECTOR_OPTIONS = ("max_episode_steps",)
-
-
-def plain_env(env_id: str, options: dict):
-    """``env_id``'s single env made from its entry point with ``options``, without
-    ``gym.make``'s wrappers and notices (for checks; close it after use)."""
-    import gymnasium as gym
-    from gymnasium.envs.registration import load_env_creator
-
-    return load_env_creator(gym.spec(env_id).entry_point)(**options)

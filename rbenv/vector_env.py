@@ -1,8 +1,8 @@
 """Native NumPy vector envs: N satellites stepped by the same transition as the single env.
 
 :class:`AttitudeVectorEnv` is the thin ``gymnasium.vector.VectorEnv`` adapter over
-:mod:`rbenv.transition` with (N,) arrays; each registered id has a subclass naming its task, set
-as the id's ``vector_entry_point``.
+:mod:`rbenv.transition` with (N,) arrays; each shipped id has a subclass naming its task entry,
+set as the id's ``vector_entry_point``.
 """
 
 from __future__ import annotations
@@ -15,25 +15,22 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array, backend_twin
+from rbenv.adapter import (
+    TaskAdapter,
+    action_array,
+    autoreset_mode_of,
+    check_backend,
+    seed_list,
+    task_of,
+    unknown_options,
+)
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
-from rbenv.draws import EpisodeDraws, check_seed
-from rbenv.env import unknown_options
-from rbenv.options import ENV_OPTIONS
+from rbenv.draws import EpisodeDraws
+from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
 from rbenv.state import State, assign, from_start
-
-_MODES = {mode.value: mode for mode in AutoresetMode}
-
-
-def _autoreset_mode(value) -> AutoresetMode:
-    mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
-    if mode is None:
-        raise InvalidParameterError(
-            f"autoreset_mode must be an AutoresetMode (NEXT_STEP, SAME_STEP or DISABLED) or one "
-            f"of their values {sorted(_MODES)}, got {value!r}")
-    return mode
+from rbenv.tasks import desaturate, detumble, reorient, track
 
 
 class AttitudeVectorEnv(TaskAdapter, VectorEnv):
@@ -41,7 +38,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
     ``max_episode_steps`` (``make_vec`` passes the registered value; the scene's duration also
-    applies, whichever is shorter), ``autoreset_mode``, and ``compiled`` (True: step with the
+    applies, whichever is shorter), ``autoreset_mode`` (unset: NEXT_STEP,
+    :data:`rbenv.options.AUTORESET_DEFAULT`), and ``compiled`` (True: step with the
     numba-compiled kernels of :mod:`rbenv.core.compiled`, from the extra ``rbenv[fast]``; the first
     step pays a few seconds of compilation).
 
@@ -66,20 +64,23 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
-                                "autoreset_mode": AutoresetMode.NEXT_STEP}
+                                "autoreset_mode": AUTORESET_DEFAULT["numpy"]}
 
-    def __new__(cls, *args, backend="numpy", **kwargs):
+    def __new__(cls, *args, backend="numpy", task=None, **kwargs):
         """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
         needs torch); "numpy" (default) this one."""
-        twin = backend_twin(cls, backend)
-        return super().__new__(cls) if twin is None else twin(*args, **kwargs)
+        if check_backend(backend):
+            from rbenv.torch_env import TorchVectorEnv
+
+            return TorchVectorEnv(*args, task=task_of(cls, task), **kwargs)
+        return super().__new__(cls)
 
     def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
                  substeps=None, action_mode="throttle", reward_weights=None,
                  max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
                  randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=AutoresetMode.NEXT_STEP, render_mode=None, compiled=False,
-                 backend="numpy", **unknown):
+                 autoreset_mode=None, render_mode=None, compiled=False,
+                 backend="numpy", task=None, **unknown):
         if unknown:
             unknown_options(type(self).__name__, unknown,
                             (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
@@ -87,8 +88,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
-            options, render_mode, ("rgb_array",))
-        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+            task, options, render_mode, ("rgb_array",))
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "numpy")
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -118,7 +119,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         n = self.num_envs
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
-        seeds = self._seed_list(seed)
+        seeds = seed_list(seed, self.num_envs)
         super().reset(seed=None if seeds is None else int(seeds[0]))
         if seeds is not None:
             self._seeds = np.array(seeds, dtype=np.uint64) if self._seeds is None or mask.all() \
@@ -142,17 +143,6 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             info.update({key: mask for key in info if key.startswith("_")})
         self._obs = obs
         return obs, info
-
-    def _seed_list(self, seed):
-        if seed is None:
-            return None
-        if isinstance(seed, (list, tuple, np.ndarray)):
-            if len(seed) != self.num_envs:
-                raise InvalidParameterError(
-                    f"seed list must have num_envs = {self.num_envs} entries, got {len(seed)}")
-            return [check_seed(s, f"seed[{i}]") for i, s in enumerate(seed)]
-        s = check_seed(seed)
-        return [s + i for i in range(self.num_envs)]
 
     def _reset_mask(self, mask) -> np.ndarray:
         """The (N,) bool mask of ``options["reset_mask"]``, checked in Gymnasium's order and
@@ -201,44 +191,50 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                 "before the next step")
         st, out = transition.step(self.plant, self.task, st, a,
                                   self.plant.draw_step_noise(self.np_random, self.num_envs),
-                                  NUMPY, own_action=True)
+                                  NUMPY, own_action=True, max_steps=self._max_steps)
         if out.diverged.any():
             transition.raise_diverged(self.plant, st, a)
         self._st = st
         terms, reward, success = out.terms, out.reward, out.success
-        terminated = out.failure | (success & self.task.success_terminates)
-        truncated = st.steps >= self._max_steps
+        terminated, truncated = out.terminated, out.truncated
         obs, extra = self._stack(out.obs), {}
+        info = self._own_info(out.info)  # the step's info, built once
         flags = (reward, success, terminated, truncated)
         mode = self.autoreset_mode
         if mode is AutoresetMode.NEXT_STEP:
             if self._prev_done.any():
-                self._restart(np.flatnonzero(self._prev_done), obs, terms, flags)
+                self._restart(np.flatnonzero(self._prev_done), obs, info, terms, flags)
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.DISABLED:
             self._prev_done = terminated | truncated
         elif mode is AutoresetMode.SAME_STEP:
             done = terminated | truncated
             if done.any():
-                extra = self._final(done, obs, self._info(terms, success))
-                self._restart(np.flatnonzero(done), obs, terms, (success,))
-        info = self._info(terms, success)
+                extra = self._final(done, obs, info)
+                self._restart(np.flatnonzero(done), obs, info, terms, (success,))
         info.update(extra)
         self._obs = obs
         return obs, reward, terminated, truncated, info
 
-    def _restart(self, idx: np.ndarray, obs: np.ndarray, terms, flags) -> None:
-        """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``,
-        and their rows of ``terms`` and ``flags`` (this step's fresh arrays) zeroed in place."""
+    def _restart(self, idx: np.ndarray, obs: np.ndarray, info: dict, terms, flags) -> None:
+        """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``
+        and their reset info into the rows of ``info``, and their rows of ``terms`` and
+        ``flags`` (this step's fresh arrays) zeroed in place."""
         start = self._start(idx)
         assign(self._st, self._layout, idx, start)
-        view = State()
-        view.__dict__.update(start)  # the new episodes alone, as a state of len(idx)
+        view = State()  # the new episodes alone, as a state of len(idx)
+        view.__dict__.update({name: start.get(name) for name in self._layout.kinds}, **start)
         noise = self.plant.draw_sensor_noise(self.np_random, len(idx))
         obs[idx] = self._stack(transition.observe(self.plant, self.task, view, noise, NUMPY),
                                len(idx))
         for arr in (*terms, *flags):
             arr[idx] = 0
+        k = len(idx)
+        fresh = transition.info(self.plant, self.task, view,
+                                transition.zero_terms(self.task, np.zeros(k)),
+                                np.zeros(k, dtype=bool), NUMPY)
+        for key, value in fresh.items():
+            info[key][idx] = value
 
     def _actions(self, actions) -> np.ndarray:
         """Actions as float64 (N, k); TypeError for a non-array or non-real values (None,
@@ -273,6 +269,22 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         noise = self.plant.draw_sensor_noise(self.np_random, self.num_envs)
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
 
+    def _own_info(self, values: dict) -> dict:
+        """A step's info dict (:func:`rbenv.transition.info` of every sub-env) as this env
+        returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
+        writes the state in place, and SyncVectorEnv's info never changes), each with its
+        ``_key`` mask."""
+        out, mask = {}, self._mask
+        owned = _array_ids(self._st)
+        for key, value in values.items():
+            if np.ndim(value) == 0:
+                value = np.array(np.broadcast_to(value, mask.shape))
+            elif id(value) in owned:
+                value = value.copy()
+            out[key] = value
+            out["_" + key] = mask
+        return out
+
     def _info(self, terms, success) -> dict:
         """Info of every sub-env, or, in a partial reset (the mask :meth:`_reset_mask` kept),
         of the reset ones only: the other rows hold zeros and ``_key`` is False there, as
@@ -306,19 +318,56 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             self._renderer = None
 
 
-def vector_env_class(spec) -> type:
-    """The vector-env class of a registry entry (:mod:`rbenv.registry`), e.g.
-    ``SatelliteReorientVectorEnv``: :class:`AttitudeVectorEnv` naming the entry's task. It is
-    made once per entry and kept in this module, so it pickles by reference."""
-    name = spec.class_stem + "VectorEnv"
-    cls = globals().get(name)
-    if cls is None or cls.task_name != spec.name:
-        doc = (f"Vector form of :class:`rbenv.{spec.class_stem}Env` (see "
-               ":class:`AttitudeVectorEnv`).")
-        cls = type(name, (AttitudeVectorEnv,), {"task_name": spec.name, "__doc__": doc,
-                                                "__module__": __name__, "__qualname__": name})
-        globals()[name] = cls
-    return cls
+# One class per shipped id (rbenv.registry registers each as the id's vector entry point).
+
+
+class SatelliteReorientVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteReorientEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = reorient.SPEC
+
+
+class SatelliteDetumbleVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDetumbleEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = detumble.SPEC
+
+
+class SatelliteTrackVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteTrackEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = track.SPEC
+
+
+class SatelliteDesaturateVectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDesaturateEnv` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = desaturate.SPEC
+
+
+class SatelliteReorientV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteReorientV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = reorient.SPEC_V1
+
+
+class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteDetumbleV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = detumble.SPEC_V1
+
+
+class SatelliteTrackV1VectorEnv(AttitudeVectorEnv):
+    """Vector form of :class:`rbenv.SatelliteTrackV1Env` (see :class:`AttitudeVectorEnv`)."""
+
+    task_spec = track.SPEC_V1
+
+
+# env id -> its class.
+SHELLS = {cls.task_spec.env_id: cls for cls in (
+    SatelliteReorientVectorEnv, SatelliteDetumbleVectorEnv, SatelliteTrackVectorEnv,
+    SatelliteDesaturateVectorEnv, SatelliteReorientV1VectorEnv, SatelliteDetumbleV1VectorEnv,
+    SatelliteTrackV1VectorEnv)}
 
 
 def _array_ids(st) -> set:

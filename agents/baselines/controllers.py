@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents import settings
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.vec import cross
 
@@ -592,11 +593,12 @@ def resolve_baseline(ref):
 
 
 class _Baselines(Mapping):
-    """Task name → {baseline name → class}, read from the task registry (rbenv.registry)."""
+    """Task name → {baseline name → class}, read from the training settings of the task's id
+    (rbenv.agents.settings)."""
 
     def __getitem__(self, task_name: str) -> dict:
-        spec = registry.by_name(task_name)
-        return {name: resolve_baseline(ref) for name, ref in spec.baselines.items()}
+        entry = settings.get(registry.by_name(task_name).env_id)
+        return {name: resolve_baseline(ref) for name, ref in entry.baselines.items()}
 
     def __iter__(self):
         return iter([s.name for s in registry.specs()])

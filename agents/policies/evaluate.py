@@ -14,6 +14,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents import settings
 from rbenv.agents.baselines.controllers import (
     BASELINES,
     NotApplicable,
@@ -25,18 +26,27 @@ from rbenv.agents.baselines.controllers import (
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
+from rbenv.registry import plain_env
 from rbenv.rendering import save_video
 from rbenv.scene import DEFAULT_SCENE
-from rbenv.usage import InvalidChoiceError, invalid_choice, plain_env
+from rbenv.usage import InvalidChoiceError, invalid_choice
 
-ANY_TASK = ("zero", "random")  # scripted policies of every task, beside the registry's baselines
+ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id's baselines
+
+
+def _baselines(env_id: str) -> tuple[str, ...]:
+    """The scripted baselines of a registered ``env_id`` (its training settings'; none
+    without settings)."""
+    rbenv.registry.get(env_id)  # a named error for an id not registered
+    ids = {entry.env_id: entry for entry in settings.entries()}
+    return tuple(ids[env_id].baselines) if env_id in ids else ()
 
 
 def scripted(env_id: str | None = None) -> tuple[str, ...]:
-    """The scripted policy names of ``env_id``'s task (its registry entry's baselines, then
+    """The scripted policy names of ``env_id``'s task (its training settings' baselines, then
     zero and random), or of every registered task (None)."""
-    specs = rbenv.registry.specs() if env_id is None else (rbenv.registry.get(env_id),)
-    names = dict.fromkeys(name for spec in specs for name in spec.baselines)
+    ids = [s.env_id for s in rbenv.registry.specs()] if env_id is None else [env_id]
+    names = dict.fromkeys(name for i in ids for name in _baselines(i))
     return (*names, *ANY_TASK)
 
 
@@ -50,7 +60,7 @@ def scripted_by_task() -> str:
     ...; zero, random (any task)``."""
     tasks: dict[str, tuple] = {}
     for spec in rbenv.registry.specs():
-        tasks.setdefault(_stem(spec.env_id), tuple(spec.baselines))
+        tasks.setdefault(_stem(spec.env_id), _baselines(spec.env_id))
     return "; ".join(f"{', '.join(names)} ({task})" for task, names in tasks.items()) + \
         f"; {', '.join(ANY_TASK)} (any task)"
 
@@ -68,7 +78,7 @@ def check_policy(policy: str, env_id: str = rbenv.ENV_ID, options: dict | None =
     if policy in own:
         _check_runs_on(policy, env_id, dict(options or {}))
         return
-    elsewhere = [s.env_id for s in rbenv.registry.specs() if policy in s.baselines]
+    elsewhere = [s.env_id for s in rbenv.registry.specs() if policy in _baselines(s.env_id)]
     if elsewhere:
         raise InvalidChoiceError("policy", policy, (
             f"{policy!r} is a scripted policy of {', '.join(elsewhere)}, not of {env_id}, "

@@ -13,13 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar, Literal, TypeVar
 
+from rbenv.agents import settings
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.runfolder import RunFolderError
 from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.usage import check_env_options
+from rbenv.registry import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
 
@@ -45,7 +46,7 @@ class RunConfig:
     ecosystem extra; writes torchrl.json, no run-folder engine yet)."""
     algo: Algo = "ppo"
     """The algorithm. Its settings (hyperparameters, envs, budget, env options) come from the
-    task's entry in rbenv/hyperparams, the files rl_zoo3 reads."""
+    task's training settings (rbenv.agents.settings), which rl_zoo3 reads too."""
     timesteps: int | None = None
     """Environment steps to train; unset: the algorithm's shipped n_timesteps for the task. With
     --resume, a new total."""
@@ -166,32 +167,33 @@ OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
 
 
-def task_entry(env_id: str):
-    """The registry's entry for ``env_id`` (:func:`rbenv.registry.get`); the goal form, which
-    has none, gets an error that says how to train it."""
+def task_entry(env_id: str) -> settings.TrainingSettings:
+    """The training settings of ``env_id`` (:func:`rbenv.agents.settings.get`, whose error says
+    what to add, where); the goal form, which has none, gets an error that says how to train
+    it."""
     if env_id == rbenv.goal.GOAL_ID:
         raise InvalidParameterError(
             f"env_id {env_id!r} (the goal form, a Dict observation) is not trained by rbenv "
             "train, whose run folders, reports and suite use the registry's flat observations; "
             "train it with SB3 and rbenv.agents.training.her (its docstring has the recipe), "
             "or train rbenv/SatelliteReorient-v1, the same task")
-    return rbenv.registry.get(env_id)
+    return settings.get(env_id)
 
 
 def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
-    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its task registry
-    entry's (rbenv.registry; the dicts live in rbenv.hyperparams.tuned).
+    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its training
+    entry's (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
 
     This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
     rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
     """
     if algo not in ALGOS:
         raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
-    spec = task_entry(env_id)  # the task registry: one source
-    if algo not in spec.hyperparams:
-        raise InvalidParameterError(f"the task entry of {env_id!r} has no {algo} settings; "
-                                    f"it has {sorted(spec.hyperparams)}")
-    return spec.settings(algo)
+    entry = task_entry(env_id)  # the training settings: one source
+    if algo not in entry.hyperparams:
+        raise InvalidParameterError(f"the training settings of {env_id!r} have no {algo} "
+                                    f"settings; they have {sorted(entry.hyperparams)}")
+    return entry.settings(algo)
 
 
 def normalize_kwargs(setting) -> dict | None:
@@ -254,8 +256,8 @@ class TrainConfig(RunConfig):
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
                             **self.hyperparams}
-        # The algorithm's env options, then the scene's for it (registry), then the caller's.
-        scene_kwargs = rbenv.registry.get(self.env_id).training_env_kwargs(self.algo, self.scene)
+        # The algorithm's env options, then the scene's for it (settings), then the caller's.
+        scene_kwargs = task_entry(self.env_id).training_env_kwargs(self.algo, self.scene)
         self.env_kwargs = {**shipped.get("env_kwargs", {}), **scene_kwargs, **self.env_kwargs}
         starts = self.hyperparams.get("learning_starts", 0)
         if self.algo in OFF_POLICY and self.timesteps <= starts:

@@ -34,6 +34,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.rllib import MODULE_PATH, RLLIB_HINT, RLlibPolicy, latest
+from rbenv.agents.settings import rllib as _rllib
 from rbenv.agents.training import engine, flags
 from rbenv.agents.training.config import Engine, RLlibOptions, RunConfig, task_entry
 from rbenv.agents.training.engine import add_run_arguments
@@ -42,11 +43,10 @@ from rbenv.agents.training.report import Trained, write_report
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.hyperparams import _rllib
 
 ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every Ray process
-# RLlib PPO settings: the task entry's shipped PPO settings (rbenv.hyperparams.tuned, the one
-# source) in RLlib's names (rbenv.hyperparams._rllib), so both engines train with one set.
+# RLlib PPO settings: the id's shipped PPO settings (rbenv.agents.settings, the one
+# source) in RLlib's names (rbenv.agents.settings.rllib), so both engines train with one set.
 
 
 @dataclass

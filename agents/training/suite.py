@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from rbenv.agents import settings
 from rbenv.agents.baselines.controllers import applicable_baselines
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.evaluate import evaluate
@@ -79,8 +80,9 @@ def tasks() -> dict:
 
 
 def default_timesteps(algo: str, env_id: str, scene: str) -> int:
-    """The full suite's budget for ``algo`` on ``env_id`` and ``scene`` (its registry entry)."""
-    return rbenv.registry.get(env_id).timesteps(algo, scene)
+    """The full suite's budget for ``algo`` on ``env_id`` and ``scene`` (its training
+    settings)."""
+    return settings.get(env_id).timesteps(algo, scene)
 
 
 def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],

@@ -165,9 +165,9 @@ def pd_baseline(episodes: int) -> dict:
 def model_settings(algo: str, quick: bool, changes: dict) -> tuple[dict, dict]:
     """The shipped off-policy recipe's model arguments for ``algo`` (on Reorient-v1), with
     the quick form's and the command line's changes."""
-    from rbenv import registry
+    from rbenv.agents import settings as training_settings
 
-    shipped = registry.zoo_hyperparams(algo)[PLAIN_ID]
+    shipped = training_settings.zoo_hyperparams(algo)[PLAIN_ID]
     settings = {k: v for k, v in shipped.items() if k not in NOT_MODEL_KEYS}
     if quick:
         settings.update(copy.deepcopy(QUICK["model"]))

@@ -23,10 +23,10 @@ import numpy as np
 from rbenv.actuators.base import Contribution, nan_action_error
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY, row_product, rows
-from rbenv.scene import G0
 
-__all__ = ["ACTION_MODES", "ALLOCATORS", "Thrusters", "action_matrix", "nan_action_error"]
+__all__ = ["ACTION_MODES", "ALLOCATORS", "G0", "Thrusters", "action_matrix", "nan_action_error"]
 
+G0 = 9.80665  # m/s², standard gravity (defines specific impulse)
 ACTION_MODES = ("throttle", "on_off", "torque")
 ALLOCATORS = ("pinv", "nnls", "lp")
 # tuple.__new__ builds a NamedTuple without its Python-level __new__ (fields given in order).

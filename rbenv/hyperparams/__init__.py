@@ -5,4 +5,9 @@ reads it by module name from any folder::
 
     python -m rl_zoo3.train --algo ppo --env rbenv/SatelliteReorient-v1 --gym-packages rbenv \\
         --conf-file rbenv.hyperparams.ppo
+
+The settings live in :mod:`rbenv.agents.settings` (training belongs to ``agents``, not to the
+env package); these modules are a view of them, kept at this path so that the zoo command
+above keeps working. They sit above ``agents`` in the layers (pyproject's import-linter
+contracts): nothing in rbenv imports them.
 """

@@ -1,7 +1,7 @@
 """CrossQ (sb3-contrib) settings, read by ``rbenv train --algo crossq`` and by RL Baselines3
 Zoo (``--algo crossq --conf-file rbenv.hyperparams.crossq``).
 
-SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) without ``tau``: CrossQ has no target
+SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) without ``tau``: CrossQ has no target
 network (it normalises the critic's batches instead). Its critics are [256, 256] like the
 actor, not sb3-contrib's default 1024 x 1024, which ran at 43 env-steps/s here (issue 22).
 The v1 ids carry their own measured budgets (``n_timesteps``, in their task entries'
@@ -10,6 +10,6 @@ The v1 ids carry their own measured budgets (``n_timesteps``, in their task entr
 
 from __future__ import annotations
 
-from rbenv import registry
+from rbenv.agents.settings import zoo_hyperparams
 
-hyperparams = registry.zoo_hyperparams("crossq")
+hyperparams = zoo_hyperparams("crossq")

@@ -1,16 +1,16 @@
 """TD3 settings, read by ``rbenv train --algo td3`` and by RL Baselines3 Zoo
 (``--algo td3 --conf-file rbenv.hyperparams.td3``).
 
-SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with Gaussian exploration noise of standard
+SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with Gaussian exploration noise of standard
 deviation 0.1 (the zoo's ``noise_type``/``noise_std``; ``rbenv train`` builds the same
 ``NormalActionNoise``). Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets
-(``n_timesteps``, in their task entries' ``id_settings``); the other settings are shared, untuned
-per id.
+(``n_timesteps``, in their training entries' ``id_settings``); the other settings are
+shared, untuned per id.
 """
 
 from __future__ import annotations
 
-from rbenv import registry
+from rbenv.agents.settings import zoo_hyperparams
 
-hyperparams = registry.zoo_hyperparams("td3")
+hyperparams = zoo_hyperparams("td3")

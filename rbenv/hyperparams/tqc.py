@@ -1,17 +1,17 @@
 """TQC (sb3-contrib) settings, read by ``rbenv train --algo tqc`` and by RL Baselines3 Zoo
 (``--algo tqc --conf-file rbenv.hyperparams.tqc``).
 
-SAC's recipe (:mod:`rbenv.hyperparams._off_policy`) with TQC's own defaults (25 quantiles per
+SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with TQC's own defaults (25 quantiles per
 critic, 2 dropped per net) and a 200k-step budget: issue 22 measured 99.7 % held out after
 169k steps, and TQC's update costs about twice SAC's, so the budget is set by wall time.
 Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets
-(``n_timesteps``, in their task entries' ``id_settings``); the other settings are shared, untuned
-per id.
+(``n_timesteps``, in their training entries' ``id_settings``); the other settings are
+shared, untuned per id.
 """
 
 from __future__ import annotations
 
-from rbenv import registry
+from rbenv.agents.settings import zoo_hyperparams
 
-hyperparams = registry.zoo_hyperparams("tqc")
+hyperparams = zoo_hyperparams("tqc")

@@ -1,30 +1,35 @@
 """The tasks of rbenv: each a module with one :class:`rbenv.tasks.base.Task` subclass, its
-maker and its registry entry (``SPEC``, registered by ``rbenv/__init__.py``).
+maker and its env entry (``SPEC``, a :class:`rbenv.tasks.spec.TaskSpec`, registered as a
+Gymnasium id by ``rbenv/__init__.py`` through :mod:`rbenv.registry`).
 
-:func:`build` resolves env options into the (plant, task) pair that both env adapters run; the
-task is found by name in the registry (:mod:`rbenv.registry`).
+:func:`build` resolves env options into the (plant, task) pair that the env core runs.
 """
 
 from __future__ import annotations
 
-from rbenv import registry
+from collections.abc import Callable
+
 from rbenv.plant import Plant, make_plant
+from rbenv.scene import DEFAULT_SCENE, load_scene
 from rbenv.tasks.base import Task
 from rbenv.tasks.detumble import Detumble
 from rbenv.tasks.reorient import Reorient
+from rbenv.tasks.spec import TaskSpec
 from rbenv.tasks.track import Track
 
-__all__ = ["Detumble", "Reorient", "Task", "Track", "build"]
+__all__ = ["TABLE_MAKERS", "Detumble", "Reorient", "Task", "TaskSpec", "Track", "build"]
+
+# Scene option table name ([tasks.<name>]) -> the maker that reads it, for every registered
+# task: rbenv.registry.register adds each entry's, so a bad value in any task's table fails
+# when an env of any task is made on the scene.
+TABLE_MAKERS: dict[str, Callable] = {}
 
 
-def build(task_name: str, scene=None, *, integrator=None, control_dt=None, substeps=None,
+def build(spec: TaskSpec, scene=None, *, integrator=None, control_dt=None, substeps=None,
           action_mode="throttle", allocator="pinv", randomize=None, reward_weights=None,
           max_initial_angle_deg=None, max_initial_rate=None, task_options=None,
           compiled=False) -> tuple[Plant, Task]:
-    """The plant and the task named ``task_name`` for these env options (validated)."""
-    from rbenv.scene import DEFAULT_SCENE, load_scene
-
-    spec = registry.by_name(task_name)
+    """The plant and the task of ``spec`` for these env options (validated)."""
     if scene is None:
         scene = spec.default_scene or DEFAULT_SCENE
     scene = load_scene(scene).for_task(spec.task.table_name())
@@ -40,12 +45,9 @@ def build(task_name: str, scene=None, *, integrator=None, control_dt=None, subst
 
 def check_other_task_tables(plant: Plant, own_table: str) -> None:
     """Check the scene's option tables of the other tasks too (``[tasks.<other>]``), with
-    their own makers: a bad value there fails when any env is made on the scene, not only
-    when that task's is. ``own_table``: the table the env's task has read already (a v1 task
-    reads its v0's)."""
-    makers: dict = {}
-    for spec in registry.specs():
-        makers.setdefault(spec.task.table_name(), spec.make)
+    their own makers (:data:`TABLE_MAKERS`): a bad value there fails when any env is made on
+    the scene, not only when that task's is. ``own_table``: the table the env's task has read
+    already (a v1 task reads its v0's)."""
     for table in plant.scene.tasks:
-        if table != own_table and table in makers:
-            makers[table](make_plant(plant.scene.for_task(table)))
+        if table != own_table and table in TABLE_MAKERS:
+            TABLE_MAKERS[table](make_plant(plant.scene.for_task(table)))

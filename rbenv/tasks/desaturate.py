@@ -29,8 +29,6 @@ from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
-from rbenv.hyperparams import tuned
-from rbenv.registry import TaskSpec
 from rbenv.tasks.base import (
     Weights,
     conj,
@@ -40,6 +38,7 @@ from rbenv.tasks.base import (
     unit,
 )
 from rbenv.tasks.reorient import Reorient
+from rbenv.tasks.spec import TaskSpec
 
 
 @dataclass(frozen=True)
@@ -246,12 +245,9 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
     * v0: first release.
     """
 
-# The registry entry (rbenv.registry): registered by rbenv/__init__.py. Episodes are longer
-# than the other tasks' 160 steps: magnetic unloading takes a good part of an orbit.
-SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate,
-                make=make_desaturate,
-                baselines={"unload": "rbenv.agents.baselines.controllers:Unload",
-                           "pd": "rbenv.agents.baselines.controllers:WheelHoldPD"},
-                budget={"ppo": 2_000_000, "sac": 200_000},
-                max_episode_steps=300, hyperparams=tuned.ALL, env_doc=ENV_DOC,
-                default_scene="cubesat-6u-rw", needs=("wheels",))
+# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# of rbenv.agents.settings. Episodes are longer than the other tasks' 160 steps: magnetic
+# unloading takes a good part of an orbit.
+SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate, make=make_desaturate,
+                max_episode_steps=300, env_doc=ENV_DOC, default_scene="cubesat-6u-rw",
+                needs=("wheels",))

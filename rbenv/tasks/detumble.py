@@ -14,10 +14,9 @@ from typing import ClassVar, NamedTuple
 
 from rbenv.core import kernels as k
 from rbenv.core import validation
-from rbenv.hyperparams import tuned
-from rbenv.registry import TaskSpec
 from rbenv.tasks import v1
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
+from rbenv.tasks.spec import TaskSpec
 
 
 @dataclass(frozen=True)
@@ -222,15 +221,10 @@ ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propel
     * v0: first release.
     """
 
-# The registry entry (rbenv.registry): registered by rbenv/__init__.py.
+# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# of rbenv.agents.settings.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
-                baselines={"pd": "rbenv.agents.baselines.controllers:RateDamping",
-                           "bdot": "rbenv.agents.baselines.controllers:BDot"},
-                budget={"ppo": 300_000, "sac": 100_000},
-                # Rods and wheels at 10 s steps: measured at 1 M steps, failure weight 200.
-                scene_budgets={("ppo", "cubesat-6u-rw"): 1_000_000},
-                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
-                hyperparams=tuned.ALL, env_doc=ENV_DOC)
+                env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and reward).
 
@@ -252,11 +246,4 @@ ENV_DOC_V1 = """Stop a tumbling satellite with thrusters (v1 observation and rew
     """ + v1.version_history("rbenv/SatelliteDetumble-v0")
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteDetumble-v1", task=DetumbleV1, make=make_detumble_v1,
-                   baselines=SPEC.baselines, budget={"ppo": 300_000},
-                   # Off-policy budgets (benchmarks/results/rl/v1/<algo>-detumble-v1-seed*-
-                   # keepbest.json): SAC 100 % held out with the policies of 46-71k steps
-                   # (3 seeds); TD3, TQC and CrossQ 100 % at 75k (seed 0; TD3 and TQC
-                   # validated 100 % from 20k, CrossQ from 50k after a dip at 30-40k).
-                   id_settings=tuned.budgets(sac=75_000, td3=75_000, tqc=75_000,
-                                             crossq=75_000),
-                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)
+                   env_doc=ENV_DOC_V1)

@@ -15,9 +15,7 @@ from typing import ClassVar, NamedTuple
 
 from rbenv.core import kernels as k
 from rbenv.core import validation
-from rbenv.hyperparams import tuned
 from rbenv.options import options_table
-from rbenv.registry import TaskSpec
 from rbenv.tasks import v1
 from rbenv.tasks.base import (
     _DEG,
@@ -29,6 +27,7 @@ from rbenv.tasks.base import (
     restricted_haar_angle,
     unit,
 )
+from rbenv.tasks.spec import TaskSpec
 
 _INV_PI = 1.0 / math.pi
 
@@ -300,24 +299,10 @@ OPTIONS_TABLE
       last bit, and ``info`` gains ``reward_precision``.
     """.replace("OPTIONS_TABLE", options_table())
 
-# innocube-3u: its wheels command accelerations, and slews take 30 s and more, so failing
-# (spinning past the rate limit) must cost more than a slow slew: SAC with the default failure
-# weight learned to end every episode within 16 steps (docs/innocube/learned-policy.md).
-INNOCUBE = {(algo, "innocube-3u"): {"action_mode": "acceleration", **tuned.WHEELS_FAILURE}
-            for algo in ("ppo", "sac")}
-
-# The registry entry (rbenv.registry): registered by rbenv/__init__.py.
+# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# of rbenv.agents.settings.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
-                baselines={"pd": "rbenv.agents.baselines.controllers:QuaternionPD",
-                           "bangbang": "rbenv.agents.baselines.controllers:EigenaxisBangBang",
-                           "innocube-pd": "rbenv.agents.baselines.controllers:InnoCubePD"},
-                budget={"ppo": 1_000_000, "sac": 200_000},
-                # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
-                scene_budgets={("ppo", "boom-sat"): 4_000_000},
-                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
-                                  ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE,
-                                  **INNOCUBE},
-                hyperparams=tuned.ALL, env_doc=ENV_DOC)
+                env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and reward).
 
@@ -345,18 +330,4 @@ OPTIONS_TABLE
         "rbenv/SatelliteReorient-v0")
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=make_reorient_v1,
-                   baselines=SPEC.baselines, budget={"ppo": 1_000_000},
-                   # Off-policy budgets from 3 seeds each (benchmarks/results/rl/v1/
-                   # <algo>-reorient-v1-seed*-keepbest.json, docs/off-policy.md): SAC's best
-                   # policies at 130-135k (99.0-100 % held out); TD3 validated 97-100 % from
-                   # 120k on (97.4-99.8 % held out at 151-300k); TQC 97.6-100 % held out with
-                   # the policies of 30-62k, all 3 runs ending by 70k; CrossQ learned at
-                   # 100-110k on seeds 0 and 1 (100 %), not by 105k on seed 2.
-                   id_settings=tuned.budgets(sac=150_000, td3=150_000, tqc=70_000,
-                                             crossq=180_000),
-                   # PPO on boom-sat: 89.0 % and 60.2 % held out at 1 M steps (seeds 0, 1),
-                   # validation still rising (v0 needs 4 M there).
-                   scene_budgets={("ppo", "boom-sat"): 2_000_000},
-                   scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
-                                     **INNOCUBE},
-                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)
+                   env_doc=ENV_DOC_V1)

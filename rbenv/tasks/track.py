@@ -33,8 +33,6 @@ from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.quaternion import from_matrix
-from rbenv.hyperparams import tuned
-from rbenv.registry import TaskSpec
 from rbenv.tasks import v1
 from rbenv.tasks.base import (
     _DEG,
@@ -46,6 +44,7 @@ from rbenv.tasks.base import (
     restricted_haar_angle,
     unit,
 )
+from rbenv.tasks.spec import TaskSpec
 
 _INV_PI = 1.0 / math.pi
 
@@ -376,12 +375,9 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
     * v0: first release.
     """
 
-# The registry entry (rbenv.registry): registered by rbenv/__init__.py.
-SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track,
-                baselines={"pd": "rbenv.agents.baselines.controllers:TrackingPD"},
-                budget={"ppo": 1_000_000, "sac": 200_000},
-                scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
-                hyperparams=tuned.ALL, env_doc=ENV_DOC)
+# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# of rbenv.agents.settings.
+SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track, env_doc=ENV_DOC)
 
 ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observation and reward).
 
@@ -405,14 +401,4 @@ ENV_DOC_V1 = """Follow a target attitude turning at a constant rate (v1 observat
     """ + v1.version_history("rbenv/SatelliteTrack-v0")
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteTrack-v1", task=TrackV1, make=make_track_v1,
-                   baselines=SPEC.baselines, budget={"ppo": 1_000_000},
-                   # Off-policy budgets (benchmarks/results/rl/v1/<algo>-track-v1-seed*-
-                   # keepbest.json): SAC 99.2-100 % held out with the policies of 40-65k
-                   # steps (3 seeds); TQC 100 % with its 20k policy (seed 0, 75k run). TD3 and
-                   # CrossQ do not learn it: TD3 peaked at 61 % validation at 80k and fell to
-                   # 0 % by 120k (58.8 % held out at best); CrossQ reached 23 % at 20k and 0 %
-                   # from 30k to 176k (17.2 %). Their budgets only bound the time spent.
-                   id_settings=tuned.budgets(sac=75_000, td3=80_000, tqc=75_000,
-                                             crossq=75_000),
-                   scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
-                   hyperparams=tuned.ALL, env_doc=ENV_DOC_V1)
+                   env_doc=ENV_DOC_V1)

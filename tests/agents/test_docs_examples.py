@@ -10,6 +10,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents import settings
 from rbenv.agents.policies.evaluate import evaluate
 
 import rbenv
@@ -36,6 +37,7 @@ def spin_up(monkeypatch, capsys):
     exec(compile(block("tasks.md", "a new task"), "docs/tasks.md", "exec"), module.__dict__)
     yield module
     rbenv.registry.unregister("myorg/SpinUp-v0")
+    settings.unregister("myorg/SpinUp-v0")
 
 
 def test_the_new_task_of_tasks_md_registers_steps_and_evaluates(spin_up, capsys):

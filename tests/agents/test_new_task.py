@@ -1,7 +1,8 @@
-"""A new task is one module plus one registry entry: this file is the module.
+"""A new task is one module plus its entries: this file is the module.
 
 It defines "point a body axis at the Sun" (nothing else in the repository knows it), registers
-it with :func:`rbenv.registry.register`, and then uses it as a user would: ``gym.make`` and
+its env entry with :func:`rbenv.registry.register` and its training settings with
+:func:`rbenv.agents.settings.register`, and then uses it as a user would: ``gym.make`` and
 ``gym.make_vec`` by id, Gymnasium's and SB3's env checkers, and ``rbenv train`` for 4096 steps,
 which ends with the report that compares the policy with the entry's scripted baseline.
 """
@@ -17,13 +18,17 @@ from typing import ClassVar, NamedTuple
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents import settings
+from rbenv.agents.settings import tuned
 from rbenv.core import kernels as k
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
 from rbenv import registry, transition
-from rbenv.hyperparams import tuned
+from rbenv.env import AttitudeEnv
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
+from rbenv.tasks.spec import TaskSpec
+from rbenv.vector_env import AttitudeVectorEnv
 
 SUN_ID = "rbenvtest/PointSun-v0"
 _AXIS_B = (1.0, 0.0, 0.0)  # the body axis that must point at the Sun (a panel normal)
@@ -111,18 +116,20 @@ class SunHold:
         return np.zeros(shape, np.float32), state
 
 
-SPEC = registry.TaskSpec(env_id=SUN_ID, task=PointSun, make=make_point_sun,
-                         baselines={"hold": SunHold}, budget={"ppo": 4096},
-                         hyperparams={"ppo": tuned.PPO},
-                         env_doc="Point body +x at the Sun (a test task).")
+SPEC = TaskSpec(env_id=SUN_ID, task=PointSun, make=make_point_sun,
+                env_doc="Point body +x at the Sun (a test task).")
+TRAINING = settings.TrainingSettings(env_id=SUN_ID, baselines={"hold": SunHold},
+                                     budget={"ppo": 4096}, hyperparams={"ppo": tuned.PPO})
 
 
 @pytest.fixture(autouse=True, scope="module")
 def _registered():
-    """The one registry entry; removed afterwards, so no other test meets this task."""
+    """The two entries; removed afterwards, so no other test meets this task."""
     registry.register(SPEC)
+    settings.register(TRAINING)
     yield
     registry.unregister(SUN_ID)
+    settings.unregister(SUN_ID)
 
 
 # --------------------------------------------------------------------------- the tests
@@ -136,8 +143,10 @@ def test_registered_task_makes_single_and_vector_envs_by_id():
     venv = gym.make_vec(SUN_ID, num_envs=4)
     vobs, _ = venv.reset(seed=3)
     np.testing.assert_array_equal(vobs[0], obs)  # sub-env 0 meets the single env's episode
-    assert type(env.unwrapped).__name__ == "PointSunEnv"
-    assert rbenv.registry.get(SUN_ID) is SPEC
+    # No class of its own: the generic shells, told their task by the registration.
+    assert type(env.unwrapped) is AttitudeEnv and type(venv.unwrapped) is AttitudeVectorEnv
+    assert env.unwrapped.task_spec == SPEC and isinstance(env.unwrapped.task, PointSun)
+    assert rbenv.registry.get(SUN_ID) is SPEC and settings.get(SUN_ID) is TRAINING
 
 
 def test_both_checkers_pass_on_the_new_task():
@@ -165,6 +174,19 @@ def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
     assert list(out.glob("policy*.pt")) and not list(out.glob("*.zip"))  # weights, no pickle
 
 
+def test_rbenv_train_refuses_an_id_without_training_settings_saying_what_to_add():
+    from rbenv.agents.training.config import TrainConfig
+
+    settings.unregister(SUN_ID)
+    try:
+        with pytest.raises(InvalidParameterError, match=re.escape(
+                f"rbenv.agents.settings.register(TrainingSettings(env_id='{SUN_ID}'")):
+            TrainConfig(env_id=SUN_ID).resolve()
+    finally:
+        settings.register(TRAINING)
+    gym.make(SUN_ID).close()  # the env itself needs no training settings
+
+
 @pytest.mark.parametrize(("change", "named"), [
     ({"baselines": {}}, "baselines"),
     ({"baselines": {"pd": 3}}, "baselines['pd']"),
@@ -176,16 +198,27 @@ def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
     ({"scene_budgets": {("ppo", "boom-sat"): -1}}, "scene_budgets[('ppo', 'boom-sat')]"),
     ({"id_settings": {"sac": {"n_timesteps": 1000}}}, "hyperparams['sac']"),
     ({"hyperparams": {}}, "hyperparams has no settings for 'ppo'"),
-    ({"env_id": "PointSun"}, "namespace/Name-v0"),
-    ({"task": object}, "Task subclass"),
 ])
-def test_an_incomplete_entry_is_refused_when_registered(change, named):
+def test_incomplete_training_settings_are_refused_when_registered(change, named):
     from dataclasses import replace
 
-    bad = replace(SPEC, env_id="rbenvtest/Broken-v0", **change) if "env_id" not in change \
-        else replace(SPEC, **change)
+    bad = replace(TRAINING, env_id="rbenvtest/Broken-v0", **change)
     with pytest.raises(InvalidParameterError, match=re.escape(named)):
-        registry.register(bad)
+        settings.register(bad)
+    with pytest.raises(InvalidParameterError, match="has no training settings"):
+        settings.get("rbenvtest/Broken-v0")
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    ({"env_id": "PointSun"}, "namespace/Name-v0"),
+    ({"task": object}, "Task subclass"),
+    ({"make": 3}, "make must be callable"),
+])
+def test_a_bad_env_entry_is_refused_when_made(change, named):
+    from dataclasses import replace
+
+    with pytest.raises(InvalidParameterError, match=re.escape(named)):
+        replace(SPEC, **{"env_id": "rbenvtest/Broken-v0", **change})
     assert "rbenvtest/Broken-v0" not in gym.registry
 
 

@@ -32,7 +32,7 @@ import rbenv
 
 IDS = sorted(rbenv.ENV_IDS)
 SCENES = rbenv.list_scenes()
-# Every id on every scene it runs on (desaturation needs wheels: registry.TaskSpec.needs).
+# Every id on every scene it runs on (desaturation needs wheels: rbenv.tasks.spec.TaskSpec.needs).
 PAIRS = [(i, s) for i in IDS for s in SCENES if rbenv.registry.get(i).runs_on(s)]
 MODES = list(AutoresetMode)
 N = 3  # sub-envs

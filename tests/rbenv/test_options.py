@@ -25,14 +25,14 @@ SCENES = rbenv.list_scenes()
 def _keywords(function, skip=()) -> dict:
     return {name: p.default for name, p in inspect.signature(function).parameters.items()
             if p.kind is p.KEYWORD_ONLY or (p.kind is p.POSITIONAL_OR_KEYWORD and
-                                             name not in ("self", "task_name", "num_envs"))
+                                             name not in ("self", "spec", "num_envs"))
             if name not in skip}
 
 
 @pytest.mark.parametrize("constructor", [AttitudeEnv.__init__, AttitudeVectorEnv.__init__, build],
                          ids=["env", "vector_env", "tasks.build"])
 def test_constructors_take_exactly_the_declared_options_with_their_defaults(constructor):
-    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend")  # backend: vector
+    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend", "task")
     assert _keywords(constructor, skip=extra) == options.DEFAULTS
 
 
@@ -129,3 +129,27 @@ def test_the_backend_options_have_the_constructors_defaults():
         {k: v for k, v in declared.items() if k != "backend"}
     table = options.options_markdown()
     assert all(f"| `{name}` |" in table for name in options.BACKEND_OPTIONS)
+def test_the_autoreset_default_is_declared_once_and_every_vector_env_follows_it(monkeypatch):
+    """rbenv.options.AUTORESET_DEFAULT is the one place: change it, and the NumPy and torch
+    vector envs made without ``autoreset_mode`` take the new mode and act on it."""
+    from gymnasium.vector import AutoresetMode
+
+    assert options.AUTORESET_DEFAULT == {"numpy": AutoresetMode.NEXT_STEP,
+                                         "torch": AutoresetMode.SAME_STEP}
+    assert gym.make_vec(rbenv.ENV_ID, num_envs=2).unwrapped.autoreset_mode \
+        is AutoresetMode.NEXT_STEP
+    monkeypatch.setitem(options.AUTORESET_DEFAULT, "numpy", AutoresetMode.SAME_STEP)
+    envs = gym.make_vec(rbenv.ENV_ID, num_envs=2, max_episode_steps=1)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
+    envs.reset(seed=0)
+    *_, truncated, info = envs.step(envs.action_space.sample())
+    assert truncated.all() and info["_final_obs"].all()  # SAME_STEP's final observations
+    torch = pytest.importorskip("torch", reason="torch is not installed (train extra)")
+    monkeypatch.setitem(options.AUTORESET_DEFAULT, "torch", AutoresetMode.DISABLED)
+    tenvs = gym.make_vec(rbenv.ENV_ID, num_envs=2, max_episode_steps=1, backend="torch",
+                         integrator="rk4")
+    assert tenvs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
+    tenvs.reset(seed=0)
+    tenvs.step(torch.zeros(tenvs.action_space.shape, dtype=torch.float64))
+    with pytest.raises(gym.error.ResetNeeded, match="DISABLED"):  # nothing reset by itself
+        tenvs.step(torch.zeros(tenvs.action_space.shape, dtype=torch.float64))

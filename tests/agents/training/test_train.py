@@ -184,12 +184,11 @@ def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
         assert callback.policy().action == action
 
 
-def test_a_scene_entry_of_the_registry_adds_its_env_options_to_training():
-    """rbenv train on a wheel scene trains with the failure weight the registry gives that
-    scene; the default scene gets none, and the caller's --env-kwargs win."""
+def test_a_scene_entry_of_the_training_settings_adds_its_env_options_to_training():
+    """rbenv train on a wheel scene trains with the failure weight its training settings give
+    that scene; the default scene gets none, and the caller's --env-kwargs win."""
+    from rbenv.agents.settings import tuned
     from rbenv.agents.training.config import TrainConfig
-
-    from rbenv.hyperparams import tuned
 
     wheels = TrainConfig(algo="ppo", scene="cubesat-6u-rw").resolve()
     assert wheels.env_kwargs["reward_weights"] == tuned.WHEELS_FAILURE["reward_weights"]
@@ -197,14 +196,13 @@ def test_a_scene_entry_of_the_registry_adds_its_env_options_to_training():
     mine = TrainConfig(algo="ppo", scene="cubesat-6u-rw",
                        env_kwargs={"reward_weights": {"failure": 50.0}}).resolve()
     assert mine.env_kwargs["reward_weights"] == {"failure": 50.0}
-    wheels.env_kwargs["reward_weights"]["failure"] = -1.0  # a copy: the registry is untouched
+    wheels.env_kwargs["reward_weights"]["failure"] = -1.0  # a copy: the settings are untouched
     assert tuned.WHEELS_FAILURE["reward_weights"]["failure"] == 200.0
 
 
 def test_track_v1_on_boom_sat_trains_with_the_lower_fuel_weight_and_only_there():
+    from rbenv.agents.settings import tuned
     from rbenv.agents.training.config import TrainConfig
-
-    from rbenv.hyperparams import tuned
 
     track = "rbenv/SatelliteTrack-v1"
     boom = TrainConfig(algo="ppo", env_id=track, scene="boom-sat").resolve()

@@ -1,4 +1,5 @@
-"""PPO's settings have one source, rbenv.hyperparams.tuned (the task registry points at it):
+"""PPO's settings have one source, rbenv.agents.settings.tuned (the training entries point at
+it):
 `rbenv train` (SB3), `rbenv train --engine rllib`, the RL Zoo file and the SAC ablation's PPO
 row read it; none keeps a copy (issue 21 item 2)."""
 
@@ -8,11 +9,12 @@ import ast
 from pathlib import Path
 
 import pytest
+from rbenv.agents import settings
+from rbenv.agents.settings import tuned
 
 import rbenv
-from rbenv.hyperparams import tuned
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 # Settings only PPO has, under SB3's and RLlib's names; the readers that train nothing else
 # must not hold the shared ones either (the SAC ablation keeps its own off-policy variants).
 PPO_ONLY = {"n_epochs", "num_epochs", "gae_lambda", "lambda_", "clip_range", "clip_param",
@@ -56,8 +58,7 @@ def test_readers_hold_no_ppo_numbers_and_import_the_source(path):
     if path.endswith("sb3.py"):  # it takes its settings from the config (config.py)
         return
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
-    assert imported & {"rbenv.hyperparams", "rbenv.hyperparams.ppo", "rbenv.registry"} or \
-        "rbenv.registry" in (ROOT / path).read_text()
+    assert imported & {"rbenv.agents", "rbenv.agents.settings", "rbenv.hyperparams.ppo"}
 
 
 def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
@@ -68,7 +69,7 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
     monkeypatch.setitem(tuned.PPO, "learning_rate", 1.234e-4)
     monkeypatch.setitem(tuned.PPO, "n_epochs", 7)
     for env_id in (rbenv.ENV_ID, "rbenv/SatelliteReorient-v1"):
-        assert rbenv.registry.get(env_id).hyperparams["ppo"] is tuned.PPO
+        assert settings.get(env_id).hyperparams["ppo"] is tuned.PPO
         assert shipped_settings("ppo", env_id)["learning_rate"] == 1.234e-4
         cfg = RLlibConfig(env_id=env_id).resolve()
         assert (cfg.hyperparams["lr"], cfg.hyperparams["num_epochs"]) == (1.234e-4, 7)
@@ -76,23 +77,23 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
             tuned.PPO["n_envs"] * tuned.PPO["n_steps"]
         assert cfg.model["fcnet_hiddens"] == tuned.PPO["policy_kwargs"]["net_arch"]
         assert cfg.log_std_init == tuned.PPO["policy_kwargs"]["log_std_init"]
-    assert rbenv.registry.zoo_hyperparams("ppo")[rbenv.ENV_ID]["n_epochs"] == 7
+    assert settings.zoo_hyperparams("ppo")[rbenv.ENV_ID]["n_epochs"] == 7
 
 
 V1_IDS = ("rbenv/SatelliteReorient-v1", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v1")
 
 
 @pytest.mark.parametrize(("env_id", "algo"), [
-    (env_id, algo) for env_id in V1_IDS for algo in rbenv.registry.get(env_id).id_settings])
+    (env_id, algo) for env_id in V1_IDS for algo in settings.get(env_id).id_settings])
 def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, algo):
-    """A v1 id's measured off-policy budget lives in its task entry (id_settings) only:
+    """A v1 id's measured off-policy budget lives in its training entry (id_settings) only:
     `rbenv train`'s default --timesteps, the RL Zoo file's n_timesteps and the suite's cell
     budget are that one number, and every other setting is still the shared dict's."""
     import importlib
 
     from rbenv.agents.training.config import TrainConfig, shipped_settings
 
-    spec = rbenv.registry.get(env_id)
+    spec = settings.get(env_id)
     steps = spec.id_settings[algo]["n_timesteps"]
     zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
     assert zoo == shipped_settings(algo, env_id) == spec.settings(algo)
@@ -105,12 +106,12 @@ def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, alg
 
 def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
     """The per-id numbers are not the shared default restated (that would be no tuning)."""
-    spec = rbenv.registry.get("rbenv/SatelliteReorient-v1")
+    spec = settings.get("rbenv/SatelliteReorient-v1")
     for algo in ("sac", "td3", "tqc", "crossq"):
         assert spec.timesteps(algo) != tuned.ALL[algo]["n_timesteps"]
-    assert rbenv.registry.get("rbenv/SatelliteReorient-v0").settings("sac") == tuned.SAC
+    assert settings.get("rbenv/SatelliteReorient-v0").settings("sac") == tuned.SAC
 
 
 @pytest.mark.parametrize("env_id", V1_IDS)
 def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
-    assert set(rbenv.registry.get(env_id).id_settings) == {"sac", "td3", "tqc", "crossq"}
+    assert set(settings.get(env_id).id_settings) == {"sac", "td3", "tqc", "crossq"}

@@ -1,6 +1,6 @@
 """RLlib's names for the shipped PPO settings: ``rbenv train --engine rllib`` reads these.
 
-The numbers are the zoo-format dict of the task registry (:data:`rbenv.hyperparams.tuned.PPO`
+The numbers are the zoo-format dict of the training entries (:data:`rbenv.agents.settings.tuned.PPO`
 for the shipped ids), renamed, so SB3 and RLlib PPO train with one set of settings. Only what
 RLlib needs and SB3 leaves at a default is written here: SB3's gradient-norm limit (0.5) and
 its unclipped value loss (RLlib clips it unless ``vf_clip_param`` is huge), and SB3's

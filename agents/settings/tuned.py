@@ -1,12 +1,12 @@
 """The tuned settings of each algorithm, in RL Baselines3 Zoo's format: the one source.
 
-The task registry (:mod:`rbenv.registry`) points every task entry at these dicts; the zoo
-files (``rbenv.hyperparams.ppo``, ...) and ``rbenv train`` read them from there.
+The training entries (:mod:`rbenv.agents.settings.shipped`) point every shipped id at these
+dicts; the zoo files (``rbenv.hyperparams.ppo``, ...) and ``rbenv train`` read them from there.
 """
 
 from __future__ import annotations
 
-from rbenv.hyperparams._off_policy import recipe
+from rbenv.agents.settings.off_policy import recipe
 
 # rbenv train's PPO: 64 native sub-envs, VecNormalize, 2 M steps (the README's main job).
 PPO = {
@@ -27,7 +27,7 @@ PPO = {
     "monitor_kwargs": {"info_keywords": ("is_success",)},
 }
 
-# The off-policy learners: issue 22's recipe (rbenv.hyperparams._off_policy), measured on
+# The off-policy learners: issue 22's recipe (rbenv.agents.settings.off_policy), measured on
 # SatelliteReorient-v0/cubesat-12u (docs/off-policy.md). A task entry's id_settings give an id
 # its own measured n_timesteps (the v1 ids, via budgets() below); the rest is shared.
 SAC = recipe()
@@ -38,7 +38,7 @@ TQC = recipe(n_timesteps=200_000)
 # 1024 x 1024, which ran at 43 env-steps/s here.
 CROSSQ = recipe(tau=None, policy_kwargs={"net_arch": [256, 256]})
 
-# PPO's training on the wheel scenes (rbenv.registry's scene_env_kwargs). With the default
+# PPO's training on the wheel scenes (the training entries' scene_env_kwargs). With the default
 # failure weight (25) PPO learns to spin the bus past the rate limit within ~7 steps and end
 # the episode: the weak wheels (3.2 mN·m on cubesat-6u-rw) need 40–80 s for a manoeuvre whose
 # per-step terms cost more than failing. Held out, 0–14 % with 25; with 200: reorient 97.0 %
