@@ -12,19 +12,21 @@ from __future__ import annotations
 import argparse
 import cProfile
 import json
+import os
 import pstats
 import time
 
-from benchmarks.common import machine, table, write_json
+from benchmarks.common import RESULTS, table, write_json
 
 ENV_ID = "rbenv/SatelliteReorient-v1"
 
 # (name, algo, settings over the registry's, env steps profiled, env steps before it)
 CASES = [
+    # The shared PPO of every other id (today's main job on v0), on v1.
     ("ppo-main-job-v0-settings", "ppo", {"n_envs": 64, "hyperparams": {
         "n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
         "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}}}, 65_536, 0),
-    ("ppo-shipped-v1", "ppo", {}, 65_536, 0),
+    ("ppo-v1-fast-path", "ppo", {}, 65_536, 0),  # Reorient-v1's own PPO (the registry's)
     ("sac-shipped-v1", "sac", {}, 2_048, 10_016),
 ]
 
@@ -105,19 +107,29 @@ def profile(name: str, algo: str, over: dict, steps: int, warm: int) -> dict:
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true")
+    p.add_argument("--cases", nargs="+", default=None, choices=[c[0] for c in CASES],
+                   help="profile only these (the others are kept from the results file)")
     args = p.parse_args(argv)
+    name_out = "train_profile_quick" if args.quick else "train_profile"
+    kept = []
+    if args.cases and (RESULTS / f"{name_out}.json").is_file():
+        kept = [c for c in json.loads((RESULTS / f"{name_out}.json").read_text())["cases"]
+                if c["case"] not in args.cases and c["case"] in {x[0] for x in CASES}]
     out = []
     for name, algo, over, steps, warm in CASES:
+        if args.cases and name not in args.cases:
+            continue
         if args.quick:
             steps, warm = (8_192, 0) if algo == "ppo" else (64, 256)
             over = {**over, "hyperparams": {**over.get("hyperparams", {}),
                                             **({"learning_starts": 128} if algo != "ppo"
                                                else {})}}
-        out.append(profile(name, algo, over, steps, warm))
+        out.append({**profile(name, algo, over, steps, warm), "load": list(os.getloadavg())})
         print(json.dumps({k: out[-1][k] for k in ("case", "cpu_s", "wall_s", "share")},
                          indent=1), flush=True)
-    write_json("train_profile_quick" if args.quick else "train_profile",
-               {"env_id": ENV_ID, "cases": out, "machine": machine()})
+    order = [c[0] for c in CASES]
+    out = sorted(kept + out, key=lambda c: order.index(c["case"]))
+    write_json(name_out, {"env_id": ENV_ID, "cases": out})
     rows = [{"case": r["case"], **{k: f"{100 * v:.0f} %" for k, v in r["share"].items()}}
             for r in out]
     print(table(rows, list(rows[0])))
