@@ -236,8 +236,12 @@ def _rsl_env(num_envs: int, seed: int):
 def rsl_rl_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
     """Train ``path`` with rsl_rl's PPO (``OnPolicyRunner``) on the torch env."""
     import torch
-    from rsl_rl.runners import OnPolicyRunner
 
+    try:
+        from rsl_rl.runners import OnPolicyRunner
+    except ImportError:
+        raise SystemExit(f"path {path.name!r} needs rsl_rl, in no extra of rbenv: pip install "
+                         "rsl-rl-lib (5.5 was measured)") from None
     torch.set_num_threads(path.threads)
     torch.manual_seed(seed)
     hp = dict(path.hyperparams)
