@@ -145,7 +145,8 @@ def sb3_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
             policy = RunPolicy(self.model, self.model.get_vec_normalize_env(), run_config,
                                source="training model")
             rate = float(evaluate(policy, episodes=episodes, seed=HELD_OUT_SEED, env_id=ENV_ID,
-                                  scene=cfg.scene, record=0).success.mean())
+                                  scene=cfg.scene, env_kwargs=cfg.env_kwargs,
+                                  record=0).success.mean())
             self.curve.append({"samples": int(self.num_timesteps), "train_s": train_s,
                                "cpu_s": cpu_s, "success": rate})
             log(f"  {path.name} seed {seed}: {self.num_timesteps} samples, {train_s:.1f} s "
