@@ -74,7 +74,11 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
     assert shipped_settings("ppo", v1.env_id)["gae_lambda"] == 0.9
     assert shipped_settings("ppo", v1.env_id)["learning_rate"] == \
         v1.id_settings["ppo"]["learning_rate"] != 1.234e-4
-    for env_id in [rbenv.ENV_ID] if rbenv.ENV_ID != v1.env_id else []:
+    own = v1.id_settings["ppo"]
+    cfg = RLlibConfig(env_id=v1.env_id).resolve()
+    assert (cfg.hyperparams["lr"], cfg.hyperparams["train_batch_size_per_learner"]) == \
+        (own["learning_rate"], own["n_envs"] * own["n_steps"])
+    for env_id in ("rbenv/SatelliteReorient-v0", "rbenv/SatelliteTrack-v1"):
         assert rbenv.registry.get(env_id).hyperparams["ppo"] is tuned.PPO
         assert shipped_settings("ppo", env_id)["learning_rate"] == 1.234e-4
         cfg = RLlibConfig(env_id=env_id).resolve()
