@@ -217,8 +217,8 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
     frames = cfg.num_envs * cfg.rollout
     collector = Collector(env, actor, frames_per_batch=frames, total_frames=cfg.timesteps,
                           device=cfg.device, auto_register_policy_transforms=False)
-    t0 = time.perf_counter()
-    collect_s = eval_s = 0.0
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    collect_s = eval_s = eval_cpu_s = 0.0
     samples, curve, next_eval = 0, [], cfg.eval_every
     tick = time.perf_counter()
     for i, batch in enumerate(collector):
@@ -227,11 +227,13 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
         reward = float(batch.get(("next", "reward")).mean())
         _update(scale(batch), gae, loss, opt, cfg)
         norm.update(batch.get("observation"))  # for the next iteration's rollout and update
-        point = {"samples": samples, "s": time.perf_counter() - t0 - eval_s, "reward": reward}
+        point = {"samples": samples, "s": time.perf_counter() - t0 - eval_s,
+                 "cpu_s": time.process_time() - cpu0 - eval_cpu_s, "reward": reward}
         if cfg.eval_every and samples >= next_eval:  # held-out success, timed apart
-            tick = time.perf_counter()
+            tick, tock = time.perf_counter(), time.process_time()
             point["held_out_success"] = success_rate(actor, cfg, kwargs)
             eval_s += time.perf_counter() - tick
+            eval_cpu_s += time.process_time() - tock
             next_eval += cfg.eval_every
         if i % 10 == 0 or "held_out_success" in point:
             curve.append(point)

@@ -18,7 +18,9 @@ import pytest
 import rbenv
 from rbenv.hyperparams import ppo
 
-ZOO_STEPS = 4096  # exactly one rollout of the shipped settings: 64 envs x n_steps 64
+# Exactly one rollout of the default id's shipped PPO settings (n_envs x n_steps).
+_PPO = rbenv.registry.get(rbenv.ENV_ID).settings("ppo")
+ZOO_STEPS = _PPO["n_envs"] * _PPO["n_steps"]
 ZOO_NAME = rbenv.ENV_ID.replace("/", "-")  # the zoo names its run and model files so
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
 OFF_POLICY_STEPS = 1024  # 32 vector steps of the shipped 32 envs
@@ -84,8 +86,9 @@ def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
     assert (run / name / "vecnormalize.pkl").exists()
     with open(run / name / "config.yml") as f:
         saved = dict(yaml.load(f, Loader=yaml.UnsafeLoader))
-    assert saved["n_envs"] == 64 and saved["n_steps"] == 64 and saved["batch_size"] == 1024
-    assert len(list(run.glob("*.monitor.csv"))) == 64
+    assert (saved["n_envs"], saved["n_steps"], saved["batch_size"]) == \
+        (_PPO["n_envs"], _PPO["n_steps"], _PPO["batch_size"])
+    assert len(list(run.glob("*.monitor.csv"))) == _PPO["n_envs"]
     header = (run / "0.monitor.csv").read_text().splitlines()[1]
     assert header.split(",") == ["r", "l", "t", "is_success"]
 

@@ -12,8 +12,6 @@ import pytest
 from rbenv.agents import settings
 from rbenv.agents.settings import tuned
 
-import rbenv
-
 ROOT = Path(__file__).resolve().parents[3]
 # Settings only PPO has, under SB3's and RLlib's names; the readers that train nothing else
 # must not hold the shared ones either (the SAC ablation keeps its own off-policy variants).
@@ -68,7 +66,18 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
 
     monkeypatch.setitem(tuned.PPO, "learning_rate", 1.234e-4)
     monkeypatch.setitem(tuned.PPO, "n_epochs", 7)
-    for env_id in (rbenv.ENV_ID, "rbenv/SatelliteReorient-v1"):
+    monkeypatch.setitem(tuned.PPO, "gae_lambda", 0.9)
+    # Reorient-v1 has its own PPO values (its id_settings); the rest still follows the source.
+    v1 = settings.get("rbenv/SatelliteReorient-v1")
+    assert v1.hyperparams["ppo"] is tuned.PPO
+    assert shipped_settings("ppo", v1.env_id)["gae_lambda"] == 0.9
+    assert shipped_settings("ppo", v1.env_id)["learning_rate"] == \
+        v1.id_settings["ppo"]["learning_rate"] != 1.234e-4
+    own = v1.id_settings["ppo"]
+    cfg = RLlibConfig(env_id=v1.env_id).resolve()
+    assert (cfg.hyperparams["lr"], cfg.hyperparams["train_batch_size_per_learner"]) == \
+        (own["learning_rate"], own["n_envs"] * own["n_steps"])
+    for env_id in ("rbenv/SatelliteReorient-v0", "rbenv/SatelliteTrack-v1"):
         assert settings.get(env_id).hyperparams["ppo"] is tuned.PPO
         assert shipped_settings("ppo", env_id)["learning_rate"] == 1.234e-4
         cfg = RLlibConfig(env_id=env_id).resolve()
@@ -77,14 +86,36 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
             tuned.PPO["n_envs"] * tuned.PPO["n_steps"]
         assert cfg.model["fcnet_hiddens"] == tuned.PPO["policy_kwargs"]["net_arch"]
         assert cfg.log_std_init == tuned.PPO["policy_kwargs"]["log_std_init"]
-    assert settings.zoo_hyperparams("ppo")[rbenv.ENV_ID]["n_epochs"] == 7
+    assert settings.zoo_hyperparams("ppo")["rbenv/SatelliteReorient-v0"]["n_epochs"] == 7
+
+
+def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
+    """Reorient-v1's own PPO values (its fast path, docs/performance.md) are what `rbenv train`
+    and the RL Zoo file use on that id; the keys it does not set are the shared dict's."""
+    import importlib
+
+    from rbenv.agents.training.config import TrainConfig, shipped_settings
+
+    env_id = "rbenv/SatelliteReorient-v1"
+    own = settings.get(env_id).id_settings["ppo"]
+    zoo = importlib.import_module("rbenv.hyperparams.ppo").hyperparams[env_id]
+    assert zoo == shipped_settings("ppo", env_id) == {**tuned.PPO, **own}
+    cfg = TrainConfig(env_id=env_id).resolve()
+    assert (cfg.n_envs, cfg.timesteps) == (own["n_envs"], own["n_timesteps"])
+    assert cfg.hyperparams["batch_size"] == own["batch_size"]
+    assert cfg.hyperparams["policy_kwargs"] == own["policy_kwargs"]
+    assert cfg.hyperparams["gae_lambda"] == tuned.PPO["gae_lambda"]
+    assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
+    # Whole rollouts split into whole minibatches.
+    assert (own["n_envs"] * own["n_steps"]) % own["batch_size"] == 0
 
 
 V1_IDS = ("rbenv/SatelliteReorient-v1", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v1")
 
 
 @pytest.mark.parametrize(("env_id", "algo"), [
-    (env_id, algo) for env_id in V1_IDS for algo in settings.get(env_id).id_settings])
+    (env_id, algo) for env_id in V1_IDS for algo in settings.get(env_id).id_settings
+    if algo != "ppo"])
 def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, algo):
     """A v1 id's measured off-policy budget lives in its training entry (id_settings) only:
     `rbenv train`'s default --timesteps, the RL Zoo file's n_timesteps and the suite's cell
@@ -114,4 +145,5 @@ def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
 
 @pytest.mark.parametrize("env_id", V1_IDS)
 def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
-    assert set(settings.get(env_id).id_settings) == {"sac", "td3", "tqc", "crossq"}
+    assert set(settings.get(env_id).id_settings) - {"ppo"} == \
+        {"sac", "td3", "tqc", "crossq"}

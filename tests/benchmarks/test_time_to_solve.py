@@ -1,0 +1,52 @@
+"""benchmarks/time_to_solve.py --quick: trains the shipped PPO of Reorient-v1 for a few
+rollouts, evaluates it on held-out episodes outside the training clock, and writes the JSON
+(into tmp_path, never the committed results)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from benchmarks import common, time_to_solve
+
+pytest.importorskip("stable_baselines3")
+
+
+@pytest.fixture
+def results(tmp_path, monkeypatch, request):
+    import torch
+
+    threads = torch.get_num_threads()
+    request.addfinalizer(lambda: torch.set_num_threads(threads))
+    monkeypatch.setattr(common, "RESULTS", tmp_path)
+    monkeypatch.setattr(time_to_solve, "RESULTS", tmp_path)
+    return tmp_path
+
+
+@pytest.mark.slow  # a few seconds on an idle machine
+def test_quick_run_writes_curve_and_table(results):
+    time_to_solve.main(["--quick"])
+    data = json.loads((results / "time_to_solve_quick.json").read_text())
+    (run,) = data["runs"]
+    assert run["path"] == "sb3-shipped" and run["seed"] == 0
+    # Evaluations every 4096 samples up to the 8192-sample budget, the clocks only counting
+    # training: wall and CPU time grow with the samples.
+    assert [p["samples"] for p in run["curve"]] == [4096, 8192]
+    first, last = run["curve"]
+    assert 0 < first["train_s"] < last["train_s"] and 0 < first["cpu_s"] < last["cpu_s"]
+    # 8k samples do not solve the task: the miss is recorded with its best rate.
+    assert not run["solved"] and run["time_to_solve_s"] is None
+    assert run["best_success"] == max(p["success"] for p in run["curve"]) < 0.99
+    (row,) = data["table"]
+    assert row["path"] == "sb3-shipped" and row["seeds"] == 1 and row["solved"] == 0
+    assert len(run["load_before"]) == 3
+    assert (results / "time_to_solve_quick.png").is_file()
+
+
+def test_paths_name_known_engines_and_settings():
+    for path in time_to_solve.PATHS.values():
+        assert path.engine in time_to_solve.RUNNERS
+        assert path.budget is None or path.budget >= path.eval_every > 0
+    # The shipped path takes the registry's settings unchanged.
+    assert time_to_solve.PATHS["sb3-shipped"].hyperparams == {}
