@@ -222,16 +222,14 @@ def parse_tables(orbit) -> dict:
 def drag_force_N(orbit, t, xp) -> tuple:
     """Aerodynamic force on the satellite, N, ECI: ``−½ ρ C_D A |v| v`` with v the orbit's
     velocity relative to the co-rotating atmosphere."""
-    from rbenv.orbit import OMEGA_EARTH
-
     d = orbit.drag
     r_hat = orbit.direction_N(t, xp)
     t_hat = orbit.along_track_N(t, xp)
     speed = orbit.mean_motion * orbit.radius
     r = orbit.radius
     # v_rel = v − ω_E ẑ × r, with ẑ × r = (−r_y, r_x, 0)
-    v = (speed * t_hat[0] + OMEGA_EARTH * r * r_hat[1],
-         speed * t_hat[1] - OMEGA_EARTH * r * r_hat[0], speed * t_hat[2] + 0.0 * r_hat[2])
+    v = (speed * t_hat[0] + orbit.EARTH_RATE * r * r_hat[1],
+         speed * t_hat[1] - orbit.EARTH_RATE * r * r_hat[0], speed * t_hat[2] + 0.0 * r_hat[2])
     rho = density(orbit.altitude_km) * d.density_scale
     c = -0.5 * rho * d.cd * d.area_m2 * xp.sqrt(k.dot(v, v))
     return k.scale(v, c)
@@ -240,13 +238,11 @@ def drag_force_N(orbit, t, xp) -> tuple:
 def sun_and_shadow(orbit, t, xp) -> tuple:
     """(ŝ_N, lit): the Sun's unit direction (ECI) and 1.0 in sunlight, 0.0 in the Earth's
     cylindrical shadow (r·ŝ < 0 and |r − (r·ŝ)ŝ| < R_E)."""
-    from rbenv.orbit import R_EQ
-
     s_hat = sun_direction_N(orbit.srp.epoch_days + t / 86400.0, xp)
     r = k.scale(orbit.direction_N(t, xp), orbit.radius)
     along = k.dot(r, s_hat)
     perp = k.add(r, s_hat, -along)
-    shadow = (along < 0.0) & (k.dot(perp, perp) < R_EQ * R_EQ)
+    shadow = (along < 0.0) & (k.dot(perp, perp) < orbit.EARTH_RADIUS * orbit.EARTH_RADIUS)
     return s_hat, 1.0 - 1.0 * shadow
 
 

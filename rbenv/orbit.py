@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
+from rbenv import disturbances as dist
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
@@ -46,6 +48,10 @@ class Orbit:
     residual_dipole, drag, srp: the nested opt-in tables ``[orbit.residual_dipole]``,
     ``[orbit.drag]`` and ``[orbit.srp]`` (:mod:`rbenv.disturbances`), or None.
     """
+
+    # Earth's constants, for the disturbances that take an orbit (rbenv.disturbances).
+    EARTH_RADIUS: ClassVar[float] = R_EQ
+    EARTH_RATE: ClassVar[float] = OMEGA_EARTH
 
     model: str = "none"
     altitude_km: float = 500.0
@@ -79,9 +85,8 @@ class Orbit:
             if flag and self.model == "none":
                 raise InvalidParameterError(
                     f"orbit.{name} is true but orbit.model is 'none'; set model = 'circular'")
-        from rbenv.disturbances import parse_tables
 
-        for name, value in parse_tables(self).items():
+        for name, value in dist.parse_tables(self).items():
             object.__setattr__(self, name, value)
         r = R_EQ + 1e3 * self.altitude_km
         inc, raan = math.radians(self.inclination_deg), math.radians(self.raan_deg)
@@ -170,7 +175,6 @@ class OrbitTable:
     def __init__(self, orbit: Orbit, h: float, substeps_per_episode: int):
         import numpy as np
 
-        from rbenv import disturbances as dist
         from rbenv.core.backend import NUMPY
 
         self.orbit, self.h = orbit, h
