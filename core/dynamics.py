@@ -117,7 +117,7 @@ def _check_types(body, state) -> None:
 
 
 def _prepare(body, state, dt, force, torque, integrator, torque_B):
-    _check_types(body, state)
+    """The step's checked inputs (after :func:`_check_types`)."""
     h = check.positive("dt", dt)
     kernel = integrators.get(integrator)
     loads = {"force": force, "torque": torque, "torque_B": torque_B}
@@ -181,6 +181,7 @@ def simulate(body: RigidBody, state: BodyState, dt: float, n_steps: int, force=N
     n_steps + 1 (the initial state first). wheel_torque: constant motor torques of
     ``body.wheels`` (see :func:`step`).
     """
+    _check_types(body, state)
     h, kernel, force, torque, torque_B = _prepare(body, state, dt, force, torque, integrator,
                                                   torque_B)
     n_steps = check.integer("n_steps", n_steps, low=0, high=MAX_STEPS,

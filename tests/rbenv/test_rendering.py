@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import sys
 
 import numpy as np
@@ -227,12 +228,17 @@ def test_save_video_mp4_without_ffmpeg_suggests_gif(renderer, tmp_path, monkeypa
         save_video([frame, frame], tmp_path / "episode.mp4")
 
 
+# imageio's FFMPEG plugin leaves its ffmpeg pipes for the garbage collector to close; the
+# test collects them itself, so that no later test meets them.
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+@pytest.mark.filterwarnings("ignore:unclosed file:ResourceWarning")
 def test_save_video_mp4(renderer, tmp_path):
     pytest.importorskip("imageio_ffmpeg")
     iio = pytest.importorskip("imageio.v3")
     frames = [renderer.frame(quaternion.from_axis_angle([0, 0, 1], a)) for a in (0.0, 0.5, 1.0)]
     path = save_video([f[:-1, :-1] for f in frames], tmp_path / "episode.mp4", fps=10)
     assert len(iio.imread(path, plugin="FFMPEG", index=None)) == 3
+    gc.collect()
 
 
 @pytest.mark.parametrize(
