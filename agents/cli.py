@@ -3,8 +3,8 @@
     rbenv train [--engine sb3|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
                 [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
                 [...]   (one flag per field of rbenv.agents.training.config; see --help)
-    rbenv evaluate --policy pd|bangbang|zero|random|RUN_DIR|policy.pt --episodes N --seed S
-                   [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
+    rbenv evaluate --policy pd|bangbang|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
+                   [--seed S] [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv bench NAME [--out DIR]
 
@@ -25,18 +25,22 @@ from pathlib import Path
 
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.evaluate import (
-    SCRIPTED,
+    check_policy,
     evaluate,
     format_table,
     plot_episodes,
     record_video,
+    scripted,
+    scripted_by_task,
     write_json,
 )
+from rbenv.agents.policies.weights import ALGOS
 from rbenv.agents.training import flags, rllib, suite, tune
 from rbenv.agents.training.config import (
     RLlibOptions,
     RunConfig,
     SB3Options,
+    SessionOptions,
     TorchRLOptions,
     TrainConfig,
 )
@@ -46,6 +50,7 @@ from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
+from rbenv import usage
 
 BENCH_OUT = "bench-results"
 
@@ -67,41 +72,113 @@ def benchmarks() -> list[str]:
 
 
 def _positive(text: str) -> int:
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}") from None
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
     return value
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="rbenv", description=__doc__.split("\n\n")[0])
-    sub = p.add_subparsers(dest="command", required=True)
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Every option's help ends with its default, unless it states it already or is a switch."""
+
+    def _get_help_string(self, action):
+        help_text = action.help or ""
+        if action.nargs == 0 or action.required or action.default is None \
+                or "default" in help_text.lower():
+            return help_text
+        return super()._get_help_string(action)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit status 2, no usage dump) and a did-you-mean for a
+    near miss of a choice or an option name."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+    def _check_value(self, action, value):
+        if action.choices is not None and value not in action.choices:
+            raise argparse.ArgumentError(action, usage.invalid_choice(
+                action.dest, value, action.choices, what="one of").reason)
+
+    def unknown(self, words: list[str]) -> str:
+        """The error for unrecognised words, with a did-you-mean for an option name."""
+        options = [o for a in self._actions for o in a.option_strings]
+        shown = []
+        for word in words:
+            name = word.split("=", 1)[0]
+            hint = usage.did_you_mean(name, options) if name.startswith("--") else ""
+            shown.append(word + hint)
+        return f"unrecognized arguments: {' '.join(shown)}"
+
+
+# The option groups of `rbenv train`: which engine reads which configuration class.
+COMMON = (RunConfig, SessionOptions)
+ENGINE_GROUPS = (
+    ("sb3", "sb3 options (--engine sb3, the default: Stable-Baselines3; the train extra)",
+     (TrainConfig, SB3Options)),
+    ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)",
+     (RLlibConfig, RLlibOptions)),
+    ("torchrl", "torchrl options (--engine torchrl: TorchRL's PPO on the torch env; the "
+                "ecosystem extra). It reads only --algo ppo, --env-id, --scene, --seed, "
+                "--timesteps, --out, --threads and --report-episodes of the common options",
+     (TorchRLOptions,)),
+)
+# The classes whose fields each engine takes from the command line.
+ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "rllib": (RLlibConfig, RLlibOptions),
+                 "torchrl": (TorchRLOptions,)}
+TORCHRL_READS = ("engine", "algo", "env_id", "scene", "seed", "timesteps", "out", "threads",
+                 "report_episodes")
+
+
+def _parser() -> Parser:
+    p = Parser(prog="rbenv", description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     t = sub.add_parser("train", help="train PPO, SAC, TD3, TQC or CrossQ, then report against "
                                      "the baselines",
                        description="Every flag but --resume, --force and --no-report is a field "
                                    "of the run's configuration (rbenv.agents.training.config), "
-                                   "and its help is that field's docstring.")
+                                   "and its help is that field's docstring. Every argument is "
+                                   "checked (and the env made once) before anything is "
+                                   "written.")
     seen: set[str] = set()
-    for fields in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions, TorchRLOptions):
-        flags.add_fields(t, fields, seen=seen)
-    add_run_arguments(t)
+    common = t.add_argument_group("common options (sb3 and rllib; torchrl reads the few its "
+                                  "group names)")
+    for fields in COMMON:
+        flags.add_fields(common, fields, seen=seen)
+    add_run_arguments(common)
+    for _, title, classes in ENGINE_GROUPS:
+        group = t.add_argument_group(title)
+        for fields in classes:
+            flags.add_fields(group, fields, seen=seen)
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
     e.add_argument("--policy", required=True,
-                   help="pd, bangbang, zero, random, a run folder, its policy.pt or a "
-                        "checkpoint policy_N.pt (a model is evaluated in its run's env options)")
+                   help=f"a scripted policy: {scripted_by_task()}; or a run folder, its "
+                        "policy.pt or a checkpoint policy_N.pt (a model is evaluated in its "
+                        "run's env options)")
     e.add_argument("--trust-pickle", action="store_true",
                    help="allow a pickle-based policy file (an older run's model.zip and "
                         "vecnormalize.pkl, a foreign SB3 .zip, an RLlib run); unpickling runs "
                         "any code in it, so only for files from a source you trust")
-    e.add_argument("--episodes", type=_positive, default=100)
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--scene", default=None)
+    e.add_argument("--episodes", type=_positive, default=100,
+                   help="episodes, run side by side; episode i is seeded --seed + i")
+    e.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    e.add_argument("--scene", default=None,
+                   help="a shipped scene or a scene TOML file (default: a run's own, else the "
+                        "task's default scene)")
     e.add_argument("--env-id", default=None,
-                   help="the task (default: a run's own, else rbenv/SatelliteReorient-v0)")
-    e.add_argument("--env-kwargs", type=flags.json_object, default={},
-                   help="JSON of gym.make options")
+                   help=f"the task (default: a run's own, else {rbenv.ENV_ID})")
+    e.add_argument("--env-kwargs", type=flags.json_object, default={}, metavar="JSON",
+                   help="JSON of gym.make options (docs/api.md lists them)")
     e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
                    help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, "
                         "low, high)] with the env's clip bounds (thrusters 0..1, wheels and "
@@ -111,7 +188,8 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--json", default=None, help="write the summary as JSON to this file")
     e.add_argument("--plot", default=None, metavar="PATH",
                    help="PNG of the first episode (no plot without it, or without --out)")
-    e.add_argument("--video", default=None, help="render the first episode to a .gif/.mp4")
+    e.add_argument("--video", default=None, metavar="PATH",
+                   help="render the first episode to a .gif or .mp4 (the render extra)")
     e.add_argument("--out", default=None, metavar="DIR",
                    help="write evaluation.json and episodes.png into DIR (relative to the "
                         "current directory)")
@@ -126,30 +204,53 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-# What a resumed run takes from the command line; the rest comes from its config.json.
-RESUME_OVERRIDES = ("out", "timesteps", "threads", "engine")
+# --- checks: every argument, before anything is written ---------------------------------------
+
+def _check_train(args) -> tuple[type, type]:
+    """The engine's (config, options) classes, once every given flag is one the engine reads."""
+    engine = getattr(args, "engine", "sb3")
+    reads = {f.name for c in ENGINE_FIELDS[engine] for f in dataclasses.fields(c)}
+    if engine == "torchrl":
+        reads |= set(TORCHRL_READS)
+    common = {f.name for c in COMMON for f in dataclasses.fields(c)}
+    owner = {f.name: name for name, _, classes in ENGINE_GROUPS for c in classes
+             for f in dataclasses.fields(c) if f.name not in common}
+    torchrl_reads = ", ".join(flags.flag(n) for n in TORCHRL_READS if n != "engine")
+    for cls in (*COMMON, *(c for _, _, classes in ENGINE_GROUPS for c in classes)):
+        for name in flags.given(args, cls):
+            if name in reads:
+                continue
+            if name in owner:
+                reason = f"belongs to --engine {owner[name]}, not to --engine {engine}"
+            else:
+                reason = f"not read by --engine {engine}, which reads only {torchrl_reads}"
+            raise usage.InvalidChoiceError(name, getattr(args, name), reason)
+    for switch in ("resume", "force", "no_report"):
+        if engine == "torchrl" and getattr(args, switch):
+            raise usage.InvalidChoiceError(switch, True, (
+                "not an option of --engine torchrl, which writes torchrl.json and has no run "
+                "folder to resume or replace yet"))
+    config = {"sb3": TrainConfig, "rllib": RLlibConfig, "torchrl": RunConfig}[engine]
+    return config, ENGINE_FIELDS[engine][-1]
 
 
 def _train(args) -> int:
     """``rbenv train``: the given fields make the config of the chosen back end."""
     engine = getattr(args, "engine", "sb3")
-    config, options = {"sb3": (TrainConfig, SB3Options), "rllib": (RLlibConfig, RLlibOptions),
-                       "torchrl": (RunConfig, TorchRLOptions)}[engine]
-    known = {f.name for cls in (config, options) for f in dataclasses.fields(cls)}
-    wrong = [flags.flag(k) for cls in (TrainConfig, RLlibConfig, SB3Options, RLlibOptions,
-                                       TorchRLOptions)
-             for k in flags.given(args, cls) if k not in known]
-    if wrong:
-        raise SystemExit(f"rbenv train: {', '.join(sorted(set(wrong)))} not for --engine "
-                         f"{engine}")
+    config, options = _check_train(args)
     cfg_fields = flags.given(args, config)
     if args.resume:
-        ignored = [flags.flag(k) for k in cfg_fields if k not in RESUME_OVERRIDES]
+        keep = ("out", "engine", *config.RESUME_OVERRIDES)
+        ignored = [flags.flag(k) for k in cfg_fields if k not in keep]
         if ignored:
             print(f"--resume continues the run with its saved config.json; ignoring "
                   f"{', '.join(ignored)}")
     cfg = config(**cfg_fields)
     if engine == "torchrl":
+        if cfg.algo != "ppo":
+            raise usage.invalid_choice("algo", cfg.algo, ["ppo"],
+                                       what="one of --engine torchrl's algorithms:")
+        usage.check_env_options(cfg.env_id, {"scene": cfg.scene})
         from rbenv.agents.training import torchrl  # the ecosystem extra (torch, TorchRL)
 
         return torchrl.train_from_config(cfg, TorchRLOptions(**flags.given(args, options)))
@@ -164,9 +265,40 @@ def _train(args) -> int:
     return 0
 
 
+def _check_evaluate(args) -> None:
+    """Every argument of ``rbenv evaluate``, before an episode runs or a file is written: the
+    task, the policy, the scene and env options (the env is made once), the baseline on that
+    scene, the output folders and the extras that --plot and --video need."""
+    env_id = _env_id(args)
+    usage.check_choice("env_id", env_id, [s.env_id for s in rbenv.registry.specs()],
+                       what="a registered rbenv task:")
+    check_policy(args.policy, env_id)
+    options = dict(args.env_kwargs)
+    if Path(args.policy).exists():
+        options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}
+    if args.scene is not None:
+        options["scene"] = args.scene
+    usage.check_env_options(env_id, options)
+    check_policy(args.policy, env_id, options)  # a baseline the scene cannot run: where it can
+    for name in ("json", "plot", "video"):
+        path = getattr(args, name)
+        if path is not None and not Path(path).resolve().parent.is_dir():
+            raise usage.InvalidChoiceError(name, path, (
+                f"the folder of {path!r} does not exist"))
+    if args.video is not None:
+        usage.check_choice("video", Path(args.video).suffix, [".gif", ".mp4"],
+                           what="a video file suffix:")
+        for module in ("pygame", "imageio"):
+            usage.require(module, "rbenv evaluate --video")
+    if args.plot is not None or args.out is not None:
+        usage.require("matplotlib", "rbenv evaluate --plot/--out")
+
+
 def _evaluate(args) -> int:
+    _check_evaluate(args)
+    env_id = _env_id(args)
     result = evaluate(args.policy, episodes=args.episodes, seed=args.seed, scene=args.scene,
-                      env_kwargs=args.env_kwargs, env_id=_env_id(args), action=args.action,
+                      env_kwargs=args.env_kwargs, env_id=env_id, action=args.action,
                       trust_pickle=args.trust_pickle)
     print(format_table([result]))
     json_path, plot_path = args.json, args.plot
@@ -180,26 +312,37 @@ def _evaluate(args) -> int:
         print(f"plot: {plot_episodes([result], plot_path)}")
     if args.video:
         video = record_video(args.policy, args.video, seed=args.seed, scene=args.scene,
+                             env_kwargs=args.env_kwargs, env_id=env_id,
                              trust_pickle=args.trust_pickle)
         print(f"video: {video}")
     return 0
 
 
 def _env_id(args) -> str:
-    """--env-id, else the task a run folder was trained on, else reorientation."""
+    """--env-id, else the task a run folder was trained on, else :data:`rbenv.ENV_ID`."""
     if args.env_id:
         return args.env_id
-    path = Path(args.policy)
-    if args.policy not in SCRIPTED and path.exists():
-        if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
-            config = runfolder.read_config(path)
-        else:
-            config = runfolder.locate(path).config or {}
-        return config.get("env_id", rbenv.ENV_ID)
+    if args.policy not in scripted() and Path(args.policy).exists():
+        return _run_config(args.policy).get("env_id", rbenv.ENV_ID)
     return rbenv.ENV_ID
 
 
+def _run_config(policy: str) -> dict:
+    """The config.json of the run a policy path belongs to ({} for a bare model file)."""
+    path = Path(policy)
+    if path.is_dir() and (path / runfolder.CONFIG).is_file():  # a run folder, SB3 or RLlib
+        return runfolder.read_config(path)
+    return runfolder.locate(path).config or {}
+
+
 def _suite(args) -> int:
+    for algo in args.algos or ():
+        usage.check_choice("algos", algo, ALGOS, what="one of")
+    for scene in args.scenes or ():
+        try:
+            rbenv.load_scene(scene)
+        except usage.InvalidChoiceError as e:  # named for the flag, with its did-you-mean
+            raise usage.InvalidChoiceError("scenes", scene, e.reason) from None
     if args.ray or args.address:
         tune.main(args)
         return 0
@@ -222,31 +365,83 @@ def _bench(args) -> int:
                           env=env, cwd=CHECKOUT, check=False).returncode
 
 
-def parse(argv: list[str] | None = None) -> argparse.Namespace:
+def parse(argv: list[str] | None = None, parser: Parser | None = None) -> argparse.Namespace:
     """The command line's arguments; ``rbenv bench NAME ARGS...`` keeps ARGS for the benchmark
-    (``args.extra``), any other command refuses unknown arguments."""
-    parser = _parser()
+    (``args.extra``), any other command refuses unknown arguments (one line, exit status 2,
+    with a did-you-mean for a misspelt option)."""
+    parser = parser or _parser()
+    commands = parser._subparsers._group_actions[0].choices
+    words = list(sys.argv[1:] if argv is None else argv)
+    name = next((w for w in words if not w.startswith("-")), None)
+    if name in commands and name != "bench":  # a misspelt option first, before what it hides
+        command = commands[name]
+        options = [o for a in command._actions for o in a.option_strings]
+        for word in words[words.index(name) + 1:]:
+            flag = word.split("=", 1)[0]
+            if flag.startswith("--") and not any(o.startswith(flag) for o in options):
+                command.error(command.unknown([flag]))
     args, extra = parser.parse_known_args(argv)
     if extra and args.command != "bench":
-        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        command = commands[args.command]
+        command.error(command.unknown(extra))
     args.extra = extra
     return args
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run a command. From the command line (``argv`` None) a documented error (a
-    ``ValueError`` subclass of :mod:`rbenv.core.errors`, such as a corrupt run file) is printed as
-    ``rbenv: error: ...`` with exit status 2; called with ``argv`` it is raised."""
-    args = parse(argv)
-    command = {"train": _train, "evaluate": _evaluate, "bench": _bench,
-               "suite": _suite}[args.command]
-    if argv is not None:
-        return command(args)
+COMMANDS = {"train": _train, "evaluate": _evaluate, "bench": _bench, "suite": _suite}
+
+
+def _feature(args) -> str:
+    """What the command line asked for, as a missing extra's message names it."""
+    engine = getattr(args, "engine", None) if args.command == "train" else None
+    return f"rbenv {args.command}" + (f" --engine {engine}" if engine else "")
+
+
+def _one_line(args, parser: Parser, error: Exception) -> str:
+    """``rbenv COMMAND: error: ...`` in one line; an input error whose field is a flag of the
+    command names the flag (``argument --scene: ...``)."""
+    text = " ".join(str(error).split())
+    if isinstance(error, usage.InvalidChoiceError):
+        command = parser._subparsers._group_actions[0].choices[args.command]
+        dests = {a.dest: a.option_strings[0] for a in command._actions if a.option_strings}
+        if error.field in dests:
+            text = f"argument {dests[error.field]}: {' '.join(error.reason.split())}"
+    return f"rbenv {args.command}: error: {text}"
+
+
+def console(argv: list[str]) -> int:
+    """Run a command as the command line does: a user's mistake (a named ``ValueError`` of
+    :mod:`rbenv.core.errors`: a bad value, a missing or corrupt run file, a missing extra) is
+    printed as one line on stderr with exit status 2, never a traceback; anything else is a bug
+    and keeps its traceback."""
+    parser = _parser()
+    args = parse(argv, parser)
     try:
-        return command(args)
+        return COMMANDS[args.command](args)
     except RbenvValueError as e:
-        print(f"rbenv: error: {e}", file=sys.stderr)
-        return 2
+        error = e
+    except ModuleNotFoundError as e:
+        error = usage.missing_extra(e, _feature(args))
+        if error is None:
+            raise
+    print(_one_line(args, parser, error), file=sys.stderr)
+    return 2
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run a command. From the command line (``argv`` None) as :func:`console` does; called
+    with ``argv`` (tests, scripts) a documented error is raised, a missing extra as
+    :class:`rbenv.usage.MissingExtraError`."""
+    if argv is None:
+        return console(sys.argv[1:])
+    args = parse(argv)
+    try:
+        return COMMANDS[args.command](args)
+    except ModuleNotFoundError as e:
+        error = usage.missing_extra(e, _feature(args))
+        if error is None:
+            raise
+        raise error from None
 
 
 if __name__ == "__main__":

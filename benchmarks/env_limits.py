@@ -16,6 +16,10 @@ from rbenv.agents.baselines.controllers import QuaternionPD
 import rbenv
 from rbenv.scene import Faults
 
+# The first release's id: the committed results (and the A/B against an older checkout)
+# measured it; v1 has its episodes, with another observation and reward.
+REORIENT_V0 = "rbenv/SatelliteReorient-v0"
+
 
 def _episode(env, policy, seed: int, options=None) -> dict:
     obs, _ = env.reset(seed=seed, options=options)
@@ -52,7 +56,7 @@ def cases(episodes: int = 20) -> list[dict]:
         return rng.uniform(-1, 1, 12).astype(np.float32)
 
     # 1. Fast tumble: start at 99 % of the rate limit and fire at random.
-    env = gym.make(rbenv.ENV_ID, max_initial_rate=0.99 * 0.1745)
+    env = gym.make(REORIENT_V0, max_initial_rate=0.99 * 0.1745)
     rows.append(_summary("fast tumble, random thrusters",
                          [_episode(env, random_policy, s) for s in range(episodes)]))
     # 2. Tumbling far beyond the limit from the start: loss of control on the first step.
@@ -60,18 +64,18 @@ def cases(episodes: int = 20) -> list[dict]:
     rows.append(_summary("start at 3.7 rad/s (21x the limit)",
                          [_episode(env, random_policy, s, spin) for s in range(episodes)]))
     # 3. An explicit integrator pushed past its stability limit: a clear error, not a NaN.
-    hot = gym.make(rbenv.ENV_ID, integrator="semi_implicit", control_dt=20.0,
+    hot = gym.make(REORIENT_V0, integrator="semi_implicit", control_dt=20.0,
                    max_episode_steps=50)
     spin_hot = {"omega_B": np.array([0.17, 0.0, 0.01])}
     rows.append(_summary("semi_implicit, dt = 20 s, h·|ω| = 3.4",
                          [_episode(hot, random_policy, s, spin_hot) for s in range(3)]))
     # 4. ... and diverging inside one control step (100 substeps at h·|ω| = 100): the env raises.
-    blow = gym.make(rbenv.ENV_ID, integrator="semi_implicit", control_dt=10.0, substeps=100)
+    blow = gym.make(REORIENT_V0, integrator="semi_implicit", control_dt=10.0, substeps=100)
     spin_blow = {"omega_B": np.array([1000.0, 0.0, 30.0])}
     rows.append(_summary("semi_implicit, 1000 rad/s, h·|ω| = 100",
                          [_episode(blow, random_policy, s, spin_blow) for s in range(3)]))
     # 5. The boom scene (inertia ratio 186:1, faults, noise) under PD and at random.
-    boom = gym.make(rbenv.ENV_ID, scene="boom-sat")
+    boom = gym.make(REORIENT_V0, scene="boom-sat")
     pd = QuaternionPD.from_env(boom)
     rows.append(_summary("boom-sat, PD", [_episode(boom, lambda o, s: pd.predict(o, s), k)
                                           for k in range(episodes)]))
@@ -80,7 +84,7 @@ def cases(episodes: int = 20) -> list[dict]:
     # 6. Thruster failures on the CubeSat: half the thrusters stuck off at reset.
     scene = dataclasses.replace(rbenv.load_scene("cubesat-12u"),
                                 faults=Faults(model="random", p_reset=0.5))
-    broken = gym.make(rbenv.ENV_ID, scene=scene)
+    broken = gym.make(REORIENT_V0, scene=scene)
     pd = QuaternionPD.from_env(broken)
     rows.append(_summary("cubesat-12u, 50 % thrusters failed, PD",
                          [_episode(broken, lambda o, s: pd.predict(o, s), k)

@@ -39,7 +39,9 @@ import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
 from rbenv.agents.training import suite
 
-import rbenv
+# The first release's id: the committed results (and the A/B against an older checkout)
+# measured it; v1 has its episodes, with another observation and reward.
+REORIENT_V0 = "rbenv/SatelliteReorient-v0"
 
 RESULT_VERSION = 1
 SCENE = "cubesat-12u"
@@ -106,7 +108,7 @@ def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, thread
     from rbenv.agents.policies import runfolder as runs
     from rbenv.agents.training.sb3 import train
 
-    cell = suite.Cell("ppo", rbenv.ENV_ID, SCENE, seed, timesteps)
+    cell = suite.Cell("ppo", REORIENT_V0, SCENE, seed, timesteps)
     cfg = suite.train_config(cell, run, threads)
     cfg.env_kwargs = setting.env_kwargs
     resume = (run / runs.CONFIG).is_file()
@@ -162,7 +164,7 @@ def run_setting(setting: Setting, seed: int, *, out: Path, runs_dir: Path, times
     run = Path(runs_dir) / f"{setting.name}-seed{seed}"
     training = train_setting(setting, seed, timesteps, run, threads)
     set_threads(threads)
-    cell = suite.Cell("ppo", rbenv.ENV_ID, SCENE, seed, timesteps)
+    cell = suite.Cell("ppo", REORIENT_V0, SCENE, seed, timesteps)
     curve = suite.validation_curve(cell, run, min(episodes, suite.VALIDATION_EPISODES),
                                    env_kwargs=setting.env_kwargs)
     model, steps = suite.select_checkpoint(run, curve)
@@ -218,7 +220,7 @@ def env_speed(settings: list[Setting], *, num_envs: int = N_ENVS, rounds: int = 
 
     fns, envs = {}, []
     for s in settings:
-        env = gym.make_vec(rbenv.ENV_ID, num_envs=num_envs, vectorization_mode="vector_entry_point",
+        env = gym.make_vec(REORIENT_V0, num_envs=num_envs, vectorization_mode="vector_entry_point",
                            autoreset_mode=AutoresetMode.SAME_STEP, scene=SCENE, **s.env_kwargs)
         env.reset(seed=0)
         actions = np.random.default_rng(0).uniform(-1, 1, (steps, *env.action_space.shape))
@@ -249,7 +251,7 @@ def open_loop_divergence(settings: list[Setting], *, episodes: int = 100,
     from rbenv.agents.baselines.controllers import baseline
 
     def make(setting):
-        env = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, scene=SCENE,
+        env = gym.make_vec(REORIENT_V0, num_envs=episodes, scene=SCENE,
                            vectorization_mode="vector_entry_point", **setting.env_kwargs)
         obs, _ = env.reset(seed=suite.EVAL_SEED)
         return env, obs

@@ -38,13 +38,12 @@ import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
 from rbenv.agents.training import suite
 
-import rbenv
 from benchmarks.common import RESULTS
 
 OUT = RESULTS / "robustness"
 SUITE_OUT = RESULTS / "suite"
 SCENE = "cubesat-12u"
-ENV_ID = rbenv.ENV_ID
+ENV_ID = "rbenv/SatelliteReorient-v0"  # what the committed results measured
 EVAL_SEED, EVAL_EPISODES = suite.EVAL_SEED, suite.EVAL_EPISODES
 VALIDATION_SEED, VALIDATION_EPISODES = suite.VALIDATION_SEED, suite.VALIDATION_EPISODES
 SIZES = (0.0, 0.1, 0.2, 0.3)

@@ -33,8 +33,11 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-import rbenv
 from benchmarks.common import pyplot, save_figure, table, write_json
+
+# The first release's id: the committed results (and the A/B against an older checkout)
+# measured it; v1 has its episodes, with another observation and reward.
+REORIENT_V0 = "rbenv/SatelliteReorient-v0"
 
 _MEMORY_PROBE = r"""
 import sys, torch, gymnasium as gym, rbenv
@@ -44,7 +47,7 @@ def peak_kib():
         return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 n = int(sys.argv[1])
 before = peak_kib()
-env = gym.make_vec(rbenv.ENV_ID, num_envs=n, backend="torch")
+env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n, backend="torch")
 env.reset(seed=0)
 a = torch.rand(n, 12, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
 for _ in range(10):
@@ -109,11 +112,11 @@ def _cases(n: int, device, compile_: bool, numpy: bool) -> dict:
     for load, a in actions.items():
         kinds = [("eager", False)] + ([("compiled", True)] if compile_ else [])
         for kind, c in kinds:
-            env = gym.make_vec(rbenv.ENV_ID, num_envs=n, backend="torch", device=device,
+            env = gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device,
                                compile=c)
             out[f"torch {kind} {load} N={n}"] = (_stepper(env, a.to(device), device), n)
         if numpy:
-            env = gym.make_vec(rbenv.ENV_ID, num_envs=n,
+            env = gym.make_vec(REORIENT_V0, num_envs=n,
                                autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
             out[f"numpy {load} N={n}"] = (_stepper(env, a.numpy().astype(np.float32),
                                                    device), n)
@@ -147,7 +150,7 @@ def memory(n: int, device) -> dict:
     if device.type == "cuda":
         torch.cuda.reset_peak_memory_stats(device)
         before = torch.cuda.max_memory_allocated(device)
-        env = gym.make_vec(rbenv.ENV_ID, num_envs=n, backend="torch", device=device)
+        env = gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device)
         env.reset(seed=0)
         a = torch.rand(n, 12, dtype=torch.float64, device=device)
         for _ in range(10):
@@ -163,7 +166,7 @@ def memory(n: int, device) -> dict:
 def float32_cost(device, n: int = 4096, steps: int = 160) -> dict:
     """float32 against float64 from the same starts and actions, after ``steps`` steps
     (episodes truncated later, so every sub-env runs one episode)."""
-    envs = {d: gym.make_vec(rbenv.ENV_ID, num_envs=n, backend="torch", device=device, dtype=d,
+    envs = {d: gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device, dtype=d,
                             max_episode_steps=steps + 1, check_every=0)
             for d in ("float64", "float32")}
     for e in envs.values():
@@ -192,7 +195,7 @@ def float32_cost(device, n: int = 4096, steps: int = 160) -> dict:
 
 def float32_speed(device, n: int, rounds: int) -> list[dict]:
     a = torch.full((n, 12), -1.0, dtype=torch.float64).to(device)
-    cases = {d: _stepper(gym.make_vec(rbenv.ENV_ID, num_envs=n, backend="torch",
+    cases = {d: _stepper(gym.make_vec(REORIENT_V0, num_envs=n, backend="torch",
                                       device=device, dtype=d), a, device)
              for d in ("float64", "float32")}
     best = _best(cases, device, rounds, 0.3)

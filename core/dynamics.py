@@ -106,11 +106,18 @@ def _advance(kernel, integrator, body, q, w_B, h, tau_B, tau_W):
         _diverged_inside(exc, integrator, h)
 
 
-def _prepare(body, state, dt, force, torque, integrator, torque_B):
+def _check_types(body, state) -> None:
+    """Refuse a body or state of the wrong type, by name (before any of their fields is read)."""
     if not isinstance(body, RigidBody):
-        raise InvalidParameterError(f"body must be a core.RigidBody, got {type(body).__name__}")
+        raise InvalidParameterError(f"body must be a core.RigidBody, got {check.show(body)} of "
+                                    f"type {type(body).__name__}")
     if not isinstance(state, BodyState):
-        raise InvalidParameterError(f"state must be a core.BodyState, got {type(state).__name__}")
+        raise InvalidParameterError(f"state must be a core.BodyState, got {check.show(state)} "
+                                    f"of type {type(state).__name__}")
+
+
+def _prepare(body, state, dt, force, torque, integrator, torque_B):
+    _check_types(body, state)
     h = check.positive("dt", dt)
     kernel = integrators.get(integrator)
     loads = {"force": force, "torque": torque, "torque_B": torque_B}
@@ -142,6 +149,7 @@ def step(body: RigidBody, state: BodyState, dt: float, force=None, torque=None,
     integrator: a name in ``INTEGRATORS``. translation: False skips the centre-of-mass update.
     Returns the new BodyState; raises NonFiniteError if the result is not finite.
     """
+    _check_types(body, state)
     if body.wheels is not None or wheel_torque is not None or state.wheel_speeds is not None:
         return simulate(body, state, dt, 1, force, torque, integrator, torque_B=torque_B,
                         translation=translation, wheel_torque=wheel_torque)

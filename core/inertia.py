@@ -66,7 +66,8 @@ def _finite_result(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        out = func(*args, **kwargs)
+        with np.errstate(over="ignore", invalid="ignore"):  # named below instead
+            out = func(*args, **kwargs)
         parts = (out.mass, out.com, out.inertia) if isinstance(out, MassProperties) else (out,)
         if not all(np.isfinite(p).all() for p in parts):
             bound = signature.bind(*args, **kwargs).arguments

@@ -6,12 +6,14 @@ vector env (its ``vector_entry_point``)::
     import gymnasium as gym
     import rbenv
 
-    env = gym.make("rbenv/SatelliteReorient-v0", scene="cubesat-12u")
-    envs = gym.make_vec("rbenv/SatelliteDetumble-v0", num_envs=1024)
-    env = gym.make("rbenv/SatelliteTrack-v0", randomize={"inertia_scale": 0.2})
+    env = gym.make("rbenv/SatelliteReorient-v1", scene="cubesat-12u")
+    envs = gym.make_vec("rbenv/SatelliteDetumble-v1", num_envs=1024)
+    env = gym.make("rbenv/SatelliteTrack-v1", randomize={"inertia_scale": 0.2})
     env = gym.make("rbenv/SatelliteDesaturate-v0")  # a wheel scene: cubesat-6u-rw
 
-Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v0"``, which makes
+The v0 ids of reorient, detumble and track stay registered (their episodes are v1's; their
+observation and reward are the first release's), and Gymnasium calls them out of date.
+Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v1"``, which makes
 Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :class:`Scene`.
 """
 
@@ -80,9 +82,11 @@ __all__ = [
     "load_scene",
 ]
 
-ENV_ID = reorient.SPEC.env_id
-DETUMBLE_ID = detumble.SPEC.env_id
-TRACK_ID = track.SPEC.env_id
+# The current version of each task (v1: v0's episodes, a new observation and reward); the v0
+# ids stay registered, and Gymnasium calls them out of date.
+ENV_ID = reorient.SPEC_V1.env_id
+DETUMBLE_ID = detumble.SPEC_V1.env_id
+TRACK_ID = track.SPEC_V1.env_id
 DESATURATE_ID = desaturate.SPEC.env_id
 MAX_EPISODE_STEPS = registry.MAX_EPISODE_STEPS
 # id -> (single env class name, vector env class name), for every registered task.

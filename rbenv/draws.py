@@ -28,9 +28,10 @@ import hashlib
 
 import numpy as np
 
+from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
 
-__all__ = ["STREAMS", "EpisodeDraws"]
+__all__ = ["STREAMS", "EpisodeDraws", "check_seed"]
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -42,6 +43,13 @@ _TWO_PI = 2.0 * np.pi
 _BLOCK = 32  # slots hashed at once per stream for a small batch (covers every task's start)
 _BLOCK_ELEMENTS = 1 << 20  # a batch whose block would exceed this hashes per request
 _NORMAL_CHUNK = 4  # normals per hashing pass for a batch that hashes per request
+
+
+def check_seed(value, name: str = "seed") -> int:
+    """A reset seed as an int: a non-negative integer (Python or NumPy); bools, floats,
+    strings and negative numbers raise :class:`InvalidParameterError` naming ``name``, the
+    value and the rule. Every env's ``reset(seed=)`` checks its seeds here."""
+    return validation.integer(name, value, low=0)
 
 # One stream per consumer of episode-start randomness. These three have fixed numbers; any
 # other name (an actuator's scene table, say) gets a key from a hash of the name, so a new

@@ -16,7 +16,7 @@ import numpy as np
 from rbenv import transition
 from rbenv.adapter import TaskAdapter, action_array, backend_twin
 from rbenv.core.backend import FLOAT
-from rbenv.draws import EpisodeDraws
+from rbenv.draws import EpisodeDraws, check_seed
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
 from rbenv.state import from_start
@@ -26,10 +26,15 @@ _F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
 
 
 def unknown_options(owner: str, unknown: dict, valid) -> None:
-    """Raise the TypeError of an unexpected keyword (as Python does), naming the valid ones."""
-    bad = ", ".join(repr(k) for k in sorted(unknown))
-    raise TypeError(f"{owner} got unexpected option(s) {bad}; the valid options are "
-                    f"{', '.join(sorted(valid))}")
+    """Raise the TypeError of an unexpected keyword, naming the valid ones.
+
+    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
+    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
+    drops ``frameskip`` so)."""
+    first, *rest = sorted(unknown)
+    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
+    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
+                    f"the valid options are {', '.join(sorted(valid))}")
 
 
 class AttitudeEnv(TaskAdapter, gym.Env):
@@ -65,9 +70,11 @@ class AttitudeEnv(TaskAdapter, gym.Env):
 
     def reset(self, *, seed=None, options=None):
         """Start an episode; ``options`` replace parts of the sampled start (see the task)."""
+        if seed is not None:
+            seed = check_seed(seed)
         super().reset(seed=seed)
         if seed is not None:
-            self._seed_key, self._episode = int(seed) % 2**64, 0
+            self._seed_key, self._episode = seed % 2**64, 0
         elif self._seed_key is None:
             self._seed_key = int(self.np_random.integers(2**63))
         draws = EpisodeDraws(self._seed_key, self._episode, single=True,

@@ -34,6 +34,7 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv.core.backend import FLOAT
+from rbenv.draws import check_seed
 from rbenv.tasks import v1
 
 GOAL_ID = "rbenv/SatelliteReorientGoal-v1"
@@ -60,9 +61,10 @@ def _angle(a: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 class GoalReorientEnv(gym.Env):
     """Goal-conditioned ``rbenv/SatelliteReorient-v1`` (see the module docstring); ``env`` is
-    an unwrapped v1 reorientation env (its options are this env's)."""
+    an unwrapped v1 reorientation env (its options are this env's, ``render_mode`` too: this
+    env renders it)."""
 
-    metadata: ClassVar[dict] = {"render_modes": []}
+    metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 2}
 
     def __init__(self, env: gym.Env):
         task = env.task
@@ -70,6 +72,8 @@ class GoalReorientEnv(gym.Env):
             raise ValueError(f"GoalReorientEnv wraps rbenv/SatelliteReorient-v1, got task "
                              f"{task.name!r}")
         self.env, self.task = env, task
+        self.render_mode = env.render_mode
+        self.metadata = {**type(self).metadata, "render_fps": env.metadata["render_fps"]}
         self.hold = task.hold_steps
         self.n = max(self.hold, 2)
         self.action_space = env.action_space
@@ -78,7 +82,7 @@ class GoalReorientEnv(gym.Env):
         self._attitudes = self._flags = self._desired = None
 
     def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
+        super().reset(seed=None if seed is None else check_seed(seed))
         _, info = self.env.reset(seed=seed, options=options)
         st = self.env._st
         self._attitudes = np.repeat(_columns(np.array(st.q))[None], self.n, axis=0)
@@ -148,6 +152,11 @@ class GoalReorientEnv(gym.Env):
         inside = (theta[:, :self.hold] < self.task.success_angle) & \
             (history[:, 6 * (self.n - 1):] > 0.5)
         return single, infos, theta, np.all(inside, axis=1)
+
+    def render(self):
+        """The inner env's frame (``rgb_array``: (H, W, 3) uint8), drawn to its window
+        (``human``), or None (no render_mode, with Gymnasium's warning)."""
+        return self.env.render()
 
     def close(self):
         self.env.close()

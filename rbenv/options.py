@@ -4,7 +4,8 @@
 Everything else derives from it or is tested against it (tests/rbenv/test_options.py): the
 names the adapters accept (:data:`ENV_OPTIONS`), the keyword arguments of the env
 constructors, :func:`rbenv.tasks.build` and :func:`rbenv.plant.make_plant`, the Arguments table
-of every env's docstring (:func:`options_table`) and the Options table of docs/api.md.
+of every env's docstring (:func:`options_table`) and the Options table of docs/api.md, which
+adds the backend options (:class:`BackendOptions`: numpy or torch, and the torch env's own).
 """
 
 from __future__ import annotations
@@ -54,7 +55,29 @@ class EnvOptions:
     same results bit for bit, after a few seconds of compilation at the first step."""
 
 
+@dataclasses.dataclass(frozen=True)
+class BackendOptions:
+    """The options that choose the array backend (``rbenv.torch_env`` holds the torch envs and
+    takes the torch ones; tests/rbenv/test_options.py holds their defaults equal to its)."""
+
+    backend: str = "numpy"
+    """``"numpy"`` (Python floats for one satellite, NumPy arrays for N) or ``"torch"`` (the
+    same transition on torch tensors; needs torch, from the ``train`` extra)."""
+    device: str = "cpu"
+    """torch only: the torch device of the state, actions and observations (``"cuda"``, ...)."""
+    dtype: str = "float64"
+    """torch only: ``"float64"`` or ``"float32"`` (or the torch dtype), the float type the torch
+    env computes and observes in."""
+    compile: bool = False
+    """torch only: run the step under ``torch.compile`` (eager fallback with a warning where it
+    cannot)."""
+    check_every: int = 1
+    """torch only: steps between the checks for a non-finite state (0: only at reset and on
+    ``check()``); every step by default, as the NumPy env."""
+
+
 ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions))
+BACKEND_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BackendOptions))
 DEFAULTS: dict = {f.name: f.default for f in dataclasses.fields(EnvOptions)}
 
 
@@ -102,9 +125,19 @@ def options_table(indent: str = "    ") -> str:
     return "\n".join((indent + line).rstrip() for line in lines)
 
 
+def _backend_rows() -> list[tuple[str, str, str]]:
+    docs = field_docs(BackendOptions)
+    rows = []
+    for f in dataclasses.fields(BackendOptions):
+        default = f'"{f.default}"' if isinstance(f.default, str) else repr(f.default)
+        rows.append((f.name, default, docs[f.name]))
+    return rows
+
+
 def options_markdown() -> str:
-    """The same table in Markdown, as docs/api.md holds it."""
+    """The same table in Markdown, as docs/api.md holds it, with the backend options
+    (:class:`BackendOptions`) after the env's."""
     lines = ["| argument | default | meaning |", "|---|---|---|"]
     lines += [f"| `{n}` | {f'`{d}`' if d.startswith(chr(34)) else d} | "
-              f"{m.replace('``', '`')} |" for n, d, m in _rows()]
+              f"{m.replace('``', '`')} |" for n, d, m in [*_rows(), *_backend_rows()]]
     return "\n".join(lines)

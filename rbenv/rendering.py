@@ -1,4 +1,4 @@
-"""Software renderer of the satellite: inertia box, body and target axes, thruster plumes, overlay.
+"""Software renderer of the satellite: inertia box, axes, thrusters, wheels, rods, overlay.
 
 Draws with pygame-ce Surfaces, which need no display, so ``render_mode="rgb_array"`` works on a
 headless machine; only :meth:`Renderer.show` (``render_mode="human"``) opens a window. pygame is
@@ -12,7 +12,9 @@ Picture: the satellite is drawn as its *equivalent inertia box* (the uniform sol
 same mass and principal moments, oriented along the principal axes), body axes x/y/z as solid
 red/green/blue lines from the centre, the target attitude's axes as dashed lines in the same
 colours (aligned when the error is zero), each thruster as a dot at its mount point with a plume
-opposite to its force whose length and opacity scale with throttle, and a text overlay.
+opposite to its force whose length and opacity scale with throttle, each reaction wheel as a disc
+on its spin axis, each set of torque rods as one dipole arrow, and a text overlay.
+:data:`LEGEND` says what each element means, in words a user guide can quote.
 """
 
 from __future__ import annotations
@@ -28,7 +30,28 @@ from rbenv.core import quaternion as _quaternion
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, describe
 
-__all__ = ["VIEW_DIRECTION_W", "Renderer", "equivalent_box", "save_video"]
+__all__ = ["LEGEND", "VIEW_DIRECTION_W", "Renderer", "equivalent_box", "save_video"]
+
+#: What each drawn element of a frame means (the user guide quotes it).
+LEGEND = """\
+- Grey box: the satellite's equivalent inertia box (the uniform solid box with its mass and
+  principal moments of inertia, along its principal axes), lit from the upper left; it is
+  slightly translucent, so what lies behind it shows faintly.
+- Solid red, green, blue lines from the centre: the body axes x, y, z, now.
+- Dashed red, green, blue lines ending in a ring: the target attitude's axes x, y, z (the task's
+  target frame; absent when the task has none, as in detumbling). Each dashed axis lies on the
+  solid axis of its colour when the attitude error is zero; the angle between them is the error.
+- Dots: thrusters at their mount points, grey when off, orange when firing; the plume points
+  opposite to the thruster's force, its length and opacity grow with the throttle.
+- Discs: reaction wheels, one per wheel, on its spin axis just outside the box, face normal to
+  the axis. The filled slice is the wheel's speed as a fraction of its maximum (a full disc at
+  the speed limit): orange when it spins positively about its axis, cyan when negatively.
+- Magenta arrow: the torque rods' commanded magnetic dipole (the sum over the rods, body frame),
+  leaving the box along its direction; its length outside the box grows with the dipole, full
+  length at the dipole of every rod at its maximum. No arrow when the rods are off.
+- Text, top left: attitude error to the target (deg), body rate (deg/s) and time (s).
+The camera is fixed in the world (orthographic, world +z up on screen): the box turns as the
+satellite does."""
 
 _RENDER_EXTRA = "rendering needs the render extra: pip install 'rbenv[render]'"
 
@@ -47,6 +70,9 @@ _AXIS_RGB = ((235, 64, 64), (70, 205, 90), (80, 140, 255))
 _GHOST_RGB = ((255, 160, 160), (165, 250, 175), (170, 200, 255))
 _MARKER_IDLE, _MARKER_FIRE = np.array([120.0, 124.0, 136.0]), np.array([255.0, 170.0, 60.0])
 _PLUME_OUTER, _PLUME_INNER = (255, 140, 40), (255, 236, 170)
+_WHEEL_FACE, _WHEEL_RIM = (44, 48, 64), (200, 204, 220)
+_WHEEL_POS, _WHEEL_NEG = (255, 150, 50), (70, 210, 235)
+_DIPOLE_RGB = (235, 80, 235)
 
 # Relative sizes, all in units of the box's half-diagonal |h|.
 _AXIS_LENGTH = 1.3
@@ -54,6 +80,10 @@ _PLUME_LENGTH = 0.6
 _PLUME_SPREAD = 0.28  # half-width of the plume's far end per unit plume length
 _MIN_THROTTLE = 1e-3  # below this a thruster counts as off
 _THROTTLE_TOL = 1e-9
+_WHEEL_RADIUS = 0.14
+_WHEEL_GAP = 0.2  # from the box surface to the disc's centre, along the spin axis
+_DIPOLE_LENGTH = 0.7  # the arrow's length outside the box at the full dipole
+_MIN_DIPOLE = 1e-3  # below this fraction of the full dipole no arrow is drawn
 
 
 def _import_pygame():
@@ -88,19 +118,31 @@ class Renderer:
     thruster_positions_B: (n, 3) m, mount points in the body frame;
     thruster_directions_B: (n, 3), direction of each thruster's force on the body (any non-zero
     length; the plume points the opposite way); width, height: frame size in pixels;
-    supersample: render at this multiple of the size and downscale (antialiasing; 1 is fastest).
+    supersample: render at this multiple of the size and downscale (antialiasing; 1 is fastest);
+    wheel_axes_B: (k, 3) spin axes of k reaction wheels (any non-zero length; None: no wheels)
+    and wheel_max_speed: their (k,) speed limits, rad/s; full_dipole: the torque rods' dipole
+    (A·m²) drawn at the arrow's full length (None: no rods). See :data:`LEGEND`.
     """
 
     @classmethod
     def for_scene(cls, scene, **kwargs) -> Renderer:
-        """Renderer for an :class:`rbenv.Scene`: its mass properties and thruster layout.
+        """Renderer for an :class:`rbenv.Scene`: its mass properties and its actuators
+        (thrusters, reaction wheels and torque rods, each where the scene has them).
 
         Thruster positions are taken relative to the centre of mass, the origin of the drawing.
         """
-        thr = scene.thrusters
+        thr, tables = scene.thrusters, scene.actuators
+        pos, dirs = (np.zeros((0, 3)), np.zeros((0, 3))) if thr is None else \
+            (thr.positions_B - thr.com_B, thr.directions_B)
+        wheels, rods = tables.get("wheels"), tables.get("magnetorquers")
+        if wheels is not None:
+            kwargs = {"wheel_axes_B": wheels.axes_B, "wheel_max_speed": wheels.max_speed,
+                      **kwargs}
+        if rods is not None:
+            full = float(np.linalg.norm(rods.axes_B.T @ np.abs(rods.max_dipole)))
+            kwargs = {"full_dipole": full, **kwargs}
         return cls(inertia=scene.body.inertia, mass=scene.body.mass,
-                   thruster_positions_B=thr.positions_B - thr.com_B,
-                   thruster_directions_B=thr.directions_B, **kwargs)
+                   thruster_positions_B=pos, thruster_directions_B=dirs, **kwargs)
 
     def __init__(
         self,
@@ -112,6 +154,9 @@ class Renderer:
         height: int = 480,
         *,
         supersample: int = 2,
+        wheel_axes_B=None,
+        wheel_max_speed=None,
+        full_dipole: float | None = None,
     ):
         self.width = check.count("width", width, low=8, high=8192)
         self.height = check.count("height", height, low=8, high=8192)
@@ -126,6 +171,10 @@ class Renderer:
             raise InvalidParameterError(
                 f"thruster_directions_B[{i}] must be a non-zero vector, got {describe(dirs[i])}"
             )
+        self._wheel_axes_B, self._wheel_max_speed = _wheels(wheel_axes_B, wheel_max_speed)
+        self.n_wheels = len(self._wheel_max_speed)
+        self._full_dipole = None if full_dipole is None else \
+            check.positive("full_dipole", full_dipole)
         pg = _import_pygame()
         self._pg = pg
         self.n_thrusters = n
@@ -161,6 +210,11 @@ class Renderer:
         self._thr_pos_B = pos
         self._thr_dir_B = dirs / np.where(norms > 0, norms, 1.0)[:, None] if n else dirs
         self._thr_pos_box = pos @ R_p
+        # Wheels sit on their spin axes just outside the box: their centres are body-fixed.
+        self._wheel_r = _WHEEL_RADIUS * diag
+        if self.n_wheels:
+            t_exit, self._wheel_face = self._exits(R_p.T @ self._wheel_axes_B.T)
+            self._wheel_centre_B = self._wheel_axes_B * (t_exit + _WHEEL_GAP * diag)[:, None]
 
         # Camera: rows of V are screen right, screen up and the direction towards the viewer.
         e = VIEW_DIRECTION_W
@@ -173,6 +227,12 @@ class Renderer:
         reach = max(diag, self._axis_len)
         if n:
             reach = max(reach, float(np.linalg.norm(pos, axis=1).max()) + self._plume_len)
+        if self.n_wheels:
+            reach = max(reach, float(np.linalg.norm(self._wheel_centre_B, axis=1).max())
+                        + self._wheel_r)
+        if self._full_dipole is not None:
+            reach = max(reach, (1.0 + _DIPOLE_LENGTH) * diag)
+        self._dipole_len = _DIPOLE_LENGTH * diag
         W, H = self.width * ss, self.height * ss
         margin = 0.05 * min(W, H)
         self._scale = (0.5 * min(W, H) - margin) / reach  # px per m
@@ -205,13 +265,16 @@ class Renderer:
         error_deg: float | None = None,
         rate_dps: float | None = None,
         time_s: float | None = None,
+        wheel_speed=None,
+        dipole_B=None,
     ) -> np.ndarray:
         """Render one frame. Returns (height, width, 3) uint8 RGB.
 
         q, q_target: (4,) body→world attitude and target, scalar first (w, x, y, z), Hamilton
         (normalised here; ``q_target=None`` draws no target axes); throttle: (n,) in [0, 1] or
         None for all off; error_deg (deg), rate_dps (deg/s), time_s (s): overlay text, a line is
-        left out when its value is None.
+        left out when its value is None; wheel_speed: (k,) rad/s relative to the body, or None
+        for all at rest; dipole_B: (3,) A·m², the rods' dipole in body axes, or None for none.
         """
         R = _quaternion.to_matrix(check.unit_quaternion("q", q, normalize=True, single=True))
         R_t = None
@@ -219,6 +282,8 @@ class Renderer:
             q_t = check.unit_quaternion("q_target", q_target, normalize=True, single=True)
             R_t = _quaternion.to_matrix(q_t)
         thr = self._throttle(throttle)
+        speed = self._wheel_fraction(wheel_speed)
+        dipole = self._dipole(dipole_B)
         labels = [
             ("error", error_deg, "{:.2f}°"),
             ("rate", rate_dps, "{:.3f}°/s"),
@@ -240,6 +305,8 @@ class Renderer:
             self._plan_ghosts(M, R.T @ R_t, e_box, back, front)
         self._plan_axes(M, e_box, back, front)
         self._plan_thrusters(M, e_box, thr, back, xray, front)
+        self._plan_wheels(M, e_box, speed, back, front)
+        self._plan_dipole(M, e_box, dipole, back, front)
 
         canvas.blit(self._background, (0, 0))
         self._draw_layer(back)
@@ -394,6 +461,46 @@ class Renderer:
             if thr[i] >= _MIN_THROTTLE:
                 xray.append(("ring", item[1], item[2]))
 
+    def _plan_wheels(self, M, e_box, speed, back, front) -> None:
+        """Wheel discs normal to their spin axes, with a slice for the speed fraction."""
+        if not self.n_wheels:
+            return
+        is_front = self._face_front(self._wheel_face, e_box)
+        centres_cam = self._wheel_centre_B @ M.T
+        g_cam = self._wheel_axes_B @ M.T
+        for i in np.argsort(centres_cam[:, 2]):
+            a = np.cross(g_cam[i], [0.0, 0.0, 1.0])
+            if np.linalg.norm(a) < 1e-6:  # spin axis towards the viewer
+                a = np.array([1.0, 0.0, 0.0])
+            a /= np.linalg.norm(a)
+            b = np.cross(g_cam[i], a)  # (a, b, g) right-handed: angles grow with the spin
+            r, c = self._wheel_r, centres_cam[i]
+            rim = self._project(c + r * (_DISC[:, :1] * a + _DISC[:, 1:] * b))
+            f = speed[i]
+            turn = np.linspace(0.0, 2.0 * np.pi * abs(f), 25) * np.sign(f)
+            pie = c + r * (np.cos(turn)[:, None] * a + np.sin(turn)[:, None] * b)
+            slice_ = self._project(np.concatenate([c[None], pie])) if abs(f) > 1e-3 else None
+            colour = _WHEEL_POS if f > 0 else _WHEEL_NEG
+            (front if is_front[i] else back).append(("wheel", rim, slice_, colour))
+
+    def _plan_dipole(self, M, e_box, dipole, back, front) -> None:
+        """The rods' dipole: an arrow from the box surface outwards, along the dipole."""
+        size = float(np.linalg.norm(dipole)) if dipole is not None else 0.0
+        if size < _MIN_DIPOLE:
+            return
+        u_B = dipole / size
+        t_exit, face = self._exits((self._R_p.T @ u_B)[:, None])
+        d_cam = M @ u_B
+        tip = d_cam * (t_exit[0] + self._dipole_len * min(size, 1.0))
+        is_front = bool(self._face_front(face, e_box)[0])
+        start = d_cam * t_exit[0] if is_front else np.zeros(3)
+        side = np.cross(d_cam, [0.0, 0.0, 1.0])
+        side = side / max(float(np.linalg.norm(side)), 1e-9) * 0.06 * self._dipole_len
+        head = tip - 0.18 * self._dipole_len * d_cam
+        item = ("arrow", self._project(start), self._project(tip),
+                [self._project(p) for p in (tip, head + side, head - side)])
+        (front if is_front else back).append(item)
+
     def _plume_outlines(self, nozzle_cam, d_cam, length) -> list:
         """Screen outlines of plume cones and their bright cores: hulls of the projected cones.
 
@@ -454,6 +561,16 @@ class Renderer:
             elif kind == "ring":
                 _, colour, p = it
                 pg.draw.circle(canvas, colour, p, self._marker_r, max(1, w // 2))
+            elif kind == "wheel":
+                _, rim, slice_, colour = it
+                pg.draw.polygon(canvas, _WHEEL_FACE, rim)
+                if slice_ is not None:
+                    pg.draw.polygon(canvas, colour, slice_)
+                pg.draw.polygon(canvas, _WHEEL_RIM, rim, max(1, w // 2))
+            elif kind == "arrow":
+                _, p0, p1, head = it
+                pg.draw.line(canvas, _DIPOLE_RGB, p0, p1, w)
+                pg.draw.polygon(canvas, _DIPOLE_RGB, head)
 
     def _draw_box(self, Mb, e_box) -> None:
         """Visible faces of the box, Lambert-shaded, painted back to front, edges outlined."""
@@ -531,6 +648,34 @@ class Renderer:
         return np.clip(thr, 0.0, 1.0)
 
 
+    def _wheel_fraction(self, wheel_speed) -> np.ndarray:
+        """Wheel speeds (k,) rad/s as signed fractions of the limits, clipped to [-1, 1]."""
+        if wheel_speed is None:
+            return np.zeros(self.n_wheels)
+        speed = check.array("wheel_speed", wheel_speed, (self.n_wheels,))
+        return np.clip(speed / self._wheel_max_speed, -1.0, 1.0)
+
+    def _dipole(self, dipole_B) -> np.ndarray | None:
+        """The dipole (3,) A·m² as a fraction of the full dipole, or None."""
+        if dipole_B is None or self._full_dipole is None:
+            return None
+        return check.array("dipole_B", dipole_B, (3,)) / self._full_dipole
+
+
+def _wheels(axes_B, max_speed) -> tuple[np.ndarray, np.ndarray]:
+    """Unit spin axes (k, 3) and speed limits (k,) rad/s, checked; none when axes_B is None."""
+    if axes_B is None:
+        return np.zeros((0, 3)), np.zeros(0)
+    axes = check.array("wheel_axes_B", axes_B, (None, 3))
+    limit = check.array("wheel_max_speed", max_speed, (len(axes),))
+    norms = np.linalg.norm(axes, axis=1)
+    if not ((norms > 0).all() and (limit > 0).all()):
+        raise InvalidParameterError(
+            f"wheel_axes_B must be non-zero vectors and wheel_max_speed positive, got "
+            f"{describe(axes)} and {describe(limit)}")
+    return axes / norms[:, None], limit
+
+
 # ---------------------------------------------------------------------- video
 
 
@@ -590,6 +735,13 @@ def save_video(frames, path, fps: float = 10) -> Path:
 _RING = np.stack(
     [np.cos(np.linspace(0, 2 * np.pi, 12, endpoint=False)),
      np.sin(np.linspace(0, 2 * np.pi, 12, endpoint=False))],
+    axis=1,
+)
+
+
+_DISC = np.stack(
+    [np.cos(np.linspace(0, 2 * np.pi, 32, endpoint=False)),
+     np.sin(np.linspace(0, 2 * np.pi, 32, endpoint=False))],
     axis=1,
 )
 

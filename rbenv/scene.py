@@ -110,6 +110,7 @@ from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
 from rbenv.core.forces import MAX_THRUSTERS
 from rbenv.orbit import Orbit
 from rbenv.randomization import Randomization
+from rbenv.usage import InvalidChoiceError, invalid_choice
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -717,10 +718,10 @@ def load_scene(scene=DEFAULT_SCENE) -> Scene:
         path = Path(scene)
         if path.suffix == ".toml" and path.exists():
             return Scene.from_toml(path)
-        raise InvalidParameterError(
-            f"scene must be a shipped name {list_scenes()}, a path to an existing .toml file or "
-            f"a rbenv.Scene, got {scene!r}"
-        )
+        if path.suffix == ".toml":
+            raise InvalidChoiceError("scene", text, f"scene file {text!r} does not exist")
+        raise invalid_choice("scene", text, list_scenes(), what="a shipped name:",
+                             extra="or give a path to an existing .toml file or a rbenv.Scene")
     raise InvalidParameterError(
         f"scene must be a name, a path or a rbenv.Scene, got {type(scene).__name__}"
     )

@@ -5,6 +5,8 @@
 ``gymnasium.vector.VectorEnv`` whose ``step`` takes an (N, k) action tensor and returns
 tensors on its device: obs (N, d) in the env's dtype, reward (N,), terminated and truncated
 (N,) bool, and ``info``, a dict of (N,) tensors with a ``_key`` mask each, as the NumPy env.
+Its spaces are Gymnasium Boxes in the env's dtype (actions and observations alike), so
+``action_space.sample()`` is a NumPy array; ``step`` takes it too and copies it to the device.
 
 ``gym.make(ID, backend="torch")`` gives one satellite of it as a ``gymnasium.Env`` with NumPy at
 its boundary (:class:`TorchEnv`), for the env checkers and single-env tools.
@@ -57,6 +59,7 @@ from rbenv.adapter import TaskAdapter, action_array
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
+from rbenv.draws import check_seed
 from rbenv.env import unknown_options
 from rbenv.options import ENV_OPTIONS
 from rbenv.plant import NO_NOISE
@@ -174,8 +177,11 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self.device, self.dtype = _device(device), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
-        self.single_action_space, single_obs = self._setup(options, None, ())
+        single_action, single_obs = self._setup(options, None, ())
         check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
+        # Both spaces in the env's dtype: what it returns, and what it computes actions in.
+        self.single_action_space = gym.spaces.Box(-1.0, 1.0, single_action.shape,
+                                                  np.dtype(dtype))
         self.single_observation_space = gym.spaces.Box(-1.0, 1.0, single_obs.shape,
                                                        np.dtype(dtype))
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
@@ -238,8 +244,8 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             seeds, episodes = seeds[idx], episodes[idx]
         draws = TorchDraws(seeds, episodes, self.xp)
         rows = np.arange(self.num_envs) if options else None
-        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows),
-                           draws.n)
+        return self._state(transition.start(self.plant, self.task, draws, options, rows=rows,
+                                            num_envs=self.num_envs), draws.n)
 
     def _scatter(self, idx: torch.Tensor, new: State, old: State) -> State:
         """Rows ``idx`` from ``new`` (a state of len(idx)), the others from ``old`` (a new
@@ -323,10 +329,10 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
             if len(seed) != n:
                 raise InvalidParameterError(
                     f"seed list must have num_envs = {n} entries, got {len(seed)}")
-            values = [validation.integer(f"seed[{i}]", s.item() if hasattr(s, "item") else s,
-                                         low=0) for i, s in enumerate(seed)]
+            values = [check_seed(s.item() if hasattr(s, "item") else s, f"seed[{i}]")
+                      for i, s in enumerate(seed)]
         else:
-            s = validation.integer("seed", seed, low=0)
+            s = check_seed(seed)
             values = [s + i for i in range(n)]
         if max(values) >= 2**63:
             raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
@@ -430,11 +436,12 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
 
     def _actions(self, actions) -> torch.Tensor:
         """The action batch as a tensor of the env's dtype on its device; a named error for
-        anything else (the shape and the type are checked, values are clipped by the plant)."""
+        anything else (the shape and the type are checked, values are clipped by the plant).
+        A NumPy array (``action_space.sample()``) or a list is copied to the device: a host
+        transfer per step, which a tensor already on the device avoids."""
         shape = self.action_space.shape
-        if not isinstance(actions, torch.Tensor):
-            raise TypeError(f"actions must be a torch tensor of shape {shape} on backend="
-                            f"'torch', got {type(actions).__name__}")
+        if not isinstance(actions, torch.Tensor):  # the NumPy env's checks, then the copy
+            actions = torch.as_tensor(action_array(actions, shape, name="actions"))
         if tuple(actions.shape) != shape:
             raise InvalidParameterError(f"actions must have shape {shape}, got "
                                         f"{tuple(actions.shape)}")
@@ -485,12 +492,16 @@ class TorchEnv(gym.Env):
     def __init__(self, scene=None, **options):
         for name in ("num_envs", "autoreset_mode"):
             if name in options:
-                raise TypeError(f"{type(self).__name__} got unexpected option {name!r}: it is "
+                raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword "
+                                f"argument {name!r}: it is "
                                 f"one satellite; use gym.make_vec(ID, backend='torch') for a "
                                 f"batch")
         self.env = self.vector_class(1, scene, autoreset_mode=AutoresetMode.DISABLED,
                                      **options)
-        self.action_space = self.env.single_action_space
+        # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
+        # gymnasium.Env); the vector env's spaces are in its dtype.
+        self.action_space = gym.spaces.Box(-1.0, 1.0, self.env.single_action_space.shape,
+                                           np.float32)
         self.observation_space = self.env.single_observation_space
         self.metadata = {**type(self).metadata, "render_fps": self.env.metadata["render_fps"]}
         self.render_mode = None

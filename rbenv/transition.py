@@ -115,13 +115,20 @@ def render_values(plant: Plant, task, st, index: int | None = None) -> dict:
     def pick(c):
         return float(c if index is None else c[index])
 
-    q = np.array([pick(c) for c in st.q])
+    def vector(components):  # a state field of components (None: the actuator is absent)
+        return None if components is None else np.array([pick(c) for c in components])
+
+    q = vector(st.q)
     target = task.target(st)
-    w = np.array([pick(c) for c in st.omega_B])
-    throttle = st.throttle if index is None else st.throttle[index]
+    w = vector(st.omega_B)
+    throttle = getattr(st, "throttle", None)
+    if throttle is not None and index is not None:
+        throttle = throttle[index]
     angle = task.error_angle(st)
-    return {"q": q, "q_target": None if target is None else np.array([pick(c) for c in target]),
-            "throttle": np.asarray(throttle, dtype=float),
+    return {"q": q, "q_target": vector(target),
+            "throttle": None if throttle is None else np.asarray(throttle, dtype=float),
+            "wheel_speed": vector(getattr(st, "wheel_speed", None)),
+            "dipole_B": vector(getattr(st, "mtq_dipole_B", None)),
             "error_deg": float(np.degrees(pick(angle))) if angle is not None else 0.0,
             "rate_dps": float(np.degrees(np.linalg.norm(w))),
             "time_s": pick(st.steps) * plant.control_dt}
@@ -135,21 +142,21 @@ def zero_terms(task, value=0.0) -> tuple:
 # --------------------------------------------------------------------------- episode start
 
 
-def start(plant: Plant, task, draws, options=None, rows=None) -> dict:
+def start(plant: Plant, task, draws, options=None, rows=None, num_envs=None) -> dict:
     """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
 
     options: the reset options (names in ``task.reset_options``); for the vector env their
-    leading axis is num_envs and ``rows`` selects the rows of the envs being reset.
+    leading axis is ``num_envs`` and ``rows`` selects the rows of the envs being reset.
     """
     s = task.sample_start(draws)
-    _override(task, s, options, rows, draws)
+    _override(task, s, options, rows, draws, num_envs)
     s.update(plant.sample_start(draws))
     task.complete_start(s, draws.xp)
     plant.complete_start(s, draws.xp)
     return s
 
 
-def _override(task, s: dict, options, rows, draws) -> None:
+def _override(task, s: dict, options, rows, draws, num_envs=None) -> None:
     """Replace sampled start values by reset options (validated, named in errors)."""
     if not options:
         return
@@ -166,13 +173,14 @@ def _override(task, s: dict, options, rows, draws) -> None:
             continue
         name = f"reset options[{key!r}]"
         arr = validation.finite_array(name, options[key])
-        shape = (width,) if rows is None else ("num_envs", width)
-        if rows is not None:
-            if arr.ndim != 2 or arr.shape[1] != width:
-                raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
+        if rows is not None:  # one row per sub-env, num_envs of them
+            if arr.shape != (num_envs, width):
+                raise InvalidParameterError(
+                    f"{name} must have shape (num_envs, {width}) = {(num_envs, width)}, one "
+                    f"row per sub-env, got {arr.shape}")
             arr = arr[rows]
         elif arr.shape != (width,):
-            raise InvalidParameterError(f"{name} must have shape {shape}, got {arr.shape}")
+            raise InvalidParameterError(f"{name} must have shape {(width,)}, got {arr.shape}")
         arr = np.broadcast_to(arr, (draws.n, width))
         if width == 4:
             arr = validation.unit_quaternion(name, arr)

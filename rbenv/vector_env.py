@@ -19,7 +19,7 @@ from rbenv.adapter import TaskAdapter, action_array, backend_twin
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
-from rbenv.draws import EpisodeDraws
+from rbenv.draws import EpisodeDraws, check_seed
 from rbenv.env import unknown_options
 from rbenv.options import ENV_OPTIONS
 from rbenv.state import State, assign, from_start
@@ -150,8 +150,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             if len(seed) != self.num_envs:
                 raise InvalidParameterError(
                     f"seed list must have num_envs = {self.num_envs} entries, got {len(seed)}")
-            return [validation.integer(f"seed[{i}]", s, low=0) for i, s in enumerate(seed)]
-        s = validation.integer("seed", seed, low=0)
+            return [check_seed(s, f"seed[{i}]") for i, s in enumerate(seed)]
+        s = check_seed(seed)
         return [s + i for i in range(self.num_envs)]
 
     def _reset_mask(self, mask) -> np.ndarray:
@@ -183,7 +183,8 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         draws = EpisodeDraws(self._seeds[idx], self._episodes[idx],
                              block_slots=self._block_slots)
         self._episodes[idx] += np.uint64(1)
-        return transition.start(self.plant, self.task, draws, options, rows=idx)
+        return transition.start(self.plant, self.task, draws, options, rows=idx,
+                                num_envs=self.num_envs)
 
     # ------------------------------------------------------------------- step
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
+from rbenv.core.errors import InvalidParameterError
 from rbenv.core.vec import cross
 
 from rbenv import registry
@@ -289,8 +290,9 @@ class RandomPolicy:
         return self.rng.uniform(-1.0, 1.0, shape).astype(np.float32), state
 
 
-class NotApplicable(ValueError):
-    """A scripted baseline that the scene's actuators cannot run (B-dot without rods, ...)."""
+class NotApplicable(InvalidParameterError):
+    """A scripted baseline that the scene's actuators cannot run (B-dot without rods, ...); a
+    named input error, so ``rbenv evaluate`` prints it as one line."""
 
 
 def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:

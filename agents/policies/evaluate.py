@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.baselines.controllers import (
     BASELINES,
+    NotApplicable,
     RandomPolicy,
     ZeroPolicy,
     baseline,
@@ -25,8 +26,81 @@ from rbenv.agents.policies.load import load_policy
 
 import rbenv
 from rbenv.rendering import save_video
+from rbenv.scene import DEFAULT_SCENE
+from rbenv.usage import InvalidChoiceError, invalid_choice, plain_env
 
-SCRIPTED = ("pd", "bangbang", "zero", "random")
+ANY_TASK = ("zero", "random")  # scripted policies of every task, beside the registry's baselines
+
+
+def scripted(env_id: str | None = None) -> tuple[str, ...]:
+    """The scripted policy names of ``env_id``'s task (its registry entry's baselines, then
+    zero and random), or of every registered task (None)."""
+    specs = rbenv.registry.specs() if env_id is None else (rbenv.registry.get(env_id),)
+    names = dict.fromkeys(name for spec in specs for name in spec.baselines)
+    return (*names, *ANY_TASK)
+
+
+def _stem(env_id: str) -> str:
+    """``SatelliteReorient`` of ``rbenv/SatelliteReorient-v1``: the task, whatever version."""
+    return env_id.split("/", 1)[-1].rsplit("-v", 1)[0]
+
+
+def scripted_by_task() -> str:
+    """The scripted policies of each task, for help texts: ``pd, bangbang (SatelliteReorient);
+    ...; zero, random (any task)``."""
+    tasks: dict[str, tuple] = {}
+    for spec in rbenv.registry.specs():
+        tasks.setdefault(_stem(spec.env_id), tuple(spec.baselines))
+    return "; ".join(f"{', '.join(names)} ({task})" for task, names in tasks.items()) + \
+        f"; {', '.join(ANY_TASK)} (any task)"
+
+
+def check_policy(policy: str, env_id: str = rbenv.ENV_ID, options: dict | None = None) -> None:
+    """A scripted policy of ``env_id``'s task that runs on the scene of ``options`` (its
+    ``gym.make`` options), or an existing path; else an :class:`InvalidChoiceError` saying
+    which: the path that does not exist, the scripted names with a did-you-mean, the task a
+    baseline belongs to, or the scenes it runs on."""
+    if Path(policy).exists():
+        return
+    own = scripted(env_id)
+    if policy in ANY_TASK:
+        return
+    if policy in own:
+        _check_runs_on(policy, env_id, dict(options or {}))
+        return
+    elsewhere = [s.env_id for s in rbenv.registry.specs() if policy in s.baselines]
+    if elsewhere:
+        raise InvalidChoiceError("policy", policy, (
+            f"{policy!r} is a scripted policy of {', '.join(elsewhere)}, not of {env_id}, "
+            f"whose scripted policies are {', '.join(own)}; pick the task with --env-id"))
+    if any(sep in policy for sep in ("/", "\\")) or Path(policy).suffix:
+        raise InvalidChoiceError("policy", policy, (
+            f"{policy!r} does not exist (no such run folder or model file); a scripted policy "
+            f"of {env_id} is one of {', '.join(own)}"))
+    raise invalid_choice("policy", policy, own, what=f"a scripted policy of {env_id}:",
+                         extra="or give a run folder, its policy.pt or a checkpoint policy_N.pt")
+
+
+def _check_runs_on(policy: str, env_id: str, options: dict) -> None:
+    """The baseline ``policy`` can act on the scene of ``options``; else the scenes it can."""
+    def runs(opts) -> bool:
+        env = plain_env(env_id, opts)
+        try:
+            make_policy(policy, env)
+            return True
+        except NotApplicable:
+            return False
+        finally:
+            env.close()
+
+    if runs(options):
+        return
+    spec = rbenv.registry.get(env_id)
+    able = [s for s in rbenv.list_scenes() if spec.runs_on(s) and runs({**options, "scene": s})]
+    scene = options.get("scene") or spec.default_scene or DEFAULT_SCENE
+    raise InvalidChoiceError("policy", policy, (
+        f"{policy!r} cannot act on scene {scene!r} (its actuators lack what it needs); it runs "
+        f"on {', '.join(able) or 'no shipped scene'} (--scene)"))
 
 
 def settle_time_s(end_time_s, hold_s: float, control_dt_s: float):
@@ -74,8 +148,10 @@ class EvalResult:
 
 
 def make_policy(name: str, env, seed: int = 0):
-    """``pd | bangbang | zero | random`` or a path to an SB3 ``model.zip``; env single or vector."""
-    if name in BASELINES[env_parts(env)[1].name]:
+    """A scripted policy of the env's task (:func:`scripted`) or a path to a saved model; env
+    single or vector."""
+    task = env_parts(env)[1].name
+    if name in BASELINES[task]:
         return baseline(env, name)
     n_act = getattr(env, "single_action_space", env.action_space).shape[0]
     if name == "zero":
@@ -84,8 +160,9 @@ def make_policy(name: str, env, seed: int = 0):
         return RandomPolicy(n_act, seed)
     if Path(name).exists():
         return load_policy(name)
-    raise ValueError(f"policy must be one of {list(SCRIPTED)} or a path to a saved model "
-                     f"(a run folder or policy.pt), got {name!r}")
+    raise invalid_choice("policy", name, (*BASELINES[task], *ANY_TASK),
+                         what=f"a scripted policy of {task}:",
+                         extra="or give a run folder, its policy.pt or a checkpoint policy_N.pt")
 
 
 def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = None,
@@ -102,7 +179,7 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
     """
     env_kwargs = dict(env_kwargs or {})
     label = name or (policy if isinstance(policy, str) else type(policy).__name__)
-    if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
+    if isinstance(policy, str) and policy not in scripted() and Path(policy).exists():
         policy = load_policy(policy, action, trust_pickle=trust_pickle)
         env_kwargs = {**policy.env_kwargs, **env_kwargs}  # the run's env options first
     if scene is not None:
@@ -231,7 +308,7 @@ def record_video(policy, path, *, seed: int = 0, scene: str | None = None, fps: 
                  trust_pickle: bool = False) -> Path:
     """Render one seeded episode of ``policy`` to a GIF or MP4 (needs the render extra)."""
     kwargs = dict(env_kwargs or {})
-    if isinstance(policy, str) and policy not in SCRIPTED and Path(policy).exists():
+    if isinstance(policy, str) and policy not in scripted() and Path(policy).exists():
         policy = load_policy(policy, trust_pickle=trust_pickle)
         kwargs = {**policy.env_kwargs, **kwargs}
     if scene is not None:

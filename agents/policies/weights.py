@@ -26,6 +26,7 @@ This module imports torch and Stable-Baselines3 only when a function needs them.
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 from typing import Literal, get_args
@@ -264,13 +265,22 @@ class ObsStats:
         return v
 
 
+@contextlib.contextmanager
+def open_npz(path):
+    """``np.load(path, allow_pickle=False)`` of an ``.npz``, as a context, that closes the file
+    also when the archive is torn (``np.load`` of a path leaves it open when the zip cannot be
+    read)."""
+    with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
+        yield data
+
+
 def load_stats(path: Path) -> ObsStats:
     """Statistics from an ``.npz`` (``allow_pickle=False``); errors name the file."""
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f"normalisation statistics {str(path)!r} do not exist")
     try:
-        with np.load(path, allow_pickle=False) as data:
+        with open_npz(path) as data:
             fields = {k: data[k] for k in _STATS_FIELDS}
         return ObsStats(fields)
     except Exception as e:  # torn, foreign or incomplete file
@@ -291,7 +301,7 @@ def load_replay_buffer(model, path: Path) -> int:
     """Fill ``model.replay_buffer`` from ``path``; returns its size. Errors name the file."""
     buf = model.replay_buffer
     try:
-        with np.load(path, allow_pickle=False) as data:
+        with open_npz(path) as data:
             loaded = {k: data[k] for k in _BUFFER_FIELDS if getattr(buf, k, None) is not None}
             pos, full = int(data["pos"]), bool(data["full"])
         for key, value in loaded.items():

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, TypeVar
+from typing import ClassVar, Literal, TypeVar
 
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.runfolder import RunFolderError
@@ -19,6 +19,7 @@ from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
+from rbenv.usage import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
 
@@ -32,6 +33,11 @@ class RunConfig:
 
     Each field's docstring is its ``rbenv train`` help (:mod:`rbenv.agents.training.flags`).
     """
+
+    # The fields a resumed run takes from the caller (when given); the rest are the run's own.
+    RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = ("timesteps", "threads")
+    # What a config.json written before a field existed meant by its absence.
+    LEGACY_DEFAULTS: ClassVar[dict] = {}
 
     engine: Engine = "sb3"
     """The training back end: sb3 (Stable-Baselines3), rllib (PPO on Ray RLlib; the ray
@@ -48,7 +54,7 @@ class RunConfig:
     scene: str = "cubesat-12u"
     """The spacecraft: a shipped scene's name or a scene TOML file."""
     env_id: str = rbenv.ENV_ID
-    """The task: a registered id (rbenv.registry), e.g. rbenv/SatelliteDetumble-v0."""
+    """The task: a registered id (rbenv.registry), e.g. rbenv/SatelliteDetumble-v1."""
     out: str | None = None
     """The run folder (unset: ./runs/ALGO-SCENE-seedS); it must be empty or new unless --resume
     or --force."""
@@ -104,13 +110,25 @@ class RunConfig:
         self.out = self.out or self.default_out()
         return self
 
+    def check_env(self) -> None:
+        """Make the run's env once (one satellite) and close it, so that a wrong scene, env
+        option or value is named before the run folder is written. Call after :meth:`resolve`.
+        """
+        if "scene" in self.env_kwargs:
+            raise InvalidParameterError(
+                f"env_kwargs must not hold 'scene' (got {self.env_kwargs['scene']!r}): the run's "
+                "scene is its own field, --scene")
+        check_env_options(self.env_id, {"scene": self.scene, **self.env_kwargs})
 
-def resumed_config(cls: type[C], out: Path, timesteps: int | None = None,
-                   threads: int | None = None) -> C:
-    """The saved configuration of the run in ``out``, for that folder; new total and threads.
+
+def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
+    """The saved configuration of the run in ``out``, for that folder, with ``overrides`` (the
+    fields of ``cls.RESUME_OVERRIDES`` a caller gave, e.g. a new total of timesteps; None
+    values are ignored).
 
     Raises :class:`RunFolderError` if the folder was trained by another back end or its
-    config.json does not make a valid ``cls``.
+    config.json does not make a valid ``cls`` (an unknown scene, env option or value among
+    them: the message names config.json and the field).
     """
     out = Path(out)
     saved = runfolder.read_config(out)
@@ -119,18 +137,27 @@ def resumed_config(cls: type[C], out: Path, timesteps: int | None = None,
         raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
                              f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
     known = cls.__dataclass_fields__
+    saved = {**cls.LEGACY_DEFAULTS, **saved}
     try:
         cfg = cls(**{k: v for k, v in saved.items() if k in known})
     except TypeError as e:
         raise RunFolderError(f"run configuration {str(out / runfolder.CONFIG)!r} is invalid: "
                              f"{e}") from None
     cfg.out = str(out)  # the folder given, not the one recorded when the run started
-    cfg.timesteps = timesteps or cfg.timesteps
-    cfg.threads = threads or cfg.threads
+    for name, value in (overrides or {}).items():
+        if name not in cls.RESUME_OVERRIDES:
+            raise InvalidParameterError(f"a resumed run takes only {cls.RESUME_OVERRIDES} from "
+                                        f"the caller, got {name!r}")
+        if value is not None:
+            setattr(cfg, name, value)
     try:
-        return cfg.resolve()
+        cfg.resolve()
+        cfg.check_env()
     except (TypeError, ValueError) as e:
-        raise RunFolderError(f"run configuration {str(out / runfolder.CONFIG)!r}: {e}") from None
+        raise RunFolderError(f"the run folder {str(out)!r} holds a configuration that cannot "
+                             f"run ({str(out / runfolder.CONFIG)!r}): {e}; fix that file, or "
+                             "start the run again with --force instead of --resume") from None
+    return cfg
 
 
 OFF_POLICY = ("sac", "td3", "tqc", "crossq")
@@ -193,7 +220,18 @@ class TrainConfig(RunConfig):
     max_minutes: float | None = None
     """Stop training after this many minutes of training wall time (over all sessions of the
     run) and save, evaluate and report the model as at the end of --timesteps; unset: no
-    limit."""
+    limit. The console says when and why it stopped; --resume with a larger --max-minutes
+    trains on."""
+    save_replay_buffer: bool = False
+    """Off-policy (sac, td3, tqc, crossq): keep the replay buffer with each checkpoint
+    (replay_buffer_N.npz, the latest only; most of the run folder's size), so that --resume
+    continues with it. Without it --resume starts with an empty buffer: SB3 counts
+    learning_starts from step 0 of the run, so it does not wait again; gradient steps go on at
+    once, sampling the transitions collected since the resume."""
+
+    RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "max_minutes")
+    # Runs written before --save-replay-buffer kept their buffer: a resume goes on keeping it.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True}
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""

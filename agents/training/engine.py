@@ -71,20 +71,23 @@ def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool =
         report: bool = True) -> Path:
     """Train (or resume) ``cfg`` with ``backend`` into its run folder; returns the folder.
 
-    With ``resume``, the run in ``cfg.out`` defines the experiment; only ``cfg.timesteps`` (a
-    new total) and ``cfg.threads`` are taken from ``cfg``.
+    With ``resume``, the run in ``cfg.out`` defines the experiment; only the fields of
+    ``cfg.RESUME_OVERRIDES`` (a new total of timesteps, the threads...) are taken from ``cfg``.
+    Every field is checked, and the env made once, before anything is written.
     """
     out = Path(cfg.out or cfg.default_out())
     if resume:
-        cfg = resumed_config(type(cfg), out, cfg.timesteps, cfg.threads)
+        cfg = resumed_config(type(cfg), out, {k: getattr(cfg, k) for k in cfg.RESUME_OVERRIDES})
     else:
         cfg.out = str(out)
         cfg.resolve()
+        cfg.check_env()
     out.mkdir(parents=True, exist_ok=True)
     with RunLock(out):
         if resume:
             for p in remove_temporaries(out):
                 print(f"removed {str(p)!r}, left by a killed writer")
+            report_missing_pointer(out / CHECKPOINTS)
             if _already_finished(out, cfg.timesteps):
                 return out
         else:
@@ -108,6 +111,19 @@ def add_run_arguments(parser) -> None:
                       help="start a new run in a non-empty --out, deleting the old run's files")
     parser.add_argument("--no-report", action="store_true",
                         help="skip the final evaluation report")
+
+
+def report_missing_pointer(directory: Path) -> bool:
+    """Say so if checkpoints exist in ``directory`` but its latest.json does not (deleted, or
+    lost): the resume then takes the newest complete checkpoint on disk. Returns whether."""
+    directory = Path(directory)
+    if (directory / LATEST).exists() or not directory.is_dir():
+        return False
+    if not any(p.name.startswith(("policy_", "model_", "ckpt_")) for p in directory.iterdir()):
+        return False
+    print(f"the checkpoint pointer {str(directory / LATEST)!r} is missing; resuming from the "
+          "newest complete checkpoint on disk instead")
+    return True
 
 
 def _already_finished(out: Path, timesteps: int) -> bool:
@@ -184,7 +200,7 @@ def load_eval_history(log: Path, upto: int) -> dict:
     if upto <= 0 or not log.exists():
         return history
     try:
-        with np.load(log) as data:
+        with open(log, "rb") as f, np.load(f) as data:  # closed also when the zip is torn
             loaded = {k: data[k].tolist() for k in EVAL_KEYS}
     except Exception as e:  # a torn or foreign file: keep training, say what was lost
         warnings.warn(f"evaluation history {str(log)!r} is unreadable ({type(e).__name__}: "

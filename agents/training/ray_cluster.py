@@ -13,16 +13,14 @@ import socket
 
 from rbenv.core.errors import RbenvValueError
 
+from rbenv.usage import MissingExtraError
+
 INSTALL = ('pip install -e ".[ray]"  (Ray pins gymnasium==1.2.2, so use a venv of its own, '
            'e.g. python3 -m venv .venv-ray && .venv-ray/bin/pip install torch==2.13.0 && '
            '.venv-ray/bin/pip install -e ".[ray]")')
 # Environment variable that keeps a Ray node on 127.0.0.1 (single node only).
 LOOPBACK_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
 CONNECT_TIMEOUT_S = 5.0
-
-
-class MissingExtraError(RbenvValueError):
-    """An optional dependency (an extra of the package) is not installed."""
 
 
 class RayAddressError(RbenvValueError):

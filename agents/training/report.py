@@ -82,7 +82,8 @@ def plot_training_curve(run_dir: Path, path: Path) -> Path | None:
     if not log.exists():
         return None
     try:
-        data = dict(np.load(log))
+        with open(log, "rb") as f, np.load(f) as npz:  # closed also when the zip is torn
+            data = dict(npz)
     except Exception as e:  # a torn file must not lose the report
         print(f"skipping the training curve: {str(log)!r} is unreadable ({e})")
         return None

@@ -98,7 +98,8 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     evaluations = PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
                                cfg.eval_episodes, done, run_config=asdict(cfg),
                                best_dir=ckpt_dir if cfg.keep_best else None)
-    callbacks = [evaluations, AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock)]
+    callbacks = [evaluations, AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock,
+                                               cfg.save_replay_buffer)]
     limit = TimeLimit(clock, 60.0 * cfg.max_minutes) if cfg.max_minutes else None
     if limit is not None:
         callbacks.append(limit)
@@ -114,7 +115,9 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     # same num_timesteps), so it is written again: checkpoint <steps> is the final model, and
     # a longer resume continues from the trained weights.
     if remaining or latest is None or latest["timesteps"] != steps:
-        save_checkpoint(model, ckpt_dir, steps, clock.total())
+        save_checkpoint(model, ckpt_dir, steps, clock.total(), cfg.save_replay_buffer)
+    if limit is not None and limit.stopped:
+        print(limit.explain(steps, cfg, out))
     weights.save_model(model, out / runfolder.FINAL_MODEL)
     atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
     kept = evaluations.keep_best(steps, out) if cfg.keep_best else None
@@ -200,12 +203,14 @@ class _Every(BaseCallback):
 class AtomicCheckpoint(_Every):
     """Every ``every`` timesteps save model + statistics atomically and update latest.json."""
 
-    def __init__(self, directory: Path, every: int, clock: engine.WallClock):
+    def __init__(self, directory: Path, every: int, clock: engine.WallClock,
+                 replay_buffer: bool = False):
         super().__init__(every)
-        self.directory, self.clock = Path(directory), clock
+        self.directory, self.clock, self.replay_buffer = Path(directory), clock, replay_buffer
 
     def _fire(self) -> None:
-        save_checkpoint(self.model, self.directory, self.num_timesteps, self.clock.total())
+        save_checkpoint(self.model, self.directory, self.num_timesteps, self.clock.total(),
+                        self.replay_buffer)
 
 
 class TimeLimit(BaseCallback):
@@ -219,6 +224,15 @@ class TimeLimit(BaseCallback):
     def _on_step(self) -> bool:
         self.stopped = self.clock.total() >= self.seconds
         return not self.stopped
+
+    def explain(self, steps: int, cfg: TrainConfig, out: Path) -> str:
+        """What the console says when the limit stopped the run: when, why, where, and how
+        to train on."""
+        return (f"stopped by --max-minutes {cfg.max_minutes:g}: {self.clock.total() / 60:.1f} "
+                f"min of training wall time (all sessions of the run) at {steps:,} of "
+                f"{cfg.timesteps:,} timesteps ({100 * steps / cfg.timesteps:.0f} %); the policy "
+                f"as it is then is the run's final one, in {str(out)!r}; to train on: rbenv "
+                f"train --out {out} --resume --max-minutes M, with M > {cfg.max_minutes:g}")
 
 
 class PeriodicEval(_Every):
@@ -328,9 +342,11 @@ class RateProgress(BaseCallback):
 
 # --- checkpoints ------------------------------------------------------------------------------
 
-def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None) -> None:
-    """Write policy_<steps>.pt/.json and obs_stats_<steps>.npz (and an off-policy model's
-    replay_buffer_<steps>.npz), then point latest.json at them. No file is a pickle."""
+def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | None = None,
+                    replay_buffer: bool = False) -> None:
+    """Write policy_<steps>.pt/.json and obs_stats_<steps>.npz (and, with ``replay_buffer``, an
+    off-policy model's replay_buffer_<steps>.npz), then point latest.json at them. No file is a
+    pickle; only the latest replay buffer is kept."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     model_path = directory / f"policy_{steps}.pt"
@@ -338,12 +354,13 @@ def save_checkpoint(model, directory: Path, steps: int, wall_time_s: float | Non
     weights.save_model(model, model_path)
     atomic_write(stats_path, lambda p: weights.save_stats(model.get_vec_normalize_env(), p))
     buffer = directory / f"replay_buffer_{steps}.npz"
-    if getattr(model, "replay_buffer", None) is not None:  # off-policy: keep the latest only
+    keep = replay_buffer and getattr(model, "replay_buffer", None) is not None
+    if keep:  # off-policy, asked for: keep the latest only
         atomic_write(buffer, lambda p: weights.save_replay_buffer(model, p))
     engine.point_latest(directory, steps, wall_time_s, model=model_path.name,
                         stats=stats_path.name)
     for old in directory.glob("replay_buffer_*.*"):
-        if old != buffer:
+        if old != buffer or not keep:
             old.unlink(missing_ok=True)
 
 
@@ -362,8 +379,10 @@ def load_replay_buffer(model, directory: Path, steps: int, trust_pickle: bool = 
             model.load_replay_buffer(str(legacy))
             path, size = legacy, model.replay_buffer.size()
         else:
-            print(f"no replay buffer saved with checkpoint {steps}; {type(model).__name__} "
-                  "refills it from the resumed policy")
+            print(f"no replay buffer saved with checkpoint {steps} (--save-replay-buffer "
+                  f"keeps it); {type(model).__name__} starts with an empty buffer and trains "
+                  "at once on the transitions the resumed policy collects (SB3 does not wait "
+                  "for learning_starts again)")
             return
     except Exception as e:  # refused, torn or foreign: train on, say what was lost
         print(f"replay buffer not restored ({type(e).__name__}: {e}); "

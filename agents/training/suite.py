@@ -122,7 +122,9 @@ def train_config(cell: Cell, run: Path, threads: int):
     return TrainConfig(algo=cell.algo, env_id=cell.env_id, scene=cell.scene, seed=cell.seed,
                        timesteps=cell.timesteps, out=str(run), threads=threads,
                        eval_every=every, checkpoint_every=every,
-                       eval_episodes=CURVE_EPISODES, keep_best=False)  # select_checkpoint
+                       eval_episodes=CURVE_EPISODES, keep_best=False,  # select_checkpoint
+                       # a cell given a larger budget resumes as if never stopped
+                       save_replay_buffer=True)
 
 
 def train_cell(cell: Cell, run: Path, threads: int) -> dict:

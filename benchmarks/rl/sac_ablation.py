@@ -35,8 +35,11 @@ from gymnasium.vector import AutoresetMode
 from rbenv.agents.policies.sb3 import expected_throttle
 from rbenv.agents.training.sb3_vec_env import SB3VecEnv
 
-import rbenv
 from rbenv.hyperparams.ppo import hyperparams as _ppo_settings
+
+# The first release's id: the committed results (and the A/B against an older checkout)
+# measured it; v1 has its episodes, with another observation and reward.
+REORIENT_V0 = "rbenv/SatelliteReorient-v0"
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl"
 EVAL_SEED = 1_000_000
@@ -141,7 +144,7 @@ class MappedVecEnv(SB3VecEnv):
 def make_env(spec: dict, n_envs: int, seed: int):
     from stable_baselines3.common.vec_env import VecMonitor
 
-    venv = gym.make_vec(rbenv.ENV_ID, num_envs=n_envs, vectorization_mode="vector_entry_point",
+    venv = gym.make_vec(REORIENT_V0, num_envs=n_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode=AutoresetMode.SAME_STEP, **spec["env_kwargs"])
     env = VecMonitor(MappedVecEnv(venv, spec["action_map"]), info_keywords=("is_success",))
     env.seed(seed)
@@ -167,7 +170,7 @@ def _act(model, obs: np.ndarray, mode: str) -> np.ndarray:
 def evaluate(model, vecnorm, spec: dict, episodes: int, seed: int,
              mode: str = "deterministic") -> dict:
     """The policy (see :func:`_act`) on ``episodes`` seeded episodes (i: seed + i), first done."""
-    envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
+    envs = gym.make_vec(REORIENT_V0, num_envs=episodes, vectorization_mode="vector_entry_point",
                         **{k: v for k, v in spec["env_kwargs"].items()
                            if k not in ("max_initial_angle_deg",)})
     cfg = envs.config
@@ -396,7 +399,7 @@ def explore(episodes: int = EVAL_EPISODES) -> dict:
     out = {}
     for design, (kw, action_map) in designs.items():
         for draw_name, draw in draws.items():
-            envs = gym.make_vec(rbenv.ENV_ID, num_envs=episodes,
+            envs = gym.make_vec(REORIENT_V0, num_envs=episodes,
                                 vectorization_mode="vector_entry_point", **kw)
             envs.reset(seed=EVAL_SEED)
             shape = (episodes, envs.single_action_space.shape[0])

@@ -33,6 +33,10 @@ def axes(name: str, value) -> np.ndarray:
         raise InvalidParameterError(
             f"{name}.axes must be a list of 1 to {MAX_ELEMENTS} [x, y, z] axes, got shape "
             f"{arr.shape}")
+    huge = np.abs(arr).max(axis=1) > 1e150  # |a|² would overflow: scale those rows first
+    if huge.any():
+        arr = np.array(arr, dtype=float)
+        arr[huge] /= np.abs(arr[huge]).max(axis=1, keepdims=True)
     norms = np.linalg.norm(arr, axis=1)
     if np.any(norms < 1e-9):
         raise InvalidParameterError(f"{name}.axes must be non-zero, got {arr.tolist()}")

@@ -1,6 +1,6 @@
 """SAC settings, read by ``rbenv train --algo sac`` and by RL Baselines3 Zoo::
 
-    python -m rl_zoo3.train --algo sac --env rbenv/SatelliteReorient-v0 --gym-packages rbenv \\
+    python -m rl_zoo3.train --algo sac --env rbenv/SatelliteReorient-v1 --gym-packages rbenv \\
         --conf-file rbenv.hyperparams.sac
 
 Issue 22's recipe (:mod:`rbenv.hyperparams._off_policy`): torque actions with ``pinv``

@@ -313,6 +313,10 @@ ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and re
     end, info and reset options as ``rbenv/SatelliteReorient-v0`` (:class:`SatelliteReorientEnv`),
     and the same episodes for the same seed.
 
+    **Arguments** (all optional; :class:`rbenv.options.EnvOptions`):
+
+OPTIONS_TABLE
+
     **Observation** ``Box(-1, 1, (15,), float32)``, ``observation_structure``
     ``{"rot6_err": 6, "attitude_fine": 3, "omega_B": 3, "omega_fine": 3}``: the first two
     columns of the error rotation R(q_target* ⊗ q) (continuous in the attitude); the error as
@@ -325,7 +329,8 @@ ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and re
     on loss of control (``reward_weights`` overrides these). Nothing is paid for staying inside
     the thresholds: the episode's success pays more than any hovering can.
 
-    """ + v1.version_history("rbenv/SatelliteReorient-v0")
+    """.replace("OPTIONS_TABLE", options_table()) + v1.version_history(
+        "rbenv/SatelliteReorient-v0")
 
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=make_reorient_v1,
                    baselines=SPEC.baselines, budget={"ppo": 1_000_000},

@@ -40,7 +40,7 @@ def test_a_documented_error_is_printed_without_a_traceback(tmp_path):
     done = subprocess.run([sys.executable, "-m", "rbenv.agents.cli", "train", "--resume", "--out",
                            str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2
-    assert done.stderr.startswith("rbenv: error: ") and "is not a training run" in done.stderr
+    assert done.stderr.startswith("rbenv train: error: ") and "is not a training run" in done.stderr
     assert "Traceback" not in done.stderr
 
 

@@ -42,7 +42,7 @@ def test_quick_cli_trains_and_writes_its_record(tmp_path):
 
 
 def test_cli_refuses_device_without_torchrl():
-    with pytest.raises(SystemExit, match="--device not for --engine sb3"):
+    with pytest.raises(ValueError, match="belongs to --engine torchrl, not to --engine sb3"):
         cli.main(["train", "--device", "cuda", "--timesteps", "10"])
 
 

@@ -67,3 +67,26 @@ def test_principal_axes_accepts_round_off_asymmetry():
     tensor = np.array([[2.0, 0.1, 0.0], [0.1 + 1e-12, 3.0, 0.0], [0.0, 0.0, 4.0]])
     moments, R = inertia.principal_axes(tensor)
     assert np.allclose(R @ np.diag(moments) @ R.T, tensor, atol=1e-11)
+
+
+def _body_and_state():
+    from rbenv.core import BodyState, RigidBody
+
+    body = RigidBody(mass=2.0, inertia=np.diag([1.0, 2.0, 3.0]))
+    return body, BodyState()
+
+
+@pytest.mark.parametrize("case", ["body None", "state dict", "state None", "body dict"])
+@pytest.mark.parametrize("fn", ["step", "simulate"])
+def test_step_with_a_wrong_body_or_state_names_it(case, fn):
+    from rbenv import core
+
+    body, state = _body_and_state()
+    which, value = case.split()
+    bad = {"None": None, "dict": {"q": [1.0, 0.0, 0.0, 0.0]}}[value]
+    args = (bad, state) if which == "body" else (body, bad)
+    want = "core.RigidBody" if which == "body" else "core.BodyState"
+    extra = (1,) if fn == "simulate" else ()
+    with pytest.raises(InvalidParameterError, match=rf"{which} must be a {want}, got .*"
+                                                    rf"type {type(bad).__name__}"):
+        getattr(core, fn)(*args, 0.1, *extra)

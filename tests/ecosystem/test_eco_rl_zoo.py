@@ -19,6 +19,7 @@ import rbenv
 from rbenv.hyperparams import ppo
 
 ZOO_STEPS = 4096  # exactly one rollout of the shipped settings: 64 envs x n_steps 64
+ZOO_NAME = rbenv.ENV_ID.replace("/", "-")  # the zoo names its run and model files so
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
 OFF_POLICY_STEPS = 1024  # 32 vector steps of the shipped 32 envs
 
@@ -77,8 +78,8 @@ def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
                  "--eval-freq", str(ZOO_STEPS), "--eval-episodes", "2", cwd=tmp_path)
     assert train.returncode == 0, train.stderr[-3000:]
     assert "Using 'default' hyperparameters" not in train.stdout
-    run = tmp_path / "logs" / "ppo" / "rbenv-SatelliteReorient-v0_1"
-    name = "rbenv-SatelliteReorient-v0"
+    run = tmp_path / "logs" / "ppo" / f"{ZOO_NAME}_1"
+    name = ZOO_NAME
     assert (run / f"{name}.zip").exists()
     assert (run / name / "vecnormalize.pkl").exists()
     with open(run / name / "config.yml") as f:
@@ -106,14 +107,14 @@ def test_zoo_trains_off_policy_with_the_shipped_file(tmp_path, algo):
                  "gradient_steps:1", "batch_size:64", "buffer_size:4096", cwd=tmp_path)
     assert train.returncode == 0, train.stderr[-3000:]
     assert "Using 'default' hyperparameters" not in train.stdout
-    run = tmp_path / "logs" / algo / "rbenv-SatelliteReorient-v0_1"
-    assert (run / "rbenv-SatelliteReorient-v0.zip").exists()
-    with open(run / "rbenv-SatelliteReorient-v0" / "config.yml") as f:
+    run = tmp_path / "logs" / algo / f"{ZOO_NAME}_1"
+    assert (run / f"{ZOO_NAME}.zip").exists()
+    with open(run / ZOO_NAME / "config.yml") as f:
         saved = dict(yaml.load(f, Loader=yaml.UnsafeLoader))
     assert dict(saved["env_kwargs"])["action_mode"] == "torque"
     from rl_zoo3.utils import ALGOS as ZOO_ALGOS
 
-    model = ZOO_ALGOS[algo].load(run / "rbenv-SatelliteReorient-v0.zip", device="cpu")
+    model = ZOO_ALGOS[algo].load(run / f"{ZOO_NAME}.zip", device="cpu")
     assert model.action_space.shape == (3,)  # the zoo built the torque env, not 12 throttles
     assert model.num_timesteps == OFF_POLICY_STEPS and model._n_updates > 0
     assert saved["n_envs"] == 32

@@ -122,7 +122,7 @@ def test_both_checkers_pass_for_desaturate():
                               reason="stable-baselines3 is not installed (train extra)")
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        check_env(gym.make(DESAT, scene=SCENE).unwrapped, skip_render_check=True)
+        check_env(gym.make(DESAT, scene=SCENE, render_mode="rgb_array").unwrapped)
         sb3.check_env(gym.make(DESAT, scene=SCENE).unwrapped)
 
 

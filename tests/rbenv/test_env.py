@@ -18,7 +18,7 @@ from rbenv.scene import load_scene
 from rbenv.tasks.base import restricted_haar_angle
 from rbenv.tasks.reorient import ReorientTerms
 
-ID = rbenv.ENV_ID
+ID = "rbenv/SatelliteReorient-v0"  # this file checks the first release: its observation, reward
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 MODES = ("throttle", "on_off", "torque")
 

@@ -32,7 +32,7 @@ def test_both_checkers_pass_with_warnings_as_errors():
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        check_env(gym.make(GOAL_ID).unwrapped, skip_render_check=True)
+        check_env(gym.make(GOAL_ID, render_mode="rgb_array").unwrapped)
         sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
         sb3.check_env(gym.make(GOAL_ID).unwrapped, warn=True)
 

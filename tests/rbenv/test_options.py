@@ -3,6 +3,7 @@ docstrings and docs/api.md agree with the declaration, and what it says of defau
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import re
 from pathlib import Path
@@ -97,3 +98,34 @@ def test_every_task_option_is_documented_and_every_documented_one_is_real(env_id
                       r"(.*?)\n\n", doc, re.S)
     if named:
         assert set(re.findall(r"``(\w+)`` \(", named.group(1))) <= keys
+
+
+@pytest.mark.parametrize("backend", ["numpy", "torch"])
+def test_an_unknown_option_reads_as_pythons_own_error_and_names_the_valid_ones(backend):
+    """Clients match Python's wording to drop an option the env does not take (TorchRL's
+    GymEnv drops frameskip when the message says "unexpected keyword argument 'frameskip'")."""
+    if backend == "torch":
+        pytest.importorskip("torch", reason="torch is not installed (train extra)")
+    with pytest.raises(TypeError) as err:
+        gym.make("rbenv/SatelliteReorient-v1", backend=backend, frameskip=4)
+    assert "unexpected keyword argument 'frameskip'" in str(err.value)
+    assert "scene" in str(err.value) and "reward_weights" in str(err.value)
+    with pytest.raises(TypeError, match=r"argument 'frameskip' \(and 'zzz'\); the valid"):
+        gym.make_vec("rbenv/SatelliteReorient-v1", num_envs=2, backend=backend, frameskip=4,
+                     zzz=1)
+
+
+def test_the_backend_options_have_the_constructors_defaults():
+    declared = {f.name: f.default for f in dataclasses.fields(options.BackendOptions)}
+    assert inspect.signature(AttitudeEnv.__new__).parameters["backend"].default == \
+        declared["backend"]
+    assert inspect.signature(AttitudeVectorEnv.__init__).parameters["backend"].default == \
+        declared["backend"]
+    pytest.importorskip("torch", reason="torch is not installed (train extra)")
+    from rbenv.torch_env import TorchVectorEnv
+
+    torch_defaults = _keywords(TorchVectorEnv.__init__)
+    assert {k: torch_defaults[k] for k in options.BACKEND_OPTIONS if k != "backend"} == \
+        {k: v for k, v in declared.items() if k != "backend"}
+    table = options.options_markdown()
+    assert all(f"| `{name}` |" in table for name in options.BACKEND_OPTIONS)

@@ -159,6 +159,9 @@ CASES = [(env_id, scene, mode, integ)
          and rbenv.registry.get(env_id).runs_on(scene)]
 
 
+# The explicit integrators blow up on some scenes under these actions, on purpose: both
+# backends must flag the same divergence, and NumPy reports the overflow on the way.
+@pytest.mark.filterwarnings("ignore:(overflow|invalid value) encountered:RuntimeWarning")
 @pytest.mark.parametrize(("env_id", "scene", "mode", "integrator"), CASES)
 def test_the_step_runs_under_a_strict_namespace_bit_for_bit(env_id, scene, mode, integrator):
     if integrator is None and rbenv.load_scene(scene).physics.integrator in IMPLICIT:

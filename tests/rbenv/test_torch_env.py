@@ -160,10 +160,33 @@ def test_the_desaturate_task_is_refused_by_name():
 def test_bad_actions_raise_named_errors():
     env = gym.make_vec(rbenv.ENV_ID, num_envs=3, backend="torch")
     env.reset(seed=0)
-    with pytest.raises(TypeError, match="torch tensor"):
-        env.step(np.zeros(env.action_space.shape))
+    with pytest.raises(TypeError, match="actions must be real numbers"):
+        env.step(np.full(env.action_space.shape, "a"))
+    with pytest.raises(InvalidParameterError, match=r"actions must have shape \(3, 12\)"):
+        env.step(np.zeros((3, 11)))
     with pytest.raises(InvalidParameterError, match=r"shape \(3, 12\), got \(3, 11\)"):
         env.step(torch.zeros(3, 11))
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_the_random_action_loop_runs_on_the_envs_own_samples(dtype):
+    """``action_space.sample()`` (NumPy, in the env's dtype, like the observations) is a valid
+    action: it is copied to the device and gives the tensor action's step exactly."""
+    envs = [gym.make_vec(rbenv.ENV_ID, num_envs=3, backend="torch", dtype=dtype)
+            for _ in range(2)]
+    np_dtype = np.dtype(dtype)
+    for env in envs:
+        assert env.action_space.dtype == env.observation_space.dtype == np_dtype
+        assert env.single_action_space.dtype == np_dtype
+        env.reset(seed=5)
+    env.action_space.seed(0)
+    for _ in range(4):
+        a = envs[0].action_space.sample()
+        assert a.dtype == np_dtype and envs[0].action_space.contains(a)
+        obs, reward, *_ = envs[0].step(a)
+        want, want_reward, *_ = envs[1].step(torch.from_numpy(a))
+        assert obs.dtype == getattr(torch, dtype)
+        assert torch.equal(obs, want) and torch.equal(reward, want_reward)
 
 
 def test_nan_action_raises_at_the_step_and_is_flagged_when_deferred():
@@ -254,7 +277,7 @@ def test_compile_falls_back_to_eager_with_a_warning(monkeypatch):
     monkeypatch.setattr(step, "compiled", unavailable)
     with pytest.warns(RuntimeWarning, match="fell back to eager torch: RuntimeError: no comp"):
         obs = env.step(torch.zeros(2, 12, dtype=torch.float64))[0]
-    assert step.fallback is not None and obs.shape == (2, 7)
+    assert step.fallback is not None and obs.shape == (2, env.single_observation_space.shape[0])
     assert torch_compile.CompiledStep  # the class the env uses
 
 

@@ -15,7 +15,7 @@ from rbenv.core import quaternion
 import rbenv
 from rbenv.tasks.reorient import ReorientTerms
 
-ID = rbenv.ENV_ID
+ID = "rbenv/SatelliteReorient-v0"  # this file checks the first release's vector env
 KEYS = ("attitude_error_deg", "rate_dps", "fuel_kg", "impulse_Ns", "time_s", "is_success",
         *(f"reward_{t}" for t in ReorientTerms._fields))
 

@@ -46,7 +46,7 @@ class Evil:
         self.marker = str(marker)
 
     def __reduce__(self):
-        return (open, (self.marker, "w"))
+        return (Path.touch, (Path(self.marker),))  # made and closed
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,7 @@ def ppo_run(tmp_path_factory):
 def sac_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("sac") / "run"
     hyper = {"learning_starts": 64, "batch_size": 32, "buffer_size": 1000}
-    run(tiny(out, algo="sac", hyperparams=hyper))
+    run(tiny(out, algo="sac", hyperparams=hyper, save_replay_buffer=True))
     return out
 
 
@@ -281,7 +281,8 @@ def test_an_old_format_folder_loads_and_resumes_with_the_flag(copy, ppo_run, cap
     _as_old_format(copy)
     assert not list(copy.rglob("*.pt"))
     policy = load_policy(copy, action="mode", trust_pickle=True)
-    obs = np.random.default_rng(0).uniform(-1, 1, (4, 7)).astype(np.float32)
+    n_obs = expected.model.observation_space.shape[0]
+    obs = np.random.default_rng(0).uniform(-1, 1, (4, n_obs)).astype(np.float32)
     assert np.array_equal(policy.predict(obs)[0], expected.predict(obs)[0])
     assert cli_main(["evaluate", "--policy", str(copy), "--episodes", "2",
                      "--trust-pickle"]) == 0

@@ -12,6 +12,8 @@ from rbenv.agents.training import flags
 from rbenv.agents.training.config import RLlibOptions, SB3Options, TrainConfig
 from rbenv.agents.training.rllib import RLlibConfig
 
+from rbenv.usage import InvalidChoiceError
+
 CLASSES = (TrainConfig, RLlibConfig, SB3Options, RLlibOptions)
 
 
@@ -56,12 +58,15 @@ def test_given_flags_are_parsed_by_field_type():
 def test_a_choice_outside_the_literal_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exit_:
         _train_args(["--algo", "dqn"])
-    assert exit_.value.code == 2 and "invalid choice: 'dqn'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "argument --algo: 'dqn' is not one of ppo, sac" in err
 
 
 def test_a_flag_of_the_other_engine_is_refused_naming_it():
-    with pytest.raises(SystemExit, match=r"--env-runners.*not for --engine sb3"):
+    with pytest.raises(InvalidChoiceError, match=r"belongs to --engine rllib, not to --engine "
+                       "sb3") as error:
         cli.main(["train", "--env-runners", "2", "--out", "unused"])
+    assert error.value.field == "env_runners"
 
 
 def test_field_docs_reads_the_string_under_each_field_through_bases():

@@ -103,8 +103,9 @@ def test_keep_best_ends_on_the_best_validated_policy(tmp_path):
     # The run's policy is the kept one: its own step count, and the checkpoint's weights.
     assert json.loads((out / "policy.json").read_text())["num_timesteps"] == steps
     assert load_policy(out).model.num_timesteps == steps
-    ckpt_stats = np.load(out / "checkpoints" / f"obs_stats_{steps}.npz")
-    assert np.array_equal(np.load(out / "obs_stats.npz")["obs_mean"], ckpt_stats["obs_mean"])
+    with np.load(out / "checkpoints" / f"obs_stats_{steps}.npz") as ckpt_stats, \
+            np.load(out / "obs_stats.npz") as final_stats:
+        assert np.array_equal(final_stats["obs_mean"], ckpt_stats["obs_mean"])
     assert f"{steps:,} timesteps" in (out / "report.md").read_text()
 
 

@@ -74,8 +74,8 @@ def test_base_run_has_checkpoints_history_and_a_trained_summary(base_run):
     s = summary(base_run)
     assert s["timesteps"] == 512 and s["trained"] and s["gradient_updates"] > 0
     assert s["wall_time_s"] > 0 and s["threads"] == 1
-    assert np.load(base_run / "eval" / "evaluations.npz")["timesteps"].tolist() == [
-        128, 256, 384, 512]
+    with np.load(base_run / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [128, 256, 384, 512]
     assert not (base_run / runs.LOCK).read_text()  # released cleanly: no stale record
 
 
@@ -91,9 +91,9 @@ def test_resume_continues_the_folder_given_not_the_one_in_config_json(copy, base
 def test_resume_keeps_the_evaluation_history_and_accumulates_wall_time(copy):
     wall = summary(copy)["wall_time_s"]
     run(TrainConfig(out=str(copy), timesteps=768), resume=True)
-    log = np.load(copy / "eval" / "evaluations.npz")
-    assert log["timesteps"].tolist() == [128, 256, 384, 512, 640, 768]
-    assert log["successes"].shape == (6, 2) and log["results"].shape == (6, 2)
+    with np.load(copy / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [128, 256, 384, 512, 640, 768]
+        assert log["successes"].shape == (6, 2) and log["results"].shape == (6, 2)
     assert summary(copy)["wall_time_s"] > wall
 
 
@@ -220,7 +220,8 @@ def test_a_torn_evaluation_history_is_replaced_with_a_warning(copy):
     _truncate(copy / "eval" / "evaluations.npz")
     with pytest.warns(UserWarning, match="evaluations.npz"):
         run(TrainConfig(out=str(copy), timesteps=640), resume=True)
-    assert np.load(copy / "eval" / "evaluations.npz")["timesteps"].tolist() == [640]
+    with np.load(copy / "eval" / "evaluations.npz") as evals:
+        assert evals["timesteps"].tolist() == [640]
 
 
 # --- new runs, --force, locks, temporary files ------------------------------------------------
@@ -258,6 +259,7 @@ def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_loc
     finally:
         holder.kill()  # SIGKILL: no clean-up runs in the holder
         holder.wait()
+        holder.stdout.close()
     lock = RunLock(copy).acquire()
     try:
         assert lock.stale["pid"] == holder.pid  # recognised as stale, and taken over
@@ -278,13 +280,14 @@ def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     cmd = _train_command(out, timesteps=2048, checkpoint_every=256, eval_every=100000)
     procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for _ in range(2)]
-    results = [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in procs]
+    results = [(p.wait(timeout=300), *p.communicate()) for p in procs]
     codes = sorted(r[0] for r in results)
     errors = " ".join(r[2] for r in results)
     # Either the second start found the folder locked, or (if the first had finished) not
     # empty; both are refusals with a named reason, never an interleaved run.
     assert codes == [0, 2], results
-    assert "rbenv: error:" in errors and ("is in use by pid" in errors or "not empty" in errors)
+    assert "rbenv train: error:" in errors
+    assert "is in use by pid" in errors or "not empty" in errors
     assert summary(out)["timesteps"] == 2048
     steps = sorted(int(p.stem.split("_")[1]) for p in (out / "checkpoints").glob("policy_*.pt"))
     assert steps == list(range(256, 2049, 256))
@@ -387,7 +390,8 @@ def test_evaluate_uses_the_run_config_for_a_torque_mode_checkpoint(tmp_path):
 def test_not_a_model_is_an_error_naming_it(tmp_path):
     bogus = tmp_path / "model.zip"
     bogus.write_text("not a zip")
-    with pytest.raises(RbenvValueError, match=r"model.zip"):
+    with pytest.raises(RbenvValueError, match=r"model.zip"), \
+            pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):  # found first
         load_policy(bogus)
 
 
@@ -471,6 +475,8 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
     finally:
         if proc.poll() is None:
             proc.kill()
+            proc.wait()
+        proc.stderr.close()
     cfg = TrainConfig(out=str(out), timesteps=1536)
     try:
         run(cfg, resume=True)
@@ -479,15 +485,17 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
         run(tiny(out, timesteps=1536, eval_every=256))
     assert summary(out)["timesteps"] == 1536
     assert not list(out.rglob("*.tmp"))
-    evals = np.load(out / "eval" / "evaluations.npz")["timesteps"].tolist()
-    assert evals == list(range(256, 1537, 256))
-    assert load_policy(out).predict(np.zeros(7, np.float32))[0].shape == (12,)
+    with np.load(out / "eval" / "evaluations.npz") as evals:
+        assert evals["timesteps"].tolist() == list(range(256, 1537, 256))
+    policy = load_policy(out)
+    n_obs = policy.model.observation_space.shape[0]
+    assert policy.predict(np.zeros(n_obs, np.float32))[0].shape == (12,)
 
 
 def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path, capsys):
     out = tmp_path / "sac"
     hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
-    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper))
+    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper, save_replay_buffer=True))
     buffers = sorted(p.name for p in (out / "checkpoints").glob("replay_buffer_*"))
     assert buffers == ["replay_buffer_256.npz"]  # only the latest is kept
     run(TrainConfig(out=str(out), timesteps=384), resume=True)
@@ -501,6 +509,50 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     printed = capsys.readouterr().out
     assert "replay_buffer_384.npz" in printed and "not restored" in printed
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
+
+
+def test_an_off_policy_run_keeps_no_replay_buffer_unless_asked_and_resumes_without(tmp_path,
+                                                                                   capsys):
+    out = tmp_path / "sac"
+    hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
+    run(tiny(out, algo="sac", timesteps=256, hyperparams=hyper))
+    assert not list(out.rglob("replay_buffer_*"))
+    run(TrainConfig(out=str(out), timesteps=384), resume=True)
+    printed = capsys.readouterr().out
+    assert "no replay buffer saved with checkpoint 256" in printed
+    assert "starts with an empty buffer" in printed
+    assert summary(out)["timesteps"] == 384 and summary(out)["resumed_from"] == 256
+    assert summary(out)["gradient_updates"] > 0 and not list(out.rglob("replay_buffer_*"))
+    # A config.json from before the flag existed kept its buffer; its resumes keep doing so.
+    config = json.loads((out / "config.json").read_text())
+    del config["save_replay_buffer"]
+    (out / "config.json").write_text(json.dumps(config))
+    run(TrainConfig(out=str(out), timesteps=512), resume=True)
+    assert [p.name for p in out.rglob("replay_buffer_*")] == ["replay_buffer_512.npz"]
+
+
+def test_a_deleted_latest_json_is_said_and_the_newest_checkpoint_on_disk_resumes(copy, capsys):
+    (copy / "checkpoints" / "latest.json").unlink()
+    run(TrainConfig(out=str(copy), timesteps=640), resume=True)
+    printed = capsys.readouterr().out
+    assert "checkpoint pointer" in printed and "latest.json' is missing" in printed
+    assert summary(copy)["resumed_from"] == 512 and summary(copy)["timesteps"] == 640
+
+
+def test_max_minutes_says_when_and_why_it_stopped_and_a_larger_limit_trains_on(tmp_path,
+                                                                              capsys):
+    out = tmp_path / "ppo"
+    with pytest.warns(UserWarning, match="no gradient step"):  # stopped at its first step
+        run(tiny(out, max_minutes=1e-9))
+    printed = capsys.readouterr().out
+    stopped = re.search(r"stopped by --max-minutes 1e-09: \d+\.\d min of training wall time "
+                        r"\(all sessions of the run\) at (\d+) of 512 timesteps", printed)
+    assert stopped and int(stopped.group(1)) == summary(out)["timesteps"] < 512
+    assert f"--out {out} --resume --max-minutes M" in printed
+    assert summary(out)["stopped_by_time_limit"] is True
+    run(TrainConfig(out=str(out), max_minutes=60.0), resume=True)
+    assert "stopped by" not in capsys.readouterr().out
+    assert summary(out)["timesteps"] >= 512 and summary(out)["stopped_by_time_limit"] is False
 
 
 def test_td3_resumes_with_its_action_noise(tmp_path, capsys):
@@ -536,12 +588,14 @@ def test_a_bare_sb3_model_loads_with_a_warning_about_missing_statistics(tmp_path
     assert isinstance(env.venv, SB3VecEnv)
     PPO("MlpPolicy", env, n_steps=8, batch_size=16, seed=0, device="cpu").save(
         tmp_path / "model.zip")
-    with pytest.raises(runs.UntrustedPickleError, match="trust_pickle=True"):
+    with pytest.raises(runs.UntrustedPickleError, match="trust_pickle=True"), \
+            pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):  # found first
         load_policy(tmp_path / "model.zip")  # a foreign SB3 .zip holds cloudpickled objects
     with pytest.warns(UserWarning, match="no vecnormalize.pkl beside"):
         policy = load_policy(tmp_path / "model.zip", trust_pickle=True)
     assert policy.vecnormalize is None and policy.config is None
-    assert policy.predict(np.zeros((3, 7), np.float32))[0].shape == (3, 12)
+    n_obs = policy.model.observation_space.shape[0]
+    assert policy.predict(np.zeros((3, n_obs), np.float32))[0].shape == (3, 12)
 
 
 def test_a_zoo_model_finds_its_statistics_and_a_bare_model_warns(tmp_path):

@@ -26,11 +26,11 @@ def test_requires_same_step_autoreset():
 def test_spaces_reset_and_step_types():
     env = SB3VecEnv(native(4))
     assert isinstance(env, VecEnv)
-    assert env.observation_space.shape == (7,) and env.action_space.shape == (12,)
+    assert env.observation_space.shape == (15,) and env.action_space.shape == (12,)
     obs = env.reset()
-    assert obs.shape == (4, 7) and obs.dtype == np.float32
+    assert obs.shape == (4, 15) and obs.dtype == np.float32
     obs, rewards, dones, infos = env.step(np.zeros((4, 12), np.float32))
-    assert obs.shape == (4, 7) and rewards.dtype == np.float32 and dones.dtype == bool
+    assert obs.shape == (4, 15) and rewards.dtype == np.float32 and dones.dtype == bool
     assert isinstance(infos, list) and len(infos) == 4 and all(isinstance(i, dict) for i in infos)
 
 
@@ -55,7 +55,7 @@ def test_timeout_gives_terminal_observation_and_truncation_flag():
     assert dones.all()
     for i, info in enumerate(infos):
         assert info["TimeLimit.truncated"] is True
-        assert info["terminal_observation"].shape == (7,)
+        assert info["terminal_observation"].shape == (15,)
         assert not np.array_equal(info["terminal_observation"], obs[i])  # obs is the reset obs
         assert "is_success" in info and info["is_success"] is False
 

@@ -14,17 +14,22 @@ from rbenv.core.errors import InvalidParameterError
 
 import rbenv
 
+# The suite names a task by its short name ("reorient"), a later version with its suffix.
+REORIENT_V0, DETUMBLE_V0, TRACK_V0 = (f"rbenv/Satellite{t}-v0" for t in ("Reorient", "Detumble",
+                                                                          "Track"))
+
 
 def test_grid_is_seed_major_with_stable_names():
-    cells = grid(["ppo"], [rbenv.ENV_ID, rbenv.DETUMBLE_ID], ["cubesat-12u", "boom-sat"],
+    cells = grid(["ppo"], [REORIENT_V0, DETUMBLE_V0], ["cubesat-12u", "boom-sat"],
                  range(2), suite.default_timesteps)
     assert len(cells) == 8
     assert [c.seed for c in cells] == [0] * 4 + [1] * 4
     assert cells[0].name == "ppo-reorient-cubesat-12u-seed0"
     assert cells[1].name == "ppo-reorient-boom-sat-seed0"
-    assert cells[2].timesteps == rbenv.registry.get(rbenv.DETUMBLE_ID).timesteps("ppo")
+    assert cells[2].timesteps == rbenv.registry.get(DETUMBLE_V0).timesteps("ppo")
     assert len({c.name for c in cells}) == len(cells)
-    assert Cell("ppo", rbenv.TRACK_ID, "boom-sat", 2, 5).name == "ppo-track-boom-sat-seed2"
+    assert Cell("ppo", TRACK_V0, "boom-sat", 2, 5).name == "ppo-track-boom-sat-seed2"
+    assert Cell("ppo", rbenv.TRACK_ID, "boom-sat", 2, 5).name == "ppo-track_v1-boom-sat-seed2"
 
 
 def test_train_config_refuses_an_unknown_env_id():
@@ -51,7 +56,7 @@ def test_aggregate_statistics_targets_and_missing(tmp_path):
     results = [_fake_result("ppo", "reorient", "boom-sat", s, x)
                for s, x in enumerate([0.8, 0.9, 1.0])]
     results.append(_fake_result("ppo", "detumble", "boom-sat", 0, 0.5))
-    expected = [Cell(**r["cell"]) for r in results] + [Cell("ppo", rbenv.TRACK_ID, "x", 0, 1)]
+    expected = [Cell(**r["cell"]) for r in results] + [Cell("ppo", TRACK_V0, "x", 0, 1)]
     data = aggregate(results, tmp_path, expected=expected)
     rows = {(r["task"], r["scene"]): r for r in data["rows"]}
     reorient = rows[("reorient", "boom-sat")]
@@ -181,7 +186,7 @@ def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite)
     out, data = quick_suite
     policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run",
                          action="mean_throttle")
-    env = __import__("gymnasium").make(rbenv.DETUMBLE_ID)
+    env = __import__("gymnasium").make(rbenv.registry.by_name("detumble").env_id)  # the cell's
     obs, _ = env.reset(seed=3)
     expected, _ = policy.predict(obs[None])
     torch.manual_seed(0)

@@ -84,7 +84,8 @@ def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
     policy = SB3Policy(run_dir / "policy.pt")
     assert policy.action == "mean_throttle"
     model = policy.model
-    obs = np.random.default_rng(2).uniform(-1, 1, (5, 7)).astype(np.float32)
+    n_obs = model.observation_space.shape[0]
+    obs = np.random.default_rng(2).uniform(-1, 1, (5, n_obs)).astype(np.float32)
     with torch.no_grad():
         dist = model.policy.get_distribution(
             torch.as_tensor(policy.normalize(obs))).distribution
@@ -121,6 +122,8 @@ def test_resume_after_a_real_kill(tmp_path, capsys):
     finally:
         if proc.poll() is None:
             proc.kill()
+            proc.wait()
+        proc.stderr.close()
     assert proc.returncode == -signal.SIGKILL
     ckpt = latest_checkpoint(out / "checkpoints")
     assert ckpt is not None and ckpt["timesteps"] >= 1024
@@ -154,7 +157,7 @@ def test_evaluate_cli_writes_json_and_plot(tmp_path):
 
 
 def test_evaluate_rejects_unknown_policy():
-    with pytest.raises(ValueError, match="policy must be one of"):
+    with pytest.raises(ValueError, match="'nope' is not a scripted policy of rbenv/Satellite"):
         cli_main(["evaluate", "--policy", "nope", "--episodes", "1"])
 
 

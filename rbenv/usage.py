@@ -1,0 +1,150 @@
+"""What a user is told when an input is wrong: a value outside its choices (with a did-you-mean
+for a near miss) and a missing optional dependency (naming the extra that installs it).
+
+Both are :class:`rbenv.core.errors.RbenvValueError` subclasses, so ``rbenv`` prints them as one
+line (``rbenv: error: ...``, exit status 2) and Python callers can catch them as ``ValueError``.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+from rbenv.core.errors import InvalidParameterError, RbenvValueError
+
+# The top-level module of each optional dependency -> the extra of pyproject.toml that
+# installs it (tests/rbenv/test_usage.py checks each against pyproject's lists).
+EXTRAS = {
+    "torch": "train",
+    "stable_baselines3": "train",
+    "sb3_contrib": "train",
+    "tqdm": "train",
+    "rich": "train",
+    "matplotlib": "train",
+    "tensorboard": "train",
+    "pygame": "render",
+    "imageio": "render",
+    "imageio_ffmpeg": "render",
+    "moviepy": "render",
+    "torchrl": "ecosystem",
+    "tensordict": "ecosystem",
+    "rl_zoo3": "ecosystem",
+    "numba": "fast",
+    "ray": "ray",
+    "mujoco": "bench",
+}
+
+
+def suggestion(value, valid: Iterable) -> str | None:
+    """The valid choice closest to ``value`` (case ignored), or None if none is near."""
+    names = [str(v) for v in valid]
+    text = str(value)
+    same_but_case = [n for n in names if n.lower() == text.lower()]
+    if same_but_case:
+        return same_but_case[0]
+    lowered = {n.lower(): n for n in names}
+    close = difflib.get_close_matches(text.lower(), list(lowered), n=1, cutoff=0.6)
+    return lowered[close[0]] if close else None
+
+
+def did_you_mean(value, valid: Iterable) -> str:
+    """``" (did you mean 'x'?)"`` for a near miss, else ``""``."""
+    near = suggestion(value, valid)
+    return f" (did you mean {near!r}?)" if near is not None else ""
+
+
+class InvalidChoiceError(InvalidParameterError):
+    """A value that must be one of a known set of names is not.
+
+    ``field`` names the input (``"scene"``, ``"policy"``, ``"env_kwargs"``...), ``value`` is what
+    was given, ``reason`` the rest of the message (what would be valid, a did-you-mean). The
+    message reads ``"<field>: <reason>"``; ``rbenv`` names the command-line flag instead.
+    """
+
+    def __init__(self, field: str, value, reason: str):
+        self.field, self.value, self.reason = field, value, reason
+        super().__init__(f"{field}: {reason}")
+
+
+def invalid_choice(field: str, value, valid: Iterable, *, what: str = "one of",
+                   extra: str = "") -> InvalidChoiceError:
+    """The error for ``value`` not in ``valid``: ``'x' is not <what> a, b, c (did you mean 'a'?)``
+    plus ``extra`` (a sentence on what else is accepted)."""
+    names = [str(v) for v in valid]
+    reason = f"{value!r} is not {what} {', '.join(names)}{did_you_mean(value, names)}"
+    return InvalidChoiceError(field, value, reason + (f"; {extra}" if extra else ""))
+
+
+def check_choice(field: str, value, valid: Iterable, **kwargs) -> None:
+    """Raise :func:`invalid_choice` unless ``value`` is in ``valid``."""
+    valid = list(valid)
+    if value not in valid:
+        raise invalid_choice(field, value, valid, **kwargs)
+
+
+class MissingExtraError(RbenvValueError):
+    """An optional dependency (a module of one of the package's extras) is not installed."""
+
+
+def install_hint(extra: str) -> str:
+    """The command that installs ``extra`` (in a checkout, and from an index)."""
+    return f'pip install -e ".[{extra}]" in a checkout, or pip install "rbenv[{extra}]"'
+
+
+def missing_extra(error: ModuleNotFoundError, feature: str) -> MissingExtraError | None:
+    """The one-line error for ``error`` (a module not found) if the module belongs to an
+    extra (:data:`EXTRAS`), naming ``feature`` (what needed it) and the extra; else None."""
+    name = (getattr(error, "name", None) or "").split(".")[0]
+    extra = EXTRAS.get(name)
+    if extra is None:
+        return None
+    return MissingExtraError(f"{feature} needs {name}, which is not installed; it comes with the "
+                             f"{extra} extra: {install_hint(extra)}")
+
+
+def require(module: str, feature: str):
+    """Import ``module`` (a module of an extra) or raise :class:`MissingExtraError` naming the
+    extra and ``feature``."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as e:
+        error = missing_extra(e, feature)
+        if error is None:
+            raise
+        raise error from None
+
+
+def check_env_options(env_id: str, options: dict) -> None:
+    """Make ``env_id``'s single env once with ``options`` (``gym.make`` keyword arguments, the
+    scene among them; :data:`VECTOR_OPTIONS` are checked by name only) and close it, so that a
+    wrong id, scene, option name or value is named before anything is trained or written.
+    Raises the named errors of :mod:`rbenv.core.errors` (:class:`InvalidChoiceError` for an id,
+    scene or option name not known)."""
+    from rbenv import registry
+    from rbenv.options import ENV_OPTIONS
+    from rbenv.scene import load_scene
+
+    known = [spec.env_id for spec in registry.specs()]
+    check_choice("env_id", env_id, known, what="a registered rbenv task:")
+    for name in options:
+        check_choice("env_kwargs", name, (*ENV_OPTIONS, *VECTOR_OPTIONS),
+                     what="an env option:")
+    if options.get("scene") is not None:
+        load_scene(options["scene"])
+    plain_env(env_id, {k: v for k, v in options.items() if k not in VECTOR_OPTIONS}).close()
+
+
+# Options of the vector env that a caller of ``rbenv train`` or ``evaluate`` may set (the
+# commands set num_envs and autoreset_mode themselves).
+VECTOR_OPTIONS = ("max_episode_steps",)
+
+
+def plain_env(env_id: str, options: dict):
+    """``env_id``'s single env made from its entry point with ``options``, without
+    ``gym.make``'s wrappers and notices (for checks; close it after use)."""
+    import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
+
+    return load_env_creator(gym.spec(env_id).entry_point)(**options)

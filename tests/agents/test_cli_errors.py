@@ -1,0 +1,172 @@
+"""A user's mistake on the command line: every argument is checked before anything is written,
+and each mistake ends in one line (the argument, the value, what would be valid, a
+did-you-mean for a near miss), exit status 2, no traceback; a missing extra names the extra."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import rbenv.agents.training
+from rbenv.agents import cli
+
+TINY = ["--timesteps", "256", "--n-envs", "4", "--hyperparams",
+        json.dumps({"n_steps": 32, "batch_size": 64, "n_epochs": 1}),
+        "--env-kwargs", json.dumps({"max_episode_steps": 30}), "--checkpoint-every", "128",
+        "--eval-every", "128", "--eval-episodes", "2", "--no-report", "--no-progress"]
+
+
+def console(argv, capsys) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of the command line ``rbenv ARGV``."""
+    try:
+        code = cli.console(argv)
+    except SystemExit as e:  # argparse's own errors
+        code = e.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line_error(argv, capsys) -> str:
+    code, out, err = console(argv, capsys)
+    assert code == 2, (code, out, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    command = f"rbenv {argv[0]}" if argv[0] in cli.COMMANDS else "rbenv"
+    assert err.startswith(f"{command}: error: "), err
+    return err
+
+
+MISTAKES = {
+    "missing path": (["evaluate", "--policy", "runs/does-not-exist"],
+                     ["argument --policy", "'runs/does-not-exist' does not exist",
+                      "pd, bangbang, zero, random"]),
+    "policy case": (["evaluate", "--policy", "PD"], ["argument --policy", "did you mean 'pd'?"]),
+    "policy of another task": (["evaluate", "--policy", "bdot"],
+                               ["argument --policy", "rbenv/SatelliteDetumble-v1", "--env-id"]),
+    "baseline not on this scene": (
+        ["evaluate", "--policy", "bdot", "--env-id", "rbenv/SatelliteDetumble-v1"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u'", "runs on cubesat-6u-rw"]),
+    "env option": (["evaluate", "--policy", "pd", "--env-kwargs", '{"integrater": "rk4"}'],
+                   ["argument --env-kwargs", "'integrater' is not an env option",
+                    "did you mean 'integrator'?"]),
+    "evaluate scene": (["evaluate", "--policy", "pd", "--scene", "cubesat12u"],
+                       ["argument --scene", "did you mean 'cubesat-12u'?"]),
+    "env id": (["evaluate", "--policy", "pd", "--env-id", "rbenv/SatelliteReorient-v9"],
+               ["argument --env-id", "did you mean 'rbenv/SatelliteReorient-v"]),
+    "option name": (["evaluate", "--polcy", "pd"], ["did you mean '--policy'?"]),
+    "command": (["trian"], ["did you mean 'train'?"]),
+    "algo": (["train", "--algo", "sacc"], ["argument --algo", "did you mean 'sac'?"]),
+    "video suffix": (["evaluate", "--policy", "pd", "--video", "x.avi"],
+                     ["argument --video", ".gif, .mp4"]),
+    "torchrl option with sb3": (["train", "--quick"],
+                                ["argument --quick", "belongs to --engine torchrl"]),
+    "sb3 option with torchrl": (["train", "--engine", "torchrl", "--n-envs", "8"],
+                                ["argument --n-envs", "belongs to --engine sb3"]),
+    "option torchrl ignores": (["train", "--engine", "torchrl", "--env-kwargs", "{}"],
+                               ["argument --env-kwargs", "not read by --engine torchrl"]),
+    "torchrl algo": (["train", "--engine", "torchrl", "--algo", "sac"],
+                     ["argument --algo", "--engine torchrl's algorithms: ppo"]),
+    "suite scene": (["suite", "--scenes", "cubesat12u", "--aggregate-only"],
+                    ["argument --scenes", "did you mean 'cubesat-12u'?"]),
+}
+
+
+@pytest.mark.parametrize(("argv", "expected"), MISTAKES.values(), ids=list(MISTAKES))
+def test_a_mistake_is_one_line_naming_the_argument_and_what_is_valid(argv, expected, capsys,
+                                                                     tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    err = one_line_error(argv, capsys)
+    for text in expected:
+        assert text in err, (text, err)
+    assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def test_a_typo_in_the_scene_writes_nothing_and_the_retry_then_works(tmp_path, capsys):
+    out = tmp_path / "run"
+    err = one_line_error(["train", "--scene", "cubesat12u", "--out", str(out), *TINY], capsys)
+    assert "argument --scene" in err and "did you mean 'cubesat-12u'?" in err
+    assert not out.exists()  # no config.json, no run.lock, no folder
+    assert cli.console(["train", "--scene", "cubesat-12u", "--out", str(out), *TINY]) == 0
+    assert json.loads((out / "training.json").read_text())["timesteps"] == 256
+
+
+def test_resume_of_a_folder_holding_a_bad_config_says_so(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "config.json").write_text(json.dumps({"engine": "sb3", "algo": "ppo",
+                                                 "scene": "cubesat12u"}))
+    err = one_line_error(["train", "--resume", "--out", str(out)], capsys)
+    assert "holds a configuration that cannot run" in err and "config.json" in err
+    assert "'cubesat12u'" in err and "--force" in err
+    assert sorted(p.name for p in out.iterdir()) == ["config.json"]  # no lock left behind
+
+
+def test_a_bad_value_inside_the_env_options_is_named_before_anything_is_written(tmp_path,
+                                                                               capsys):
+    out = tmp_path / "run"
+    err = one_line_error(["train", "--out", str(out), "--env-kwargs",
+                          '{"action_mode": "thrust"}'], capsys)
+    assert "action_mode" in err and "'thrust'" in err and "torque" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(("argv", "module", "extra", "unloaded"), [
+    (["train", "--engine", "torchrl", "--quick"], "torchrl", "ecosystem", "torchrl"),
+    (["train", "--algo", "sac"], "stable_baselines3", "train", "sb3"),
+])
+def test_a_missing_extra_names_the_extra_to_install(argv, module, extra, unloaded, tmp_path,
+                                                    capsys, monkeypatch):
+    for name in [module, *(n for n in sys.modules if n.startswith(module + "."))]:
+        monkeypatch.setitem(sys.modules, name, None)  # its import fails as if not installed
+    monkeypatch.delitem(sys.modules, f"rbenv.agents.training.{unloaded}", raising=False)
+    monkeypatch.delattr(rbenv.agents.training, unloaded, raising=False)
+    out = tmp_path / "run"
+    err = one_line_error([*argv, "--out", str(out)], capsys)
+    assert f"needs {module}" in err and f"the {extra} extra" in err
+    assert f'pip install -e ".[{extra}]"' in err
+    assert not out.exists()
+
+
+def test_an_unexpected_exception_keeps_its_traceback(monkeypatch):
+    def broken(args):
+        raise RuntimeError("a bug")
+
+    monkeypatch.setitem(cli.COMMANDS, "evaluate", broken)
+    with pytest.raises(RuntimeError, match="a bug"):
+        cli.console(["evaluate", "--policy", "pd"])
+
+
+def test_the_command_line_itself_prints_one_line_without_a_traceback(tmp_path):
+    root = str(Path(__file__).resolve().parents[2])  # this checkout's rbenv, from any folder
+    done = subprocess.run([sys.executable, "-m", "rbenv", "evaluate", "--policy",
+                           "runs/does-not-exist"], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path, env={**os.environ, "PYTHONPATH": root})
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr.count("\n") == 1 and "does not exist" in done.stderr
+
+
+def _help(argv, capsys) -> str:
+    with pytest.raises(SystemExit):
+        cli.main([*argv, "--help"])
+    return " ".join(capsys.readouterr().out.split())
+
+
+def test_help_shows_defaults_and_every_scripted_policy(capsys):
+    text = _help(["evaluate"], capsys)
+    assert "(default: 100)" in text and "(default: 0)" in text and "(default: {})" in text
+    assert "pd, bdot (SatelliteDetumble)" in text and "unload" in text
+
+
+def test_train_help_groups_the_options_by_engine(capsys):
+    text = _help(["train"], capsys)
+    groups = ["common options", "sb3 options", "rllib options", "torchrl options"]
+    at = [text.index(g) for g in groups]
+    assert at == sorted(at)
+    torchrl = text[at[3]:]
+    assert "--quick" in torchrl and "--device" in torchrl
+    assert "--quick" not in text[:at[3]].split("usage:")[-1].split("options:")[-1]
+    assert "--save-replay-buffer" in text[at[1]:at[2]]
+    assert "(default: 'ppo')" in text and "(default: 200000)" in text
