@@ -242,6 +242,8 @@ def resolve(ref: str):
 
 
 def _show(value) -> str:
+    if value is None:
+        return "(absent: off)"
     if isinstance(value, bool):
         return str(value).lower()
     if isinstance(value, str):
