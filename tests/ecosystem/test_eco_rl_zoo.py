@@ -14,12 +14,13 @@ import sys
 
 import gymnasium as gym
 import pytest
+from rbenv.agents import settings
 
 import rbenv
 from rbenv.hyperparams import ppo
 
 # Exactly one rollout of the default id's shipped PPO settings (n_envs x n_steps).
-_PPO = rbenv.registry.get(rbenv.ENV_ID).settings("ppo")
+_PPO = settings.get(rbenv.ENV_ID).settings("ppo")
 ZOO_STEPS = _PPO["n_envs"] * _PPO["n_steps"]
 ZOO_NAME = rbenv.ENV_ID.replace("/", "-")  # the zoo names its run and model files so
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
@@ -50,13 +51,13 @@ def test_zoo_settings_are_rbenv_trains_defaults(algo):
     from rbenv.agents.training.config import ZOO_KEYS, TrainConfig, normalize_kwargs
 
     table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
-    for env_id, settings in table.items():
+    for env_id, entry in table.items():
         cfg = TrainConfig(algo=algo, env_id=env_id).resolve()
-        assert cfg.hyperparams == {k: v for k, v in settings.items() if k not in ZOO_KEYS}
-        assert cfg.n_envs == settings["n_envs"]
-        assert cfg.timesteps == settings["n_timesteps"]
-        assert cfg.env_kwargs == settings.get("env_kwargs", {})
-        assert cfg.normalize == normalize_kwargs(settings["normalize"])
+        assert cfg.hyperparams == {k: v for k, v in entry.items() if k not in ZOO_KEYS}
+        assert cfg.n_envs == entry["n_envs"]
+        assert cfg.timesteps == entry["n_timesteps"]
+        assert cfg.env_kwargs == entry.get("env_kwargs", {})
+        assert cfg.normalize == normalize_kwargs(entry["normalize"])
     if algo == "ppo":  # rbenv train wraps the env in VecNormalize, rewards included
         assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
     else:  # off-policy: observations only (issue 22's recipe), torque actions
