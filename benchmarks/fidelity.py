@@ -94,7 +94,7 @@ def _evaluate(policy, setting: Setting, episodes: int, seed: int) -> dict:
 
     name = policy if isinstance(policy, str) else "ppo"
     return evaluate(policy, name=name, episodes=episodes, seed=seed, scene=SCENE, record=0,
-                    env_kwargs=setting.env_kwargs).summary()
+                    env_id=REORIENT_V0, env_kwargs=setting.env_kwargs).summary()
 
 
 def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, threads: int

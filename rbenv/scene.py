@@ -307,8 +307,9 @@ class Episode:
         checks = {
             "duration": {"low": 0.0, "low_open": True, "high": 1e6},
             "rate_limit": {"low": 1e-6, "high": 100.0},
-            "success_angle_deg": {"low": 0.0, "low_open": True, "high": 180.0},
-            "success_rate": {"low": 0.0, "low_open": True},
+            # v1 scales the errors by these thresholds: a subnormal one overflows to inf.
+            "success_angle_deg": {"low": 1e-6, "high": 180.0},
+            "success_rate": {"low": 1e-9},
             "hold_time": {"low": 0.0},
             "max_initial_angle_deg": {"low": 0.0, "high": 180.0},
             "max_initial_rate": {"low": 0.0},

@@ -60,7 +60,8 @@ def test_size_zero_is_the_nominal_env_episode_for_episode(name):
 
     zero = next(c for c in rb.CONDITIONS if c.name == "all-0")
     ours = rb.evaluate_policy(rb.PolicySpec(name), zero, EPISODES, rb.EVAL_SEED)
-    nominal = evaluate(name, episodes=EPISODES, seed=rb.EVAL_SEED, scene=rb.SCENE, record=0)
+    nominal = evaluate(name, episodes=EPISODES, seed=rb.EVAL_SEED, scene=rb.SCENE, record=0,
+                       env_id=rb.ENV_ID)
     for key, value in _arrays(nominal).items():
         np.testing.assert_array_equal(_arrays(ours)[key], value, err_msg=key)
 
@@ -71,7 +72,7 @@ def test_perturbation_changes_the_physics_of_the_same_episodes():
     big = next(c for c in rb.CONDITIONS if c.name == "all-0.3")
     perturbed = rb.evaluate_policy(rb.PolicySpec("bangbang"), big, EPISODES, rb.EVAL_SEED)
     nominal = evaluate("bangbang", episodes=EPISODES, seed=rb.EVAL_SEED, scene=rb.SCENE,
-                       record=0)
+                       record=0, env_id=rb.ENV_ID)
     # Same starts (the perturbation has its own draws), different outcomes.
     assert not np.array_equal(perturbed.fuel_kg, nominal.fuel_kg)
     assert np.mean(perturbed.fuel_kg) > np.mean(nominal.fuel_kg)  # deadbeat law on a wrong model
