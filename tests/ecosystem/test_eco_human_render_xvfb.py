@@ -69,6 +69,7 @@ def xvfb():
     finally:
         proc.terminate()
         proc.wait(timeout=30)
+        proc.stdout.close()  # the -displayfd pipe (an unclosed pipe warns, and warnings fail)
 
 
 def test_human_window_shows_the_rgb_array_frame(xvfb, tmp_path):
