@@ -767,7 +767,9 @@ def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
             f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
         )
     pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
-    dirs = _array("thrusters.directions", table.get("directions"), (n, 3))
+    dirs = np.array(_array("thrusters.directions", table.get("directions"), (n, 3)), dtype=float)
+    huge = np.abs(dirs).max(axis=1) > 1e150  # |d|² would overflow: scale those rows first
+    dirs[huge] /= np.abs(dirs[huge]).max(axis=1, keepdims=True)
     fmax = check.finite_array("thrusters.max_force", table.get("max_force"))
     fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
                   (n,), bound=1e4)
