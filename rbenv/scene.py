@@ -102,6 +102,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rbenv.actuators.tables import safe_to_square
 from rbenv.allocation import validate_torque_matrix
 from rbenv.core import INTEGRATORS, RigidBody, ThrusterLayout
 from rbenv.core import inertia as inertia_lib
@@ -767,9 +768,7 @@ def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
             f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
         )
     pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
-    dirs = np.array(_array("thrusters.directions", table.get("directions"), (n, 3)), dtype=float)
-    huge = np.abs(dirs).max(axis=1) > 1e150  # |d|² would overflow: scale those rows first
-    dirs[huge] /= np.abs(dirs[huge]).max(axis=1, keepdims=True)
+    dirs = safe_to_square(_array("thrusters.directions", table.get("directions"), (n, 3)))
     fmax = check.finite_array("thrusters.max_force", table.get("max_force"))
     fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
                   (n,), bound=1e4)

@@ -26,6 +26,17 @@ def keys(name: str, table: dict, allowed: set, required: tuple) -> None:
             raise InvalidParameterError(f"{name}.{key} is required")
 
 
+def safe_to_square(rows: np.ndarray) -> np.ndarray:
+    """The (n, 3) rows, each whose |entry| exceeds 1e150 divided by its largest |entry|, so its
+    squared norm cannot overflow; a direction is unchanged, other rows are returned as given."""
+    huge = np.abs(rows).max(axis=1) > 1e150
+    if not huge.any():
+        return rows
+    rows = np.array(rows, dtype=float)
+    rows[huge] /= np.abs(rows[huge]).max(axis=1, keepdims=True)
+    return rows
+
+
 def axes(name: str, value) -> np.ndarray:
     """``name.axes``: 1 to 16 non-zero [x, y, z] body axes, returned normalised, (n, 3)."""
     arr = validation.finite_array(f"{name}.axes", value)
@@ -33,10 +44,7 @@ def axes(name: str, value) -> np.ndarray:
         raise InvalidParameterError(
             f"{name}.axes must be a list of 1 to {MAX_ELEMENTS} [x, y, z] axes, got shape "
             f"{arr.shape}")
-    huge = np.abs(arr).max(axis=1) > 1e150  # |a|² would overflow: scale those rows first
-    if huge.any():
-        arr = np.array(arr, dtype=float)
-        arr[huge] /= np.abs(arr[huge]).max(axis=1, keepdims=True)
+    arr = safe_to_square(arr)
     norms = np.linalg.norm(arr, axis=1)
     if np.any(norms < 1e-9):
         raise InvalidParameterError(f"{name}.axes must be non-zero, got {arr.tolist()}")
