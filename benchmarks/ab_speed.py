@@ -32,30 +32,7 @@ from pathlib import Path
 
 from benchmarks import common
 
-PROBE = r"""
-import json, time
-import gymnasium as gym
-import numpy as np
-import rbenv
-
-def best(fn, n, rounds=3):
-    out = []
-    for _ in range(rounds):
-        t = time.process_time(); fn(n); out.append((time.process_time() - t) / n)
-    return min(out)
-
-def single(env_id):
-    env = gym.make(env_id)
-    env.reset(seed=0)
-    shape = (256, *env.action_space.shape)
-    acts = np.random.default_rng(0).uniform(-1, 1, shape).astype(np.float32)
-    def run(n):
-        for i in range(n):
-            _, _, te, tr, _ = env.step(acts[i % 256])
-            if te or tr:
-                env.reset()
-    return best(run, 3000)
-
+PROBE = common.PROBE_PRELUDE + r"""
 def vec(kind, n=4096):
     env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n)
     env.reset(seed=0)
@@ -88,8 +65,8 @@ def memory(n=4096):  # bytes per sub-env held after 10 steps, and the peak (trac
     return current / n, peak / n
 
 mem, mem_peak = memory()
-print(json.dumps({"single_us": 1e6 * single("rbenv/SatelliteReorient-v0"),
-                  "pendulum_us": 1e6 * single("Pendulum-v1"),
+print(json.dumps({"single_us": 1e6 * single(gym.make("rbenv/SatelliteReorient-v0"), 3000),
+                  "pendulum_us": 1e6 * single(gym.make("Pendulum-v1"), 3000),
                   "vec_random": vec("random"), "vec_zero": vec("zero"),
                   "vec_reset_heavy": vec("reset_heavy"),
                   "mem_bytes_per_env": mem, "mem_peak_bytes_per_env": mem_peak}))

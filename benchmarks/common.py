@@ -78,6 +78,69 @@ def best_times(fns: dict[str, Callable[[], object]], *, rounds: int = 9,
     return best
 
 
+def single_env_loop(env_id: str, steps: int, **make_kwargs) -> tuple[Callable[[], None], int]:
+    """A timing loop over one env of ``gym.make(env_id, **make_kwargs)``: ``steps`` steps of 64
+    seeded random actions, resets inline. Returns ``(run, steps)``, for :func:`best_times`."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, **make_kwargs)
+    env.reset(seed=0)
+    acts = np.random.default_rng(0).uniform(-1, 1, (64, *env.action_space.shape))
+    acts = acts.astype(np.float32)
+
+    def run():
+        for i in range(steps):
+            _, _, te, tr, _ = env.step(acts[i % 64])
+            if te or tr:
+                env.reset()
+    return run, steps
+
+
+def vector_env_loop(env_id: str, n: int, steps: int = 4,
+                    **make_kwargs) -> tuple[Callable[[], None], int]:
+    """A timing loop over the native vector env of ``n`` sub-envs: ``steps`` steps of 8 seeded
+    random action batches. Returns ``(run, steps * n)``: per sub-env step, for
+    :func:`best_times`."""
+    import gymnasium as gym
+
+    env = gym.make_vec(env_id, num_envs=n, **make_kwargs)
+    env.reset(seed=0)
+    acts = np.random.default_rng(1).uniform(-1, 1, (8, *env.action_space.shape))
+    acts = acts.astype(np.float32)
+
+    def run():
+        for i in range(steps):
+            env.step(acts[i % 8])
+    return run, steps * n
+
+
+# What every A/B probe (a program run by :func:`run_in_tree` in a fresh interpreter on each
+# source tree) starts with: the imports, the best-of-rounds CPU timer, and the single-env loop.
+PROBE_PRELUDE = r"""
+import json, time, warnings
+import gymnasium as gym
+import numpy as np
+import rbenv
+
+def best(fn, n, rounds=3):
+    out = []
+    for _ in range(rounds):
+        t = time.process_time(); fn(n); out.append((time.process_time() - t) / n)
+    return min(out)
+
+def single(env, steps, scale=1.0):  # CPU s per step, 256 seeded random actions, resets inline
+    env.reset(seed=0)
+    shape = (256, *env.action_space.shape)
+    acts = scale * np.random.default_rng(0).uniform(-1, 1, shape).astype(np.float32)
+    def run(n):
+        for i in range(n):
+            _, _, te, tr, _ = env.step(acts[i % 256])
+            if te or tr:
+                env.reset()
+    return best(run, steps)
+"""
+
+
 def components(arr) -> tuple:
     """Kernel components of an array: floats for a (k,) vector, contiguous (N,) arrays for (N, k).
 

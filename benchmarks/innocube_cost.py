@@ -16,9 +16,6 @@ from __future__ import annotations
 
 import sys
 
-import gymnasium as gym
-import numpy as np
-
 import rbenv
 from benchmarks import common
 
@@ -58,38 +55,13 @@ def variants() -> dict:
     }
 
 
-def _single(scene, steps: int = 320):
-    env = gym.make(ENV_ID, scene=scene, action_mode="acceleration")
-    env.reset(seed=0)
-    acts = np.random.default_rng(0).uniform(-1, 1, (64, *env.action_space.shape))
-    acts = acts.astype(np.float32)
-
-    def run():
-        for i in range(steps):
-            _, _, te, tr, _ = env.step(acts[i % 64])
-            if te or tr:
-                env.reset()
-    return run, steps
-
-
-def _vector(scene, n: int = N_VECTOR, steps: int = 4):
-    env = gym.make_vec(ENV_ID, num_envs=n, scene=scene, action_mode="acceleration")
-    env.reset(seed=0)
-    acts = np.random.default_rng(1).uniform(-1, 1, (8, n, *env.single_action_space.shape))
-    acts = acts.astype(np.float32)
-
-    def run():
-        for i in range(steps):
-            env.step(acts[i % 8])
-    return run, steps * n
-
-
 def measure(rounds: int = 7, n_vector: int = N_VECTOR) -> dict:
     fns, per = {}, {}
     for name, scene in variants().items():
-        for kind, make in (("single", _single),
-                           ("vector", lambda s: _vector(s, n_vector))):
-            fn, count = make(scene)
+        kw = {"scene": scene, "action_mode": "acceleration"}
+        loops = {"single": common.single_env_loop(ENV_ID, 320, **kw),
+                 "vector": common.vector_env_loop(ENV_ID, n_vector, **kw)}
+        for kind, (fn, count) in loops.items():
             fns[(name, kind)] = fn
             per[(name, kind)] = count
     times = common.best_times(fns, rounds=rounds)

@@ -34,7 +34,7 @@ from rbenv.core import kernels as k
 from rbenv.core import quaternion
 from rbenv.core.backend import FLOAT
 
-from benchmarks.common import best_times, fit_order, table, write_json
+from benchmarks.common import PROBE_PRELUDE, best_times, fit_order, table, write_json
 from rbenv import disturbances as dist
 from rbenv.orbit import gravity_gradient_torque_B
 from rbenv.plant import make_plant
@@ -204,29 +204,8 @@ def costs(num_envs: int = 1024) -> list[dict]:
 
 # CPU seconds per env step on cubesat-6u-rw (wheels and rods, gravity gradient), in the tree
 # on PYTHONPATH: reorient (0.5 s, rk4) and detumble (10 s x 4), one satellite and N = 256.
-AB_PROBE = r"""
-import json, time, warnings
-import gymnasium as gym
-import numpy as np
-import rbenv
+AB_PROBE = PROBE_PRELUDE + r"""
 warnings.simplefilter("ignore")
-
-def best(fn, n, rounds=3):
-    out = []
-    for _ in range(rounds):
-        t = time.process_time(); fn(n); out.append((time.process_time() - t) / n)
-    return min(out)
-
-def single(env_id):
-    env = gym.make(env_id, scene="cubesat-6u-rw").unwrapped
-    env.reset(seed=0)
-    acts = 0.3 * np.random.default_rng(0).uniform(-1, 1, (256, 6)).astype(np.float32)
-    def run(n):
-        for i in range(n):
-            _, _, te, tr, _ = env.step(acts[i % 256])
-            if te or tr:
-                env.reset()
-    return best(run, 1000)
 
 def vec(env_id, n=256):
     env = gym.make_vec(env_id, num_envs=n, scene="cubesat-6u-rw")
@@ -240,7 +219,8 @@ def vec(env_id, n=256):
 out = {}
 for name, env_id in (("reorient", "rbenv/SatelliteReorient-v0"),
                      ("detumble", "rbenv/SatelliteDetumble-v0")):
-    out[name + "_single_us"] = 1e6 * single(env_id)
+    env = gym.make(env_id, scene="cubesat-6u-rw").unwrapped
+    out[name + "_single_us"] = 1e6 * single(env, 1000, scale=0.3)
     out[name + "_vec256_us_per_env"] = 1e6 * vec(env_id)
 print(json.dumps(out))
 """

@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import sys
 
-import gymnasium as gym
 import numpy as np
 
 import rbenv
@@ -46,36 +45,15 @@ def _variants() -> dict:
 
 
 def _single(scene, steps: int = 400):
-    env = gym.make(rbenv.ENV_ID, scene=scene)
-    env.reset(seed=0)
-    acts = np.random.default_rng(0).uniform(-1, 1, (64, *env.action_space.shape))
-    acts = acts.astype(np.float32)
-
-    def run():
-        for i in range(steps):
-            _, _, te, tr, _ = env.step(acts[i % 64])
-            if te or tr:
-                env.reset()
-    return run, steps
-
-
-def _vector(scene, n: int = N_VECTOR, steps: int = 4):
-    env = gym.make_vec(rbenv.ENV_ID, num_envs=n, scene=scene)
-    env.reset(seed=0)
-    acts = np.random.default_rng(1).uniform(-1, 1, (8, *env.action_space.shape))
-    acts = acts.astype(np.float32)
-
-    def run():
-        for i in range(steps):
-            env.step(acts[i % 8])
-    return run, steps * n
+    return common.single_env_loop(rbenv.ENV_ID, steps, scene=scene)
 
 
 def measure(rounds: int = 7) -> dict:
     fns, per = {}, {}
     for name, scene in _variants().items():
-        for kind, make in (("single", _single), ("vector", _vector)):
-            fn, count = make(scene)
+        loops = {"single": _single(scene),
+                 "vector": common.vector_env_loop(rbenv.ENV_ID, N_VECTOR, scene=scene)}
+        for kind, (fn, count) in loops.items():
             fns[(name, kind)] = fn
             per[(name, kind)] = count
     times = common.best_times(fns, rounds=rounds)
