@@ -54,7 +54,8 @@ from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv import registry, usage
+from rbenv.envs import registry
+from rbenv.satellite import usage
 
 BENCH_OUT = "bench-results"
 
@@ -287,7 +288,7 @@ def _check_evaluate(args) -> None:
     task, the policy, the scene and env options (the env is made once), the baseline on that
     scene, the output folders and the extras that --plot and --video need."""
     env_id = _env_id(args)
-    usage.check_choice("env_id", env_id, [s.env_id for s in rbenv.registry.specs()],
+    usage.check_choice("env_id", env_id, [s.env_id for s in rbenv.envs.registry.specs()],
                        what="a registered rbenv task:")
     check_policy(args.policy, env_id)
     options = dict(args.env_kwargs)
@@ -464,7 +465,7 @@ def console(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run a command. From the command line (``argv`` None) as :func:`console` does; called
     with ``argv`` (tests, scripts) a documented error is raised, a missing extra as
-    :class:`rbenv.usage.MissingExtraError`."""
+    :class:`rbenv.satellite.usage.MissingExtraError`."""
     if argv is None:
         return console(sys.argv[1:])
     args = parse(argv)

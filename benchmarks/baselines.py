@@ -26,7 +26,7 @@ from benchmarks import common
 def run(episodes: int, seed: int) -> list[dict]:
     """One summary row per (task, scene, policy)."""
     rows = []
-    for spec in rbenv.registry.specs():
+    for spec in rbenv.envs.registry.specs():
         env_id, task = spec.env_id, spec.name
         for scene in filter(spec.runs_on, rbenv.list_scenes()):  # desaturate: wheels only
             for policy in (*applicable_baselines(env_id, scene), "zero"):

@@ -5,7 +5,7 @@
     python -m benchmarks.bounds --v1 [--suite DIR] [--run NAME=RUN_FOLDER ...]
 
 On the default scene (cubesat-12u) and the held-out episodes ``seed + i``, computes for each
-episode the lower bounds of :mod:`rbenv.bounds` (settle time; propellant for any successful
+episode the lower bounds of :mod:`rbenv.envs.bounds` (settle time; propellant for any successful
 policy; propellant given the policy's own settle time), evaluates the PD and bang-bang
 baselines and the suite's three PPO policies (``benchmarks/results/suite/cells/
 ppo-reorient-cubesat-12u-seed{0,1,2}``, each as the suite evaluates it: the checkpoint the
@@ -129,7 +129,7 @@ def quartiles(x) -> dict:
 
 def ratios(result, bounds: dict, limits) -> dict:
     """Per-episode achieved / bound for one EvalResult, successful episodes only."""
-    from rbenv.bounds import fuel_bound
+    from rbenv.envs.bounds import fuel_bound
 
     ok = np.asarray(result.success, bool)
     settle = np.where(ok, result.settle_time_s, np.nan)
@@ -163,7 +163,7 @@ def spot_checks(seed: int, count: int, maxiter: int, quick: bool,
     """
     from rbenv.agents.baselines import optimal
 
-    from rbenv import bounds as rb
+    from rbenv.envs import bounds as rb
 
     limits = rb.scene_limits(SCENE)
     starts = rb.episode_starts(candidates, seed, SCENE)
@@ -314,7 +314,7 @@ def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
     from rbenv.agents.policies.evaluate import evaluate
     from rbenv.agents.training.sb3 import set_threads
 
-    from rbenv import bounds as rb
+    from rbenv.envs import bounds as rb
 
     set_threads(1)
     limits = rb.scene_limits(SCENE)

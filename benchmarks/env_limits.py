@@ -14,7 +14,7 @@ import numpy as np
 from rbenv.agents.baselines.controllers import QuaternionPD
 
 import rbenv
-from rbenv.scene import Faults
+from rbenv.satellite.scene import Faults
 
 # The first release's id: the committed results (and the A/B against an older checkout)
 # measured it; v1 has its episodes, with another observation and reward.

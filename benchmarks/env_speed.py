@@ -103,7 +103,7 @@ def single_env() -> list[dict]:
     pend = gym.make("Pendulum-v1")
     cases = {"Pendulum-v1": _single_stepper(pend, _actions(pend.action_space, N_ACTIONS))}
     for env_id in rbenv.ENV_IDS:
-        spec = rbenv.registry.get(env_id)
+        spec = rbenv.envs.registry.get(env_id)
         scenes = rbenv.list_scenes() if env_id == REORIENT_V0 else \
             [spec.default_scene or "cubesat-12u"]
         for scene in scenes:

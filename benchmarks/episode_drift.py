@@ -36,7 +36,7 @@ SEEDS = int(sys.argv[1])
 out = {}
 for env_id in sorted(rbenv.ENV_IDS):
     for scene in rbenv.list_scenes():
-        if not rbenv.registry.get(env_id).runs_on(scene):
+        if not rbenv.envs.registry.get(env_id).runs_on(scene):
             continue
         names = applicable_baselines(env_id, scene)
         if not names:

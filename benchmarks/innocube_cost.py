@@ -26,7 +26,7 @@ WHEEL_KEYS = ("deadband_rpm_s", "realized_gain", "startup_delay_s", "speed_quant
 
 def variants() -> dict:
     """Label → Scene: the reference (all off), each effect alone, the shipped scene."""
-    from rbenv.scene import scene_table
+    from rbenv.satellite.scene import scene_table
 
     shipped = scene_table("innocube-3u")
     wheels, sensors = shipped["wheels"], shipped["sensors"]

@@ -29,7 +29,7 @@ import numpy as np
 from rbenv.agents.flight import replay
 
 import rbenv
-from rbenv.scene import scene_table
+from rbenv.satellite.scene import scene_table
 
 POLICY = "innocube-pd"
 WHEEL_KEYS = ("deadband_rpm_s", "realized_gain", "startup_delay_s", "speed_quantization_rpm")

@@ -35,10 +35,10 @@ from rbenv.core import quaternion
 from rbenv.core.backend import FLOAT
 
 from benchmarks.common import PROBE_PRELUDE, best_times, fit_order, table, write_json
-from rbenv import disturbances as dist
-from rbenv.orbit import gravity_gradient_torque_B
-from rbenv.plant import make_plant
-from rbenv.scene import Scene
+from rbenv.satellite import disturbances as dist
+from rbenv.satellite.orbit import gravity_gradient_torque_B
+from rbenv.satellite.plant import make_plant
+from rbenv.satellite.scene import Scene
 
 INERTIA = [[0.185, 0.0, 0.0], [0.0, 0.144, 0.0], [0.0, 0.0, 0.061]]
 Q0 = tuple(quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2])).tolist())

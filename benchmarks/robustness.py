@@ -3,7 +3,7 @@ of the domain randomization (reorientation task, scene cubesat-12u).
 
 ``python -m benchmarks.robustness [--quick] [--out DIR] [--seeds N] [--timesteps N [N ...]]``
 
-A perturbation *size* s maps to every field of :class:`rbenv.randomization.Randomization`
+A perturbation *size* s maps to every field of :class:`rbenv.satellite.randomization.Randomization`
 (:func:`randomize_at`): principal second moments ``1 ± s`` and the mass distribution turned by
 up to ``ROTATION_DEG_PER_SIZE · s``; the centre of mass anywhere within ``s`` times the body's
 half-width (``HALF_WIDTH_M``); every thruster's force ``1 ± s`` and its nozzle tilted by up to
@@ -66,8 +66,8 @@ RESULT_VERSION = 1
 def randomize_at(size: float, kinds=tuple(KINDS)) -> dict:
     """The ``randomize`` option of perturbation size ``size`` for ``kinds`` (others zero).
 
-    Every field of :class:`rbenv.randomization.Randomization` is present, so the dict replaces
-    (not merges with) whatever the scene has.
+    Every field of :class:`rbenv.satellite.randomization.Randomization` is present, so the dict
+    replaces (not merges with) whatever the scene has.
     """
     unknown = sorted(set(kinds) - set(KINDS))
     if unknown:

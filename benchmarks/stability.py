@@ -161,7 +161,7 @@ def summary(step_rows) -> list[dict]:
 # --------------------------------------------------------------------------- wheels, rods
 
 def _wheel_scene(inertia_B, wheel_J, speed_rpm, start_rpm, integrator, dt, rods=False):
-    from rbenv.scene import Scene
+    from rbenv.satellite.scene import Scene
 
     data = {"name": "stability-wheels", "body": {"mass": 12.0, "inertia": inertia_B},
             "wheels": {"axes": np.eye(3).tolist(), "inertia": wheel_J, "max_torque": 0.01,

@@ -35,7 +35,7 @@ PARTS = {
     "gradient updates": [("ppo/ppo.py", "train"), ("sac/sac.py", "train")],
     "rollout": [("on_policy_algorithm.py", "collect_rollouts"),
                 ("off_policy_algorithm.py", "collect_rollouts")],
-    "env step (rbenv vector env)": [("rbenv/vector_env.py", "step")],
+    "env step (rbenv vector env)": [("rbenv/envs/vector_env.py", "step")],
     "env wrappers (VecNormalize, VecMonitor, SB3VecEnv)": [("vec_normalize.py", "step_wait")],
 }
 # Policy inference: the rollout's calls of the policy (PPO: policy(obs); SAC: _sample_action).

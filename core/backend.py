@@ -1,8 +1,8 @@
 """The one seam between one body (Python floats) and many (arrays): array namespaces.
 
-Every formula in :mod:`rbenv.core.kernels`, :mod:`rbenv.plant` and the tasks is written once on
-*components* (a vector is 3 values, a quaternion 4), and each component is either a Python float
-(one satellite: about 30 ns per operation, no NumPy call at all) or an (N,) array (a batch,
+Every formula in :mod:`rbenv.core.kernels`, :mod:`rbenv.satellite.plant` and the tasks is written
+once on *components* (a vector is 3 values, a quaternion 4), and each component is either a Python
+float (one satellite: about 30 ns per operation, no NumPy call at all) or an (N,) array (a batch,
 structure of arrays). Arithmetic works on both as it is. The few operations that differ
 (``sqrt``, ``where``, ``clip``, ...) are taken from a namespace with array-API names, so the
 same expression runs on either:

@@ -45,19 +45,19 @@ def test_the_layer_contracts_hold(tmp_path):
 
 
 @pytest.mark.parametrize("module, line", [
-    ("core/kernels.py", "from rbenv.env import SatelliteReorientEnv"),  # core -> rbenv
-    ("rbenv/plant.py", "from rbenv.agents import controllers"),  # rbenv -> agents
+    ("core/kernels.py", "from rbenv.envs.env import SatelliteReorientEnv"),  # core -> rbenv
+    ("rbenv/satellite/plant.py", "from rbenv.agents import controllers"),  # rbenv -> agents
     ("agents/policies/evaluate.py", "from rbenv.agents import cli"),  # agents -> cli
     ("agents/baselines/controllers.py", "from rbenv.agents.policies import load_policy"),
     ("agents/policies/weights.py", "from rbenv.agents.training import engine"),  # -> training
     ("agents/training/engine.py", "from rbenv.agents.training import sb3"),  # engine -> back end
     ("agents/training/rllib.py", "from rbenv.agents.training import sb3"),  # back end -> back end
     ("agents/policies/runfolder.py", "from rbenv.agents.policies import sb3"),  # format -> loader
-    ("rbenv/transition.py", "import benchmarks.common"),  # the package -> benchmarks/
-    ("rbenv/tasks/base.py", "from rbenv import registry"),  # tasks -> registration
-    ("rbenv/transition.py", "from rbenv import env"),  # env core -> shell
-    ("rbenv/plant.py", "from rbenv.tasks import build"),  # plant -> tasks
-    ("rbenv/registry.py", "from rbenv.agents import settings"),  # env package -> training
+    ("rbenv/envs/transition.py", "import benchmarks.common"),  # the package -> benchmarks/
+    ("rbenv/tasks/base.py", "from rbenv.envs import registry"),  # tasks -> registration
+    ("rbenv/envs/transition.py", "from rbenv.envs import env"),  # env core -> shell
+    ("rbenv/satellite/plant.py", "from rbenv.tasks import build"),  # plant -> tasks
+    ("rbenv/envs/registry.py", "from rbenv.agents import settings"),  # env package -> training
 ])
 def test_an_upward_import_breaks_a_contract(tmp_path, module, line):
     """The check can fail: one upward import, even inside a function, is reported."""
@@ -135,7 +135,7 @@ def test_no_module_is_part_of_an_import_cycle(tmp_path):
 def test_a_function_level_import_that_closes_a_loop_is_a_cycle(tmp_path):
     """The count can fail: plant importing the registry inside a function closes a loop."""
     layout = installed_layout(tmp_path)
-    path = layout / "rbenv" / "plant.py"
-    path.write_text(path.read_text() + "\n\ndef _loop():\n    from rbenv import registry\n")
+    path = layout / "rbenv" / "satellite" / "plant.py"
+    path.write_text(path.read_text() + "\n\ndef _loop():\n    from rbenv.envs import registry\n")
     cycles = import_cycles(layout)
-    assert any({"rbenv.plant", "rbenv.registry"} <= set(c) for c in cycles), cycles
+    assert any({"rbenv.satellite.plant", "rbenv.envs.registry"} <= set(c) for c in cycles), cycles

@@ -64,8 +64,10 @@ def test_the_wheel_holds_only_the_rbenv_package(wheel):
             if f"{info}/top_level.txt" in names else ["rbenv"]
     assert top == {"rbenv", info}, sorted(top)
     assert declared == ["rbenv"]
-    for sub in ("core", "agents", "agents/training", "agents/policies", "agents/baselines"):
+    for sub in ("envs", "tasks", "satellite", "satellite/actuators", "core", "agents",
+                "agents/training", "agents/policies", "agents/baselines"):
         assert f"rbenv/{sub}/__init__.py" in names, sub
+    assert "rbenv/scenes/cubesat-12u.toml" in names  # the shipped scenes, package data
 
 
 def test_every_package_folder_is_listed_for_the_wheel():

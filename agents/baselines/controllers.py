@@ -22,11 +22,11 @@ from rbenv.agents import settings
 from rbenv.core.errors import InvalidParameterError
 from rbenv.core.vec import cross
 
-from rbenv import registry
-from rbenv.actuators import Magnetorquers
-from rbenv.actuators.magnetorquers import FIELD_SCALE_T
-from rbenv.allocation import axis_authority, make_allocator
-from rbenv.plant import Plant
+from rbenv.envs import registry
+from rbenv.satellite.actuators import Magnetorquers
+from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
+from rbenv.satellite.allocation import axis_authority, make_allocator
+from rbenv.satellite.plant import Plant
 from rbenv.tasks import Task
 
 

@@ -42,9 +42,9 @@ from rbenv.core.errors import RbenvValueError
 from scipy.optimize import least_squares
 
 import rbenv
-from rbenv.actuators.wheels import parse_wheels
-from rbenv.scene import Scene, scene_table, scene_variant
-from rbenv.telemetry import load
+from rbenv.satellite.actuators.wheels import parse_wheels
+from rbenv.satellite.scene import Scene, scene_table, scene_variant
+from rbenv.satellite.telemetry import load
 
 WEIGHTS = {"error_deg": 1.0, "rate_dps": 0.1, "wheel_rpm": 10.0}  # the residuals' units
 NAN_RESIDUAL = 10.0  # a sample after a simulated episode ended early: 10 units
@@ -342,7 +342,7 @@ def _deadband_rpm_s(wheels: dict) -> float:
 def _has_residual_dipole() -> bool:
     """Whether this rbenv's scenes take ``[orbit.residual_dipole]``."""
     try:
-        from rbenv import disturbances  # noqa: F401  (the module of orbit torques)
+        from rbenv.satellite import disturbances  # noqa: F401  (the module of orbit torques)
     except ImportError:
         return False
     return True

@@ -26,10 +26,10 @@ from rbenv.agents.baselines.controllers import (
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
-from rbenv.registry import plain_env
-from rbenv.rendering import save_video
-from rbenv.scene import DEFAULT_SCENE
-from rbenv.usage import InvalidChoiceError, invalid_choice
+from rbenv.envs.registry import plain_env
+from rbenv.envs.rendering import save_video
+from rbenv.satellite.scene import DEFAULT_SCENE
+from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id's baselines
 
@@ -37,7 +37,7 @@ ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id
 def _baselines(env_id: str) -> tuple[str, ...]:
     """The scripted baselines of a registered ``env_id`` (its training settings'; none
     without settings)."""
-    rbenv.registry.get(env_id)  # a named error for an id not registered
+    rbenv.envs.registry.get(env_id)  # a named error for an id not registered
     ids = {entry.env_id: entry for entry in settings.entries()}
     return tuple(ids[env_id].baselines) if env_id in ids else ()
 
@@ -45,7 +45,7 @@ def _baselines(env_id: str) -> tuple[str, ...]:
 def scripted(env_id: str | None = None) -> tuple[str, ...]:
     """The scripted policy names of ``env_id``'s task (its training settings' baselines, then
     zero and random), or of every registered task (None)."""
-    ids = [s.env_id for s in rbenv.registry.specs()] if env_id is None else [env_id]
+    ids = [s.env_id for s in rbenv.envs.registry.specs()] if env_id is None else [env_id]
     names = dict.fromkeys(name for i in ids for name in _baselines(i))
     return (*names, *ANY_TASK)
 
@@ -59,7 +59,7 @@ def scripted_by_task() -> str:
     """The scripted policies of each task, for help texts: ``pd, bangbang (SatelliteReorient);
     ...; zero, random (any task)``."""
     tasks: dict[str, tuple] = {}
-    for spec in rbenv.registry.specs():
+    for spec in rbenv.envs.registry.specs():
         tasks.setdefault(_stem(spec.env_id), _baselines(spec.env_id))
     return "; ".join(f"{', '.join(names)} ({task})" for task, names in tasks.items()) + \
         f"; {', '.join(ANY_TASK)} (any task)"
@@ -78,7 +78,7 @@ def check_policy(policy: str, env_id: str = rbenv.ENV_ID, options: dict | None =
     if policy in own:
         _check_runs_on(policy, env_id, dict(options or {}))
         return
-    elsewhere = [s.env_id for s in rbenv.registry.specs() if policy in _baselines(s.env_id)]
+    elsewhere = [s.env_id for s in rbenv.envs.registry.specs() if policy in _baselines(s.env_id)]
     if elsewhere:
         raise InvalidChoiceError("policy", policy, (
             f"{policy!r} is a scripted policy of {', '.join(elsewhere)}, not of {env_id}, "
@@ -105,7 +105,7 @@ def _check_runs_on(policy: str, env_id: str, options: dict) -> None:
 
     if runs(options):
         return
-    spec = rbenv.registry.get(env_id)
+    spec = rbenv.envs.registry.get(env_id)
     able = [s for s in rbenv.list_scenes() if spec.runs_on(s) and runs({**options, "scene": s})]
     scene = options.get("scene") or spec.default_scene or DEFAULT_SCENE
     raise InvalidChoiceError("policy", policy, (

@@ -1,4 +1,4 @@
-"""Training settings, keyed by env id: what :mod:`rbenv.registry` leaves out.
+"""Training settings, keyed by env id: what :mod:`rbenv.envs.registry` leaves out.
 
 Each id that ``rbenv train``, the learning suite or the evaluation report handles has one
 :class:`TrainingSettings` entry: its scripted baselines, its hyperparameters (RL Zoo's format;

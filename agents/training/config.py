@@ -20,7 +20,7 @@ from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.registry import check_env_options
+from rbenv.envs.registry import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
 
@@ -55,7 +55,7 @@ class RunConfig:
     scene: str = "cubesat-12u"
     """The spacecraft: a shipped scene's name or a scene TOML file."""
     env_id: str = rbenv.ENV_ID
-    """The task: a registered id (rbenv.registry), e.g. rbenv/SatelliteDetumble-v1."""
+    """The task: a registered id (rbenv.envs.registry), e.g. rbenv/SatelliteDetumble-v1."""
     out: str | None = None
     """The run folder (unset: ./runs/ALGO-SCENE-seedS); it must be empty or new unless --resume
     or --force."""
@@ -171,7 +171,7 @@ def task_entry(env_id: str) -> settings.TrainingSettings:
     """The training settings of ``env_id`` (:func:`rbenv.agents.settings.get`, whose error says
     what to add, where); the goal form, which has none, gets an error that says how to train
     it."""
-    if env_id == rbenv.goal.GOAL_ID:
+    if env_id == rbenv.envs.goal.GOAL_ID:
         raise InvalidParameterError(
             f"env_id {env_id!r} (the goal form, a Dict observation) is not trained by rbenv "
             "train, whose run folders, reports and suite use the registry's flat observations; "

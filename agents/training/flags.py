@@ -1,7 +1,7 @@
 """Command-line flags generated from dataclass fields and their docstrings (CleanRL's manner).
 
 Each field of a config dataclass is written once, with its default and its docstring (the
-string literal under it, read by :func:`rbenv.options.field_docs`); :func:`add_fields` turns
+string literal under it, read by :func:`rbenv.envs.options.field_docs`); :func:`add_fields` turns
 the fields into ``--kebab-case`` flags whose help is that docstring and whose default is the
 field's, and :func:`given` reads back only the flags the user gave, so a default is never
 restated in argparse. Types map as: ``int``,
@@ -17,7 +17,7 @@ import json
 import types
 import typing
 
-from rbenv.options import field_docs
+from rbenv.envs.options import field_docs
 
 NO_DEFAULT = "(no default)"
 

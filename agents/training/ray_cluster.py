@@ -13,7 +13,7 @@ import socket
 
 from rbenv.core.errors import RbenvValueError
 
-from rbenv.usage import MissingExtraError
+from rbenv.satellite.usage import MissingExtraError
 
 INSTALL = ('pip install -e ".[ray]"  (Ray pins gymnasium==1.2.2, so use a venv of its own, '
            'e.g. python3 -m venv .venv-ray && .venv-ray/bin/pip install torch==2.13.0 && '

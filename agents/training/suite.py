@@ -34,7 +34,7 @@ from rbenv.agents.training.config import TrainConfig
 import rbenv
 
 RESULT_VERSION = 3  # 3: mean-throttle action, checkpoints selected on validation episodes
-# The grid's tasks and their training budgets come from the task registry (rbenv.registry).
+# The grid's tasks and their training budgets come from the task registry (rbenv.envs.registry).
 EVAL_EPISODES, EVAL_SEED = 500, 1_000_000
 VALIDATION_EPISODES, VALIDATION_SEED = 100, 2_000_000  # checkpoint selection, not held out
 CURVE_POINTS = 10  # periodic evaluations per training run (the learning curve)
@@ -46,7 +46,7 @@ QUICK = {"algos": ["ppo"], "tasks": ["detumble", "reorient"], "scenes": ["cubesa
 def task_of(env_id: str) -> str:
     """Short name of a registered id ("reorient", "detumble", "track")."""
     if env_id in tasks().values():
-        return rbenv.registry.get(env_id).name
+        return rbenv.envs.registry.get(env_id).name
     return re.sub(r"[^a-z0-9]+", "-", env_id.lower()).strip("-")
 
 
@@ -76,7 +76,7 @@ class Cell:
 
 def tasks() -> dict:
     """Short task name → env id, for every registered task."""
-    return {spec.name: spec.env_id for spec in rbenv.registry.specs()}
+    return {spec.name: spec.env_id for spec in rbenv.envs.registry.specs()}
 
 
 def default_timesteps(algo: str, env_id: str, scene: str) -> int:
@@ -96,7 +96,7 @@ def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],
     scenes = list(scenes)
     return [Cell(algo, env_id, scene, int(seed), int(budget(algo, env_id, scene)))
             for seed in seeds for env_id in env_ids for scene in scenes for algo in algos
-            if rbenv.registry.get(env_id).runs_on(scene)]  # desaturation needs wheels
+            if rbenv.envs.registry.get(env_id).runs_on(scene)]  # desaturation needs wheels
 
 
 # --- one cell ---------------------------------------------------------------------------------
@@ -501,7 +501,7 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=None, help="seeds 0..N-1 (default 3)")
     p.add_argument("--timesteps", type=int, default=None,
                    help="one budget for every cell (default: per task, "
-                   "the task registry, rbenv.registry)")
+                   "the task registry, rbenv.envs.registry)")
     p.add_argument("--episodes", type=int, default=None,
                    help=f"held-out episodes (default {EVAL_EPISODES})")
     p.add_argument("--eval-seed", type=int, default=EVAL_SEED)

@@ -1,6 +1,6 @@
 """``rbenv train --engine torchrl``: PPO from TorchRL on the torch-native vector env, one device.
 
-The env (:class:`rbenv.torch_env.TorchVectorEnv`) and the learner share ``--device``: the
+The env (:class:`rbenv.envs.torch_env.TorchVectorEnv`) and the learner share ``--device``: the
 collector's actions, observations, rewards and flags are tensors there, and no array crosses
 to the host per step. The pieces are TorchRL's own (``Collector``, ``GAE``, ``ClipPPOLoss``,
 ``ProbabilisticActor`` with a state-independent Normal scale, as SB3's ``MlpPolicy``); this

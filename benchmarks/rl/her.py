@@ -1,6 +1,6 @@
 """SAC or TQC with SB3's ``HerReplayBuffer`` on ``rbenv/SatelliteReorientGoal-v1`` (issue 22).
 
-Trains on the goal-conditioned form of Reorient-v1 (:mod:`rbenv.goal`) with the off-policy
+Trains on the goal-conditioned form of Reorient-v1 (:mod:`rbenv.envs.goal`) with the off-policy
 recipe of :mod:`rbenv.hyperparams._off_policy` where it applies (torque actions with ``pinv``
 allocation, 32 envs, lr 1e-3, batch 512, buffer 1M, learning_starts 10k, 8 gradient steps per
 vector step, gamma 0.99, tau 0.01, net [256, 256]), HER relabelling with the ``future``
@@ -51,7 +51,7 @@ import numpy as np
 from rbenv.agents.policies.evaluate import EvalResult, settle_time_s
 
 from benchmarks.common import fmt
-from rbenv.goal import GOAL_ID
+from rbenv.envs.goal import GOAL_ID
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl" / "her"
 PLAIN_ID = "rbenv/SatelliteReorient-v1"

@@ -1,6 +1,6 @@
 """The tasks of rbenv: each a module with one :class:`rbenv.tasks.base.Task` subclass, its
 maker and its env entry (``SPEC``, a :class:`rbenv.tasks.spec.TaskSpec`, registered as a
-Gymnasium id by ``rbenv/__init__.py`` through :mod:`rbenv.registry`).
+Gymnasium id by ``rbenv/__init__.py`` through :mod:`rbenv.envs.registry`).
 
 :func:`build` resolves env options into the (plant, task) pair that the env core runs.
 """
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from rbenv.plant import Plant, make_plant
-from rbenv.scene import DEFAULT_SCENE, load_scene
+from rbenv.satellite.plant import Plant, make_plant
+from rbenv.satellite.scene import DEFAULT_SCENE, load_scene
 from rbenv.tasks.base import Task
 from rbenv.tasks.detumble import Detumble
 from rbenv.tasks.reorient import Reorient
@@ -20,7 +20,7 @@ from rbenv.tasks.track import Track
 __all__ = ["TABLE_MAKERS", "Detumble", "Reorient", "Task", "TaskSpec", "Track", "build"]
 
 # Scene option table name ([tasks.<name>]) -> the maker that reads it, for every registered
-# task: rbenv.registry.register adds each entry's, so a bad value in any task's table fails
+# task: rbenv.envs.registry.register adds each entry's, so a bad value in any task's table fails
 # when an env of any task is made on the scene.
 TABLE_MAKERS: dict[str, Callable] = {}
 

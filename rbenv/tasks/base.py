@@ -2,19 +2,19 @@
 
 A task decides how an episode starts (relative to a target of its own), what the policy sees,
 how it is rewarded, and when the episode succeeds or fails. It never integrates anything: the
-plant (:mod:`rbenv.plant`) moves the satellite, and one transition function
-(:mod:`rbenv.transition`) calls plant and task in the same order for the single env (floats)
+plant (:mod:`rbenv.satellite.plant`) moves the satellite, and one transition function
+(:mod:`rbenv.envs.transition`) calls plant and task in the same order for the single env (floats)
 and the vector env (arrays). This follows dm_control's split of an environment into physics and
 task, written here as pure functions of explicit state, as Brax writes its ``step``.
 
 A task class declares:
 
-* ``name`` (its registry entry, :mod:`rbenv.registry`, holds the env id);
+* ``name`` (its registry entry, :mod:`rbenv.envs.registry`, holds the env id);
 * ``observation_structure``: name → width, in observation order (Gymnasium MuJoCo's habit),
   and ``observation_scale``: name → the physical unit of one observation unit (e.g. the rate
   limit in rad/s), so controllers decode observations by name (:meth:`Task.decode`);
 * ``Terms``: a NamedTuple of reward terms (``info["reward_<name>"]``; they sum to the reward);
-* ``state_fields``: its per-episode state, name → :data:`rbenv.state` kind;
+* ``state_fields``: its per-episode state, name → :data:`rbenv.satellite.state` kind;
 * ``reset_options``: the names accepted in ``reset(options=...)`` and their widths;
 * ``error_info_key``: the info entry that measures how far from the goal it is (reports).
 
@@ -86,7 +86,7 @@ class Task:
     WeightsType: ClassVar[type] = Weights
     scene_table: ClassVar[str | None] = None  # the scene's [tasks.<x>] table read (None: name)
 
-    plant: object  # rbenv.plant.Plant
+    plant: object  # rbenv.satellite.plant.Plant
 
     @classmethod
     def table_name(cls) -> str:
@@ -141,8 +141,9 @@ class Task:
     # ------------------------------------------------------------------- interface
 
     def sample_start(self, draws) -> dict:
-        """Raw start values (components, see :mod:`rbenv.state`): "q", "omega_B" and the
-        task's target fields; from the "task" stream of :class:`rbenv.draws.EpisodeDraws`."""
+        """Raw start values (components, see :mod:`rbenv.satellite.state`): "q", "omega_B" and the
+        task's target fields; from the "task" stream of
+        :class:`rbenv.satellite.draws.EpisodeDraws`."""
         raise NotImplementedError
 
     def complete_start(self, start: dict, xp) -> None:
@@ -156,7 +157,7 @@ class Task:
     def evaluate(self, st, effort, xp):
         """After a physics step: ``(terms, success, failure)``; sets the task's own fields on
         ``st`` (the transition's new state). effort: the actuators' effort over the step, a
-        fraction of their full rate (:class:`rbenv.actuators.Contribution`)."""
+        fraction of their full rate (:class:`rbenv.satellite.actuators.Contribution`)."""
         raise NotImplementedError
 
     def info(self, st, xp) -> dict:

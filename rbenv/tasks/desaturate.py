@@ -245,7 +245,7 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
     * v0: first release.
     """
 
-# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# The env entry: registered by rbenv/__init__.py (rbenv.envs.registry); trained with the settings
 # of rbenv.agents.settings. Episodes are longer than the other tasks' 160 steps: magnetic
 # unloading takes a good part of an orbit.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate, make=make_desaturate,

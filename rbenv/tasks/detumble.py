@@ -221,7 +221,7 @@ ENV_DOC = """Stop a tumbling satellite with thrusters, spending as little propel
     * v0: first release.
     """
 
-# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# The env entry: registered by rbenv/__init__.py (rbenv.envs.registry); trained with the settings
 # of rbenv.agents.settings.
 SPEC = TaskSpec(env_id="rbenv/SatelliteDetumble-v0", task=Detumble, make=make_detumble,
                 env_doc=ENV_DOC)

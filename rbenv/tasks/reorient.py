@@ -15,7 +15,7 @@ from typing import ClassVar, NamedTuple
 
 from rbenv.core import kernels as k
 from rbenv.core import validation
-from rbenv.options import options_table
+from rbenv.envs.options import options_table
 from rbenv.tasks import v1
 from rbenv.tasks.base import (
     _DEG,
@@ -247,7 +247,7 @@ ENV_DOC = """Reorient a satellite to a target attitude by firing body-fixed thru
 
     Made by ``gym.make("rbenv/SatelliteReorient-v0", **kwargs)``.
 
-    **Arguments** (all optional; :class:`rbenv.options.EnvOptions`):
+    **Arguments** (all optional; :class:`rbenv.envs.options.EnvOptions`):
 
 OPTIONS_TABLE
 
@@ -283,7 +283,7 @@ OPTIONS_TABLE
     ``"wheel_clock_s": (1,)`` (s since their first command; −1 before it). With ``[sensors]``
     the observation is the gyro-integrated, delayed measurement and info adds
     ``sensed_attitude_error_deg``. **Seeding**: episode ``e`` after ``reset(seed=s)`` is a
-    pure function of (s, e) (:mod:`rbenv.draws`).
+    pure function of (s, e) (:mod:`rbenv.satellite.draws`).
 
     **Version History**
 
@@ -299,7 +299,7 @@ OPTIONS_TABLE
       last bit, and ``info`` gains ``reward_precision``.
     """.replace("OPTIONS_TABLE", options_table())
 
-# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# The env entry: registered by rbenv/__init__.py (rbenv.envs.registry); trained with the settings
 # of rbenv.agents.settings.
 SPEC = TaskSpec(env_id="rbenv/SatelliteReorient-v0", task=Reorient, make=make_reorient,
                 env_doc=ENV_DOC)
@@ -310,7 +310,7 @@ ENV_DOC_V1 = """Reorient a satellite to a target attitude (v1 observation and re
     end, info and reset options as ``rbenv/SatelliteReorient-v0`` (:class:`SatelliteReorientEnv`),
     and the same episodes for the same seed.
 
-    **Arguments** (all optional; :class:`rbenv.options.EnvOptions`):
+    **Arguments** (all optional; :class:`rbenv.envs.options.EnvOptions`):
 
 OPTIONS_TABLE
 

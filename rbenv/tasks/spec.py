@@ -5,7 +5,7 @@ A task module declares its entry beside its task class::
     SPEC = TaskSpec(env_id="myorg/PointSun-v0", task=PointSun, make=make_point_sun,
                     env_doc="Point body +x at the Sun.")
 
-and :func:`rbenv.registry.register` makes it a Gymnasium id. Baselines, hyperparameters and
+and :func:`rbenv.envs.registry.register` makes it a Gymnasium id. Baselines, hyperparameters and
 training budgets are keyed by the same id in :mod:`rbenv.agents.settings`, above this package.
 """
 
@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from rbenv.core.errors import InvalidParameterError
-from rbenv.scene import load_scene
+from rbenv.satellite.scene import load_scene
 from rbenv.tasks.base import Task
 
 __all__ = ["MAX_EPISODE_STEPS", "TaskSpec"]

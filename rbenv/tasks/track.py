@@ -375,7 +375,7 @@ ENV_DOC = """Follow a target attitude that turns at a constant rate, as a pointi
     * v0: first release.
     """
 
-# The env entry: registered by rbenv/__init__.py (rbenv.registry); trained with the settings
+# The env entry: registered by rbenv/__init__.py (rbenv.envs.registry); trained with the settings
 # of rbenv.agents.settings.
 SPEC = TaskSpec(env_id="rbenv/SatelliteTrack-v0", task=Track, make=make_track, env_doc=ENV_DOC)
 

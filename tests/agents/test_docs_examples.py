@@ -36,7 +36,7 @@ def spin_up(monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, module.__name__, module)
     exec(compile(block("tasks.md", "a new task"), "docs/tasks.md", "exec"), module.__dict__)
     yield module
-    rbenv.registry.unregister("myorg/SpinUp-v0")
+    rbenv.envs.registry.unregister("myorg/SpinUp-v0")
     settings.unregister("myorg/SpinUp-v0")
 
 

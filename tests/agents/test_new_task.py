@@ -1,7 +1,7 @@
 """A new task is one module plus its entries: this file is the module.
 
 It defines "point a body axis at the Sun" (nothing else in the repository knows it), registers
-its env entry with :func:`rbenv.registry.register` and its training settings with
+its env entry with :func:`rbenv.envs.registry.register` and its training settings with
 :func:`rbenv.agents.settings.register`, and then uses it as a user would: ``gym.make`` and
 ``gym.make_vec`` by id, Gymnasium's and SB3's env checkers, and ``rbenv train`` for 4096 steps,
 which ends with the report that compares the policy with the entry's scripted baseline.
@@ -24,11 +24,11 @@ from rbenv.core import kernels as k
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv import registry, transition
-from rbenv.env import AttitudeEnv
+from rbenv.envs import registry, transition
+from rbenv.envs.env import AttitudeEnv
+from rbenv.envs.vector_env import AttitudeVectorEnv
 from rbenv.tasks.base import _DEG, Task, Weights, option_table, unit
 from rbenv.tasks.spec import TaskSpec
-from rbenv.vector_env import AttitudeVectorEnv
 
 SUN_ID = "rbenvtest/PointSun-v0"
 _AXIS_B = (1.0, 0.0, 0.0)  # the body axis that must point at the Sun (a panel normal)
@@ -146,7 +146,7 @@ def test_registered_task_makes_single_and_vector_envs_by_id():
     # No class of its own: the generic shells, told their task by the registration.
     assert type(env.unwrapped) is AttitudeEnv and type(venv.unwrapped) is AttitudeVectorEnv
     assert env.unwrapped.task_spec == SPEC and isinstance(env.unwrapped.task, PointSun)
-    assert rbenv.registry.get(SUN_ID) is SPEC and settings.get(SUN_ID) is TRAINING
+    assert rbenv.envs.registry.get(SUN_ID) is SPEC and settings.get(SUN_ID) is TRAINING
 
 
 def test_both_checkers_pass_on_the_new_task():

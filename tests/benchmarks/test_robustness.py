@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from benchmarks import robustness as rb
-from rbenv.draws import EpisodeDraws
-from rbenv.plant import make_plant
-from rbenv.randomization import Randomization, draw_episode_model
+from rbenv.satellite.draws import EpisodeDraws
+from rbenv.satellite.plant import make_plant
+from rbenv.satellite.randomization import Randomization, draw_episode_model
 
 EPISODES = 20
 

@@ -19,7 +19,7 @@ import pytest
 from gymnasium.wrappers import vector as vw
 
 import rbenv
-from rbenv.vector_env import AttitudeVectorEnv
+from rbenv.envs.vector_env import AttitudeVectorEnv
 
 GAMMA = 0.99
 STEPS = 200  # more than one 160-step episode, so every env finishes at least once

@@ -28,10 +28,10 @@ OFF_POLICY_STEPS = 1024  # 32 vector steps of the shipped 32 envs
 
 
 def test_every_registered_id_has_zoo_settings():
-    # The goal-conditioned form (rbenv/goal.py) is trained with SAC/TQC + HER, not from these
+    # The goal-conditioned form (rbenv/envs/goal.py) is trained with SAC/TQC + HER, not from these
     # tables; it has no zoo entry yet.
     ours = sorted(env_id for env_id in gym.registry if env_id.startswith("rbenv/")
-                  and env_id != rbenv.goal.GOAL_ID)
+                  and env_id != rbenv.envs.goal.GOAL_ID)
     assert rbenv.ENV_ID in ours
     missing = [env_id for env_id in ours if env_id not in ppo.hyperparams]
     assert not missing, f"add {missing} to rbenv/hyperparams/ppo.py"

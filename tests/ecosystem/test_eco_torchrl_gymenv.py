@@ -12,8 +12,8 @@ import warnings
 import pytest
 
 import rbenv
-from rbenv import registry
-from rbenv.goal import GOAL_ID
+from rbenv.envs import registry
+from rbenv.envs.goal import GOAL_ID
 
 torch = pytest.importorskip("torch", reason="torch is not installed (train extra)")
 torchrl_envs = pytest.importorskip("torchrl.envs", reason="torchrl is not installed "

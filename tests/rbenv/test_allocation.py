@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from rbenv.allocation import (
+from rbenv.satellite.allocation import (
     Allocator,
     MinFuelLPAllocator,
     NNLSAllocator,
@@ -299,7 +299,7 @@ def test_lp_matches_highs_directly(layout):
 
 def test_lp_without_fast_paths_agrees(monkeypatch):
     """Layouts beyond the fast-path size run every demand through HiGHS, same answers."""
-    import rbenv.allocation as allocation
+    import rbenv.satellite.allocation as allocation
 
     B = LAYOUTS["random12"]
     fast = MinFuelLPAllocator(B)

@@ -8,7 +8,7 @@ import pytest
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.goal import GOAL_ID
+from rbenv.envs.goal import GOAL_ID
 
 V1 = "rbenv/SatelliteReorient-v1"
 BAD_SEEDS = [(-1, r"seed must be >= 0, got -1"), (1.5, r"seed must be an integer, got 1\.5"),

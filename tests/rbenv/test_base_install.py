@@ -37,7 +37,7 @@ sys.exit(code or (3 if loaded else 0))
 
 
 def test_check_env_and_the_passive_checker_pass_on_every_id_and_scene_without_extras():
-    pairs = sum(rbenv.registry.get(i).runs_on(s) for i in rbenv.ENV_IDS
+    pairs = sum(rbenv.envs.registry.get(i).runs_on(s) for i in rbenv.ENV_IDS
                 for s in rbenv.list_scenes())
     test = str(ROOT / "tests" / "rbenv" / "test_gymnasium_contract.py")
     done = subprocess.run([sys.executable, "-c", CHILD.format(extras=EXTRAS, test=test)],

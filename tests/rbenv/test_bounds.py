@@ -1,4 +1,4 @@
-"""Lower bounds on settle time and propellant (rbenv.bounds), checked against closed forms,
+"""Lower bounds on settle time and propellant (rbenv.envs.bounds), checked against closed forms,
 independent numerics (quadrature, an ODE solver, linprog) and the scripted controllers on 200
 episodes. Optimised trajectories against the bounds: tests/agents/baselines/test_optimal.py;
 the benchmark: tests/benchmarks/test_bounds_benchmark.py."""
@@ -12,8 +12,8 @@ import pytest
 from rbenv.core.errors import InvalidParameterError
 from scipy.integrate import quad, solve_ivp
 
-from rbenv import bounds as rb
-from rbenv.scene import load_scene
+from rbenv.envs import bounds as rb
+from rbenv.satellite.scene import load_scene
 
 SEED = 1_000_000
 

@@ -29,7 +29,7 @@ def test_compiled_vector_env_equals_the_numpy_one(env_id):
 
 
 @pytest.mark.parametrize("env_id", sorted(i for i in rbenv.ENV_IDS  # rigid bodies only
-                                           if rbenv.registry.get(i).runs_on("cubesat-12u")))
+                                           if rbenv.envs.registry.get(i).runs_on("cubesat-12u")))
 @pytest.mark.parametrize(("scene", "integrator"), [("cubesat-12u", None),
                                                    ("boom-sat", "rk4"),
                                                    ("microsat-100kg", "euler"),

@@ -15,10 +15,10 @@ from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv import disturbances as dist
-from rbenv.orbit import OMEGA_EARTH, R_EQ, Orbit
-from rbenv.plant import make_plant
-from rbenv.scene import Scene
+from rbenv.satellite import disturbances as dist
+from rbenv.satellite.orbit import OMEGA_EARTH, R_EQ, Orbit
+from rbenv.satellite.plant import make_plant
+from rbenv.satellite.scene import Scene
 
 Q0 = tuple(quaternion.normalize(np.array([0.9, 0.1, -0.3, 0.2])).tolist())
 

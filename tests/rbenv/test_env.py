@@ -14,7 +14,7 @@ from rbenv.core import quaternion
 from rbenv.core.errors import InvalidParameterError, NonFiniteError
 
 import rbenv
-from rbenv.scene import load_scene
+from rbenv.satellite.scene import load_scene
 from rbenv.tasks.base import restricted_haar_angle
 from rbenv.tasks.reorient import ReorientTerms
 
@@ -76,7 +76,7 @@ def test_gymnasium_and_sb3_checkers_pass_without_warnings(scene, mode):
 def test_registration_and_spaces():
     env = make()
     assert env.spec.max_episode_steps == rbenv.MAX_EPISODE_STEPS
-    assert env.spec.vector_entry_point == "rbenv.vector_env:SatelliteReorientVectorEnv"
+    assert env.spec.vector_entry_point == "rbenv.envs.vector_env:SatelliteReorientVectorEnv"
     assert env.action_space == gym.spaces.Box(-1, 1, (12,), np.float32)
     assert env.observation_space == gym.spaces.Box(-1, 1, (7,), np.float32)
     assert make(action_mode="torque").action_space.shape == (3,)

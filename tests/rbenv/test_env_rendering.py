@@ -10,7 +10,7 @@ import rbenv
 
 pytest.importorskip("pygame")
 
-from rbenv.rendering import save_video
+from rbenv.envs.rendering import save_video
 
 SMALL_TURN = np.array([np.cos(0.3), np.sin(0.3), 0.0, 0.0])
 

@@ -1,4 +1,4 @@
-"""The goal-conditioned form rbenv/SatelliteReorientGoal-v1 (rbenv/goal.py): HER's interface,
+"""The goal-conditioned form rbenv/SatelliteReorientGoal-v1 (rbenv/envs/goal.py): HER's interface,
 both checkers, compute_reward equal to the env's reward, and v1's episodes."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import rbenv
-from rbenv.goal import GOAL_ID
+from rbenv.envs.goal import GOAL_ID
 
 
 def _episode(env, seed, steps=60):
@@ -101,7 +101,7 @@ def test_her_sac_learns_on_it_for_a_few_steps(request):
     model.learn(240)
     assert model.replay_buffer.size() > 0 and model.num_timesteps == 240
     assert math.isfinite(float(model.logger.name_to_value.get("train/critic_loss", 0.0)))
-    assert rbenv.goal.GOAL_ID == GOAL_ID
+    assert rbenv.envs.goal.GOAL_ID == GOAL_ID
     with pytest.raises(ValueError, match="copy_info_dict"):
         venv.env_method("compute_reward", np.zeros((2, 6)), np.zeros((2, 6)), [{}, {}],
                         indices=[0])

@@ -12,7 +12,7 @@ compared with ``data_equivalence`` as Gymnasium compares ``AsyncVectorEnv`` with
 
 Scenes with per-step noise (sensor noise, disturbance noise, mid-episode faults) draw it for
 the whole batch from the vector env's own generator (documented in
-:class:`rbenv.vector_env.AttitudeVectorEnv`), so a native/sync comparison on them runs on the
+:class:`rbenv.envs.vector_env.AttitudeVectorEnv`), so a native/sync comparison on them runs on the
 scene with those per-step draws set to zero; everything drawn per episode stays on.
 """
 
@@ -33,7 +33,7 @@ import rbenv
 IDS = sorted(rbenv.ENV_IDS)
 SCENES = rbenv.list_scenes()
 # Every id on every scene it runs on (desaturation needs wheels: rbenv.tasks.spec.TaskSpec.needs).
-PAIRS = [(i, s) for i in IDS for s in SCENES if rbenv.registry.get(i).runs_on(s)]
+PAIRS = [(i, s) for i in IDS for s in SCENES if rbenv.envs.registry.get(i).runs_on(s)]
 MODES = list(AutoresetMode)
 N = 3  # sub-envs
 EPISODE = 4  # steps per episode, so that a short rollout crosses autoresets

@@ -14,7 +14,7 @@ from rbenv.agents.baselines.controllers import InnoCubePD, NotApplicable
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.scene import Scene
+from rbenv.satellite.scene import Scene
 
 RPM = math.pi / 30.0
 V1 = "rbenv/SatelliteReorient-v1"

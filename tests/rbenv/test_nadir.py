@@ -13,7 +13,7 @@ from rbenv.core import kernels as k
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.scene import Scene
+from rbenv.satellite.scene import Scene
 
 SCENE = "cubesat-6u-rw"
 

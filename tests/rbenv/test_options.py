@@ -1,4 +1,4 @@
-"""The env options are declared once (rbenv.options.EnvOptions); the constructors, the env
+"""The env options are declared once (rbenv.envs.options.EnvOptions); the constructors, the env
 docstrings and docs/api.md agree with the declaration, and what it says of defaults is true."""
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import gymnasium as gym
 import pytest
 
 import rbenv
-from rbenv import options
-from rbenv.env import AttitudeEnv
-from rbenv.plant import make_plant
+from rbenv.envs import options
+from rbenv.envs.env import AttitudeEnv
+from rbenv.envs.vector_env import AttitudeVectorEnv
+from rbenv.satellite.plant import make_plant
 from rbenv.tasks import build
-from rbenv.vector_env import AttitudeVectorEnv
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = rbenv.list_scenes()
@@ -122,7 +122,7 @@ def test_the_backend_options_have_the_constructors_defaults():
     assert inspect.signature(AttitudeVectorEnv.__init__).parameters["backend"].default == \
         declared["backend"]
     pytest.importorskip("torch", reason="torch is not installed (train extra)")
-    from rbenv.torch_env import TorchVectorEnv
+    from rbenv.envs.torch_env import TorchVectorEnv
 
     torch_defaults = _keywords(TorchVectorEnv.__init__)
     assert {k: torch_defaults[k] for k in options.BACKEND_OPTIONS if k != "backend"} == \
@@ -130,7 +130,7 @@ def test_the_backend_options_have_the_constructors_defaults():
     table = options.options_markdown()
     assert all(f"| `{name}` |" in table for name in options.BACKEND_OPTIONS)
 def test_the_autoreset_default_is_declared_once_and_every_vector_env_follows_it(monkeypatch):
-    """rbenv.options.AUTORESET_DEFAULT is the one place: change it, and the NumPy and torch
+    """rbenv.envs.options.AUTORESET_DEFAULT is the one place: change it, and the NumPy and torch
     vector envs made without ``autoreset_mode`` take the new mode and act on it."""
     from gymnasium.vector import AutoresetMode
 

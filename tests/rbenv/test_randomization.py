@@ -9,9 +9,9 @@ from rbenv.core import inertia as inertia_lib
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.draws import EpisodeDraws
-from rbenv.plant import make_plant
-from rbenv.randomization import draw_episode_model
+from rbenv.satellite.draws import EpisodeDraws
+from rbenv.satellite.plant import make_plant
+from rbenv.satellite.randomization import draw_episode_model
 
 BIG = {"inertia_scale": 0.9, "inertia_rotation_deg": 90.0, "com_offset": 0.05,
        "force_scale": 0.5, "misalignment_deg": 20.0, "delay_probability": 0.5}

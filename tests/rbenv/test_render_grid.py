@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 import rbenv
-from rbenv import registry
+from rbenv.envs import registry
 
 pytest.importorskip("pygame")
 
 from rbenv.core import inertia
 
-from rbenv.goal import GOAL_ID
-from rbenv.rendering import LEGEND, Renderer
+from rbenv.envs.goal import GOAL_ID
+from rbenv.envs.rendering import LEGEND, Renderer
 
 GRID = [(spec.env_id, scene) for spec in registry.specs() for scene in rbenv.list_scenes()
         if spec.runs_on(scene)]

@@ -1,4 +1,5 @@
-"""Tests for rbenv.rendering: frame shape and content, determinism, input checks, video files."""
+"""Tests for rbenv.envs.rendering: frame shape and content, determinism, input checks, video
+files."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ pytest.importorskip("pygame")
 
 from rbenv.core import inertia, quaternion
 
-from rbenv.rendering import Renderer, equivalent_box, save_video
+from rbenv.envs.rendering import Renderer, equivalent_box, save_video
 
 MASS = 24.0
 HALF = np.array([0.113, 0.17, 0.183])

@@ -13,7 +13,7 @@ from rbenv.core import inertia
 from rbenv.core.errors import InvalidInertiaError, InvalidParameterError
 
 import rbenv
-from rbenv.scene import Scene, list_scenes, load_scene, mass_properties
+from rbenv.satellite.scene import Scene, list_scenes, load_scene, mass_properties
 
 COUPLES = {  # a minimal valid layout: one couple each way about each axis (lever arm 0.1 m)
     "positions": [[0, 0.1, 0], [0, -0.1, 0], [0, 0.1, 0], [0, -0.1, 0],
@@ -153,7 +153,8 @@ def test_layout_missing_a_direction_is_named():
 
 
 def test_scene_from_path_name_and_object_in_make(tmp_path):
-    text = (rbenv.scene.resources.files("rbenv") / "scenes" / "microsat-100kg.toml").read_text()
+    text = (rbenv.satellite.scene.resources.files("rbenv") / "scenes"
+            / "microsat-100kg.toml").read_text()
     path = tmp_path / "copy.toml"
     path.write_text(text.replace('name = "microsat-100kg"', 'name = "copy"'))
     scene = load_scene(path)

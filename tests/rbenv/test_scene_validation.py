@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from rbenv.core.errors import InvalidParameterError, RbenvValueError
 
 import rbenv
-from rbenv.scene import MAX_SCENE_BYTES, MAX_SUBSTEPS, Scene, load_scene
+from rbenv.satellite.scene import MAX_SCENE_BYTES, MAX_SUBSTEPS, Scene, load_scene
 
 try:
     import tomllib

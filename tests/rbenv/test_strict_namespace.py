@@ -11,7 +11,7 @@ NumPy call, and fails the test too.
 
 Out of its reach, and named: the torque mode's allocators (NumPy and SciPy on the host), the
 implicit integrators (``midpoint``'s Newton and ``splitting``'s frame cache decide per batch
-in NumPy), episode starts (:mod:`rbenv.draws` hashes uint64 counters in NumPy) and the
+in NumPy), episode starts (:mod:`rbenv.satellite.draws` hashes uint64 counters in NumPy) and the
 randomized inertia of domain randomization (``BatchBody`` multiplies (N, 3, 3) matrices).
 """
 
@@ -24,8 +24,8 @@ from rbenv.core import backend
 from rbenv.core.backend import NUMPY
 
 import rbenv
-from rbenv import transition
-from rbenv.plant import StepNoise
+from rbenv.envs import transition
+from rbenv.satellite.plant import StepNoise
 
 OPERATORS = {np.add, np.subtract, np.multiply, np.true_divide, np.negative, np.positive,
              np.less, np.less_equal, np.greater, np.greater_equal, np.equal, np.not_equal,
@@ -156,7 +156,7 @@ CASES = [(env_id, scene, mode, integ)
                              ("throttle", "semi_implicit"), ("throttle", "euler_seed"))
          if (mode != "on_off" or (rbenv.load_scene(scene).thrusters is not None  # wheels
                                   and "wheels" not in rbenv.load_scene(scene).actuators))
-         and rbenv.registry.get(env_id).runs_on(scene)]
+         and rbenv.envs.registry.get(env_id).runs_on(scene)]
 
 
 # The explicit integrators blow up on some scenes under these actions, on purpose: both

@@ -50,7 +50,7 @@ def test_torque_mode_and_rendering_work_for_new_tasks(env_id):
 def test_registration_spaces_and_observation_structure(env_id):
     env = gym.make(env_id)
     u = env.unwrapped
-    assert env.spec.vector_entry_point.startswith("rbenv.vector_env:")
+    assert env.spec.vector_entry_point.startswith("rbenv.envs.vector_env:")
     size = sum(u.observation_structure.values())
     assert env.observation_space.shape == (size,)
     slices = u.task.observation_slices()
@@ -99,7 +99,7 @@ def _biased_actions(n, steps, seed, size=12):
                                                (rbenv.TRACK_ID, "cubesat-12u-dr")])
 def test_vector_env_equals_single_envs_through_autoresets(env_id, scene, lockstep):
     """Sub-env i seeded s + i equals a single env seeded s + i, episode after episode,
-    however the other sub-envs' episodes end (counter-based starts, rbenv.draws)."""
+    however the other sub-envs' episodes end (counter-based starts, rbenv.satellite.draws)."""
     n, steps, seed = 5, 340, 21
     venv = gym.make_vec(env_id, num_envs=n, scene=scene)
     singles = [gym.make(env_id, scene=scene) for _ in range(n)]
@@ -231,11 +231,11 @@ def test_tracking_feedforward_matters_at_high_target_rate():
 
 
 def test_a_task_is_one_module_and_one_registry_line():
-    assert {s.name for s in rbenv.registry.specs()} >= {"reorient", "detumble", "track"}
+    assert {s.name for s in rbenv.envs.registry.specs()} >= {"reorient", "detumble", "track"}
     for env_id in IDS:
         env = gym.make(env_id)
         task = env.unwrapped.task
-        assert rbenv.registry.get(env_id).task is type(task)
+        assert rbenv.envs.registry.get(env_id).task is type(task)
         assert isinstance(baseline(env, "pd"), (RateDamping, TrackingPD, WheelHoldPD)) or \
             task.table_name() == "reorient"
     with pytest.raises(ValueError, match="bangbang"):

@@ -1,5 +1,5 @@
-"""rbenv.telemetry: the dashboard's CSV format, read back from files these tests write (the
-flight data has no license, so none of it is in the repository)."""
+"""rbenv.satellite.telemetry: the dashboard's CSV format, read back from files these tests write
+(the flight data has no license, so none of it is in the repository)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from rbenv.telemetry import (
+from rbenv.satellite.telemetry import (
     Telemetry,
     TelemetryError,
     error_angle_deg,

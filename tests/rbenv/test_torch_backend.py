@@ -3,7 +3,7 @@ actuators and tasks through the torch namespace (:mod:`rbenv.core.torch_backend`
 restated. Issue 20's first item; its vector env, compilation and training are not built yet.
 
 Out of reach today (named, not faked): the torque mode's allocators, the implicit integrators,
-episode starts (rbenv.draws), and domain randomization's per-episode model (NumPy arrays).
+episode starts (rbenv.satellite.draws), and domain randomization's per-episode model (NumPy arrays).
 CUDA: skipped here (no GPU on this machine) and said so.
 """
 
@@ -15,8 +15,8 @@ import pytest
 from rbenv.core.backend import NUMPY, namespace
 
 import rbenv
-from rbenv import transition
-from rbenv.plant import StepNoise
+from rbenv.envs import transition
+from rbenv.satellite.plant import StepNoise
 
 torch = pytest.importorskip("torch", reason="torch is not installed (train extra)")
 from rbenv.core.torch_backend import TORCH  # noqa: E402
@@ -63,7 +63,7 @@ def _close(a, b, where):
 CASES = [(env_id, scene, mode)
          for env_id in rbenv.ENV_IDS for scene in rbenv.list_scenes()
          for mode in ("throttle", "on_off")
-         if rbenv.registry.get(env_id).runs_on(scene)
+         if rbenv.envs.registry.get(env_id).runs_on(scene)
          and (mode != "on_off" or not rbenv.load_scene(scene).actuators)]  # on/off: thrusters
 
 

@@ -1,4 +1,4 @@
-"""The torch-native vector env (rbenv.torch_env) against the NumPy vector env, on CPU.
+"""The torch-native vector env (rbenv.envs.torch_env) against the NumPy vector env, on CPU.
 
 Same seeds, same actions, SAME_STEP autoreset on both: every observation, reward, flag, info
 value, final observation and state field agrees within 1e-12, for every task, scene and action
@@ -45,7 +45,7 @@ UNSUPPORTED_TASKS = ("rbenv/SatelliteDesaturate-v0",)
 CASES = [(env_id, scene, mode)
          for env_id in sorted(rbenv.ENV_IDS) if env_id not in UNSUPPORTED_TASKS
          for scene in rbenv.list_scenes() for mode in ("throttle", "on_off")
-         if rbenv.registry.get(env_id).runs_on(scene)
+         if rbenv.envs.registry.get(env_id).runs_on(scene)
          and (mode != "on_off" or not rbenv.load_scene(scene).actuators)]  # thrusters alone
 
 
@@ -271,7 +271,7 @@ def test_compiled_step_is_one_graph_and_matches_eager():
 
 
 def test_compile_falls_back_to_eager_with_a_warning(monkeypatch):
-    from rbenv import torch_compile
+    from rbenv.envs import torch_compile
 
     env = gym.make_vec(rbenv.ENV_ID, num_envs=2, backend="torch", compile=True)
     env.reset(seed=0)
@@ -308,7 +308,7 @@ def test_the_torch_env_passes_gymnasiums_and_sb3s_checkers(env_id, scene, scene_
                                       reason="SB3's checker needs the train extra")
     kwargs = _single_kwargs(scene, scene_path)
     with gym.make(env_id, backend="torch", **kwargs) as env:
-        assert type(env.unwrapped).__module__ == "rbenv.torch_env"
+        assert type(env.unwrapped).__module__ == "rbenv.envs.torch_env"
         with warnings.catch_warnings():
             warnings.simplefilter("error", UserWarning)
             check_env(env.unwrapped, skip_render_check=True)

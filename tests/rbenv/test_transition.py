@@ -12,8 +12,8 @@ from rbenv.core.backend import FLOAT, NUMPY
 from rbenv.core.errors import NonFiniteError
 
 import rbenv
-from rbenv import transition
-from rbenv.plant import NO_NOISE
+from rbenv.envs import transition
+from rbenv.satellite.plant import NO_NOISE
 
 
 def _snapshot(st) -> dict:
@@ -29,7 +29,7 @@ def _equal(a, b) -> bool:
 
 @pytest.mark.parametrize(("env_id", "scene"), [  # every id on the thruster scenes it runs on
     (i, s) for s in ("cubesat-12u", "cubesat-12u-dr", "boom-sat", "cubesat-12u-rw")
-    for i in rbenv.ENV_IDS if rbenv.registry.get(i).runs_on(s)])
+    for i in rbenv.ENV_IDS if rbenv.envs.registry.get(i).runs_on(s)])
 def test_step_returns_a_new_state_and_leaves_its_input_unchanged(env_id, scene):
     for vector in (False, True):
         env = (gym.make_vec(env_id, num_envs=5, scene=scene) if vector

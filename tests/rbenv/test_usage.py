@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from rbenv import usage
+from rbenv.satellite import usage
 
 ROOT = Path(__file__).resolve().parents[2]
 # A module whose distribution is named otherwise, or that comes with another one.

@@ -22,7 +22,7 @@ V1 = {"rbenv/SatelliteReorient-v1": "rbenv/SatelliteReorient-v0",
 
 def test_v1_ids_are_registered_with_their_own_classes():
     for env_id in V1:
-        spec = rbenv.registry.get(env_id)
+        spec = rbenv.envs.registry.get(env_id)
         assert spec.task.name.endswith("_v1") and rbenv.ENV_IDS[env_id][0].endswith("V1Env")
         assert "**Version History**" in spec.env_doc and "* v1:" in spec.env_doc
 

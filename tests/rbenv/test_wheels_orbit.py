@@ -14,8 +14,8 @@ from rbenv.core import kernels as k
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.orbit import Orbit
-from rbenv.scene import Scene
+from rbenv.satellite.orbit import Orbit
+from rbenv.satellite.scene import Scene
 
 DETUMBLE = rbenv.DETUMBLE_ID
 
@@ -269,7 +269,7 @@ def test_a_bad_option_of_another_task_fails_on_any_env_of_the_scene(tmp_path, va
 def _noisy_magnetometer_scene(base: str, sigma: float):
     import dataclasses
 
-    from rbenv.scene import SensorNoise, load_scene
+    from rbenv.satellite.scene import SensorNoise, load_scene
 
     return dataclasses.replace(load_scene(base),
                                sensor_noise=SensorNoise("gaussian", magnetometer=sigma))
@@ -277,7 +277,7 @@ def _noisy_magnetometer_scene(base: str, sigma: float):
 
 def test_the_magnetometer_noise_has_its_scene_sigma():
     """Observed field minus the true field: zero mean and the scene's σ on every axis."""
-    from rbenv.actuators.magnetorquers import FIELD_SCALE_T
+    from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
 
     sigma = 2e-6
     env = gym.make(rbenv.DETUMBLE_ID, scene=_noisy_magnetometer_scene("cubesat-6u-rw", sigma))

@@ -1,5 +1,6 @@
 """The trajectory optimiser (rbenv.agents.baselines.optimal): its own rollout matches the env, and
-the trajectories it optimises, replayed in the env, never beat the lower bounds of rbenv.bounds."""
+the trajectories it optimises, replayed in the env, never beat the lower bounds of
+rbenv.envs.bounds."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 from rbenv.agents.baselines import optimal
 
-from rbenv import bounds as rb
+from rbenv.envs import bounds as rb
 
 SEED = 1_000_000  # the first held-out episode (as tests/rbenv/test_bounds.py)
 

@@ -15,9 +15,9 @@ from rbenv.agents.cli import main
 from rbenv.agents.flight import identify, replay
 
 import rbenv
-from rbenv.actuators.wheels import parse_wheels
-from rbenv.scene import scene_table
-from rbenv.telemetry import Telemetry, load, write_folder
+from rbenv.satellite.actuators.wheels import parse_wheels
+from rbenv.satellite.scene import scene_table
+from rbenv.satellite.telemetry import Telemetry, load, write_folder
 
 ENV_ID = "rbenv/SatelliteReorient-v1"
 START = datetime(2025, 12, 15, 21, 50, 8)

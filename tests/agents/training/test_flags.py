@@ -12,7 +12,7 @@ from rbenv.agents.training import flags
 from rbenv.agents.training.config import RLlibOptions, SB3Options, TrainConfig
 from rbenv.agents.training.rllib import RLlibConfig
 
-from rbenv.usage import InvalidChoiceError
+from rbenv.satellite.usage import InvalidChoiceError
 
 CLASSES = (TrainConfig, RLlibConfig, SB3Options, RLlibOptions)
 

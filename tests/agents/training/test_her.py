@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from rbenv.goal import GOAL_ID
+from rbenv.envs.goal import GOAL_ID
 
 PLAIN_ID, SCENE = "rbenv/SatelliteReorient-v1", "cubesat-12u"
 

@@ -187,7 +187,7 @@ def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite)
     out, data = quick_suite
     policy = load_policy(Path(out) / "cells" / data["cells"][0]["name"] / "run",
                          action="mean_throttle")
-    env = __import__("gymnasium").make(rbenv.registry.by_name("detumble").env_id)  # the cell's
+    env = __import__("gymnasium").make(rbenv.envs.registry.by_name("detumble").env_id)  # the cell's
     obs, _ = env.reset(seed=3)
     expected, _ = policy.predict(obs[None])
     torch.manual_seed(0)
@@ -203,7 +203,7 @@ def test_mean_throttle_is_the_mean_of_the_clipped_stochastic_action(quick_suite)
 def test_an_off_policy_cell_is_evaluated_in_the_env_it_trained_in(tmp_path):
     """SAC trains with torque actions (3, the recipe's env_kwargs); the suite once evaluated
     its checkpoints in the default throttle env (12 actions) and failed on the shape."""
-    cell = Cell("sac", rbenv.registry.get("rbenv/SatelliteDetumble-v1").env_id, "cubesat-12u",
+    cell = Cell("sac", rbenv.envs.registry.get("rbenv/SatelliteDetumble-v1").env_id, "cubesat-12u",
                 0, 10_304)  # just past SAC's learning_starts (10k): two vector steps of updates
     result = run_cell(cell, tmp_path, eval_episodes=4, eval_seed=suite.EVAL_SEED)
     run = tmp_path / "cells" / cell.name / "run"

@@ -12,8 +12,8 @@ Its spaces are Gymnasium Boxes in the env's dtype (actions and observations alik
 its boundary (:class:`TorchEnv`), for the env checkers and single-env tools.
 
 The physics is not restated: the plant, actuators, tasks and integrators of
-:mod:`rbenv.transition` run through the torch namespace (:mod:`rbenv.core.torch_backend`), and
-episode starts come from :mod:`rbenv.torch_draws`, the counter-based draws on the device.
+:mod:`rbenv.envs.transition` run through the torch namespace (:mod:`rbenv.core.torch_backend`), and
+episode starts come from :mod:`rbenv.satellite.torch_draws`, the counter-based draws on the device.
 
 **Autoreset on the device.** SAME_STEP (default): a sub-env that ends returns its new
 episode's first observation; the last one is in ``info["final_obs"]``, an (N, d) tensor whose
@@ -54,21 +54,21 @@ import torch
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from rbenv import transition
-from rbenv.adapter import (
+from rbenv.core import validation
+from rbenv.core.errors import InvalidParameterError
+from rbenv.core.torch_backend import TorchNamespace
+from rbenv.envs import transition
+from rbenv.envs.adapter import (
     TaskAdapter,
     action_array,
     autoreset_mode_of,
     seed_list,
     unknown_options,
 )
-from rbenv.core import validation
-from rbenv.core.errors import InvalidParameterError
-from rbenv.core.torch_backend import TorchNamespace
-from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
-from rbenv.plant import NO_NOISE
-from rbenv.state import State
-from rbenv.torch_draws import TorchDraws
+from rbenv.envs.options import AUTORESET_DEFAULT, ENV_OPTIONS
+from rbenv.satellite.plant import NO_NOISE
+from rbenv.satellite.state import State
+from rbenv.satellite.torch_draws import TorchDraws
 
 __all__ = ["DTYPES", "TorchEnv", "TorchVectorEnv"]
 
@@ -154,7 +154,7 @@ def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
 class TorchVectorEnv(TaskAdapter, VectorEnv):
     """``num_envs`` satellites stepped as torch tensors on ``device`` (see the module doc).
 
-    Options: those of :class:`rbenv.vector_env.AttitudeVectorEnv` (minus the unsupported ones,
+    Options: those of :class:`rbenv.envs.vector_env.AttitudeVectorEnv` (minus the unsupported ones,
     refused by name) plus ``device`` (a torch device, default "cpu"), ``dtype`` ("float64" or
     "float32"), ``compile`` (run the step under ``torch.compile``) and ``check_every`` (steps
     between divergence checks on the host; 0: only at reset and :meth:`check`).
@@ -207,7 +207,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         self._step_fn, self._restart_fn = self._physics, self._restart_all
         self._index_restart = self.device.type == "cpu"
         if validation.flag("compile", compile):
-            from rbenv.torch_compile import CompiledStep
+            from rbenv.envs.torch_compile import CompiledStep
 
             self._step_fn = CompiledStep(self._physics)
             self._restart_fn = CompiledStep(self._restart_all)
@@ -224,7 +224,7 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return t.expand(n or self.num_envs).clone() if t.ndim == 0 else t
 
     def _field(self, kind: str, value, n=None):
-        """One field of a batch state from its start value (:data:`rbenv.state.KINDS`), in
+        """One field of a batch state from its start value (:data:`rbenv.satellite.state.KINDS`), in
         tensors of its own: a start may share one zero array between fields, and aliased
         fields would make ``torch.compile`` guard on the aliasing (a recompilation)."""
         if kind in _COMPONENTS:

@@ -102,16 +102,16 @@ from pathlib import Path
 
 import numpy as np
 
-from rbenv.actuators.tables import safe_to_square
-from rbenv.allocation import validate_torque_matrix
 from rbenv.core import INTEGRATORS, RigidBody, ThrusterLayout
 from rbenv.core import inertia as inertia_lib
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
 from rbenv.core.forces import MAX_THRUSTERS
-from rbenv.orbit import Orbit
-from rbenv.randomization import Randomization
-from rbenv.usage import InvalidChoiceError, invalid_choice
+from rbenv.satellite.actuators.tables import safe_to_square
+from rbenv.satellite.allocation import validate_torque_matrix
+from rbenv.satellite.orbit import Orbit
+from rbenv.satellite.randomization import Randomization
+from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -369,7 +369,7 @@ class Scene:
     sources: tuple = ()
     randomization: Randomization = field(default_factory=Randomization)
     tasks: dict = field(default_factory=dict)  # task name -> its option table (the task checks)
-    # Actuator tables other than [thrusters], parsed by their modules (rbenv.actuators):
+    # Actuator tables other than [thrusters], parsed by their modules (rbenv.satellite.actuators):
     # table name -> parameters.
     actuators: dict = field(default_factory=dict)
     orbit: Orbit = field(default_factory=Orbit)
@@ -434,7 +434,7 @@ class Scene:
 
     def with_randomization(self, randomize) -> Scene:
         """A copy with domain randomization replaced: a dict of sizes (overriding the scene's
-        table), a :class:`rbenv.randomization.Randomization`, or False/None-like off."""
+        table), a :class:`rbenv.satellite.randomization.Randomization`, or False/None-like off."""
         if randomize is False:
             return dataclasses.replace(self, randomization=Randomization())
         if isinstance(randomize, dict):
@@ -643,7 +643,7 @@ def _checked(path: str, table, group) -> dict:
 def _actuator_tables() -> dict:
     """Scene table name → parser of every registered actuator but the thrusters (whose table
     this module parses itself)."""
-    from rbenv.actuators import ACTUATORS
+    from rbenv.satellite.actuators import ACTUATORS
 
     return {name: entry.parse for name, entry in ACTUATORS.items() if entry.parse is not None}
 

@@ -1,11 +1,11 @@
 """``compile=True`` for the torch vector env: its step under ``torch.compile``, or eager.
 
-Two functions are compiled: :meth:`rbenv.torch_env.TorchVectorEnv._physics` (the transition,
+Two functions are compiled: :meth:`rbenv.envs.torch_env.TorchVectorEnv._physics` (the transition,
 its flags and the stacked observation; no host reads) and ``_restart_all`` (the autoreset:
 starts drawn for every row, the ended ones selected), each traced with ``fullgraph=True`` and
 ``dynamic=False``: one graph each per env (scene, task, options, N, dtype, device), and a graph
 break is an error, not a silent slow path. The plant's NumPy constants are traced as tensors
-(:meth:`rbenv.torch_env.DeferredTorchNamespace.const`).
+(:meth:`rbenv.envs.torch_env.DeferredTorchNamespace.const`).
 
 Where compilation is unavailable (no working compiler, an unsupported platform) the first call
 fails; the env then warns once and steps eagerly, with identical results.

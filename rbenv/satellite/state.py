@@ -3,7 +3,7 @@
 The plant, each of its actuators and the task declare their own fields, name → *kind*; a
 :class:`Layout` collects the declarations and refuses a name that two parts declare, naming
 both owners, so no part can overwrite another's field by accident. A kind says how a field is
-stored; an episode start (see :func:`rbenv.transition.start`) gives each field's value in the
+stored; an episode start (see :func:`rbenv.envs.transition.start`) gives each field's value in the
 same form, for the envs being reset (m of them):
 
 =========  ============================  ===========================  ======================

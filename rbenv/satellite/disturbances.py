@@ -20,7 +20,8 @@ for the whole batch at once (components: floats, NumPy or torch arrays). Each to
 
 Everything but the attitude is a function of time on a circular orbit, so the inertial vectors
 (position, field, drag and SRP forces) are tabulated once per episode at every half integrator
-step (:class:`rbenv.orbit.OrbitTable`): a stage looks them up and rotates them into body axes.
+step (:class:`rbenv.satellite.orbit.OrbitTable`): a stage looks them up and rotates them into body
+axes.
 """
 
 from __future__ import annotations

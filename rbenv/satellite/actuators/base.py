@@ -2,13 +2,14 @@
 
 An actuator turns its slice of the action into a command, and its state plus the command into
 its :class:`Contribution` to the equations of motion over one control step. The plant sums the
-contributions of its actuators and integrates (:mod:`rbenv.plant`)::
+contributions of its actuators and integrates (:mod:`rbenv.satellite.plant`)::
 
     I ω̇_B = −ω_B × (I ω_B + h_B) − ḣ_B + τ_B        (h_B: internal angular momentum)
 
-Thrusters (:mod:`rbenv.actuators.thrusters`) are the first implementation; they store no
+Thrusters (:mod:`rbenv.satellite.actuators.thrusters`) are the first implementation; they store no
 momentum (h = ḣ = None). A new actuator is one module with a class that satisfies
-:class:`Actuator`, its scene table parser, and one entry in :data:`rbenv.actuators.ACTUATORS`.
+:class:`Actuator`, its scene table parser, and one entry in
+:data:`rbenv.satellite.actuators.ACTUATORS`.
 
 Values are components as in :mod:`rbenv.core.kernels`: Python floats for one satellite, (N,) arrays
 for N; ``xp`` is the :mod:`rbenv.core.backend` namespace that matches them.
@@ -55,13 +56,13 @@ class Actuator(Protocol):
 
     * ``scene_table``: the TOML table that configures it (``"thrusters"``);
     * ``action_shape`` and ``action_bounds``: its slice of the action and its (low, high);
-    * ``state_fields``: its episode state, name → :mod:`rbenv.state` kind (names must not
+    * ``state_fields``: its episode state, name → :mod:`rbenv.satellite.state` kind (names must not
       clash with the plant's, the task's or another actuator's: the layout refuses them);
     * ``observation_structure``: name → width of its part of the observation ({} for none);
     * ``info_keys``: the info entries it adds;
-    * ``start_stream`` and ``start_slots``: the stream of :class:`rbenv.draws.EpisodeDraws`
-      that :meth:`sample_start` draws from (its ``scene_table``, or ``"plant"`` after the
-      plant's own slots) and how many slots (a hint);
+    * ``start_stream`` and ``start_slots``: the stream of
+      :class:`rbenv.satellite.draws.EpisodeDraws` that :meth:`sample_start` draws from (its
+      ``scene_table``, or ``"plant"`` after the plant's own slots) and how many slots (a hint);
     * ``needs_account``: whether :meth:`account` must run after the physics;
     * ``stores_momentum``: whether its contribution carries internal angular momentum.
     """

@@ -1,6 +1,6 @@
 """Reaction wheels: rotors spun by motors about body-fixed axes, storing angular momentum.
 
-An actuator of the plant (:mod:`rbenv.actuators.base`), configured by the scene table
+An actuator of the plant (:mod:`rbenv.satellite.actuators.base`), configured by the scene table
 ``[wheels]``. Wheel i has a spin axis ĝ_i (body frame), a spin-axis inertia J_i, a motor torque
 limit u_max and a speed limit Ω_max; Ω_i is its speed relative to the body. With
 ``G = [ĝ_1 … ĝ_n]`` and the absolute spin momenta ``h_i = J_i (Ω_i + ĝ_iᵀω)`` the bus obeys
@@ -50,12 +50,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators import tables
-from rbenv.actuators.base import Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
 from rbenv.core.errors import InvalidParameterError
+from rbenv.satellite.actuators import tables
+from rbenv.satellite.actuators.base import Contribution, action_components
 
 __all__ = ["Wheels", "make_wheels", "parse_wheels"]
 

@@ -5,20 +5,24 @@ the actuator's parameters, kept in ``Scene.actuators``) and the maker that build
 from a scene and the env's actuation options (``action_mode``, ``allocator``). The plant builds
 one actuator for every registered table its scene has, in this order, and concatenates their
 action slices in the same order. A new actuator is its module (the class, see
-:class:`rbenv.actuators.base.Actuator`, its table parser and maker) plus one entry here.
+:class:`rbenv.satellite.actuators.base.Actuator`, its table parser and maker) plus one entry here.
 
-``[thrusters]`` predates the registry: ``rbenv.scene`` parses it into ``Scene.thrusters`` (its
-parser here is None).
+``[thrusters]`` predates the registry: ``rbenv.satellite.scene`` parses it into ``Scene.thrusters``
+(its parser here is None).
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
-from rbenv.actuators.base import Actuator, Contribution
-from rbenv.actuators.magnetorquers import Magnetorquers, make_magnetorquers, parse_magnetorquers
-from rbenv.actuators.thrusters import Thrusters, make_thrusters
-from rbenv.actuators.wheels import Wheels, make_wheels, parse_wheels
+from rbenv.satellite.actuators.base import Actuator, Contribution
+from rbenv.satellite.actuators.magnetorquers import (
+    Magnetorquers,
+    make_magnetorquers,
+    parse_magnetorquers,
+)
+from rbenv.satellite.actuators.thrusters import Thrusters, make_thrusters
+from rbenv.satellite.actuators.wheels import Wheels, make_wheels, parse_wheels
 
 __all__ = ["ACTUATORS", "Actuator", "Contribution", "Magnetorquers", "Thrusters", "Wheels",
            "make_actuators"]
@@ -49,5 +53,6 @@ def make_actuators(scene, **options) -> tuple:
                 if _present(scene, table))
     for actuator in out:
         if not isinstance(actuator, Actuator):
-            raise TypeError(f"{type(actuator).__name__} does not satisfy rbenv.actuators.Actuator")
+            raise TypeError(f"{type(actuator).__name__} does not satisfy "
+                            "rbenv.satellite.actuators.Actuator")
     return out

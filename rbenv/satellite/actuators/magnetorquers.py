@@ -1,13 +1,13 @@
 """Magnetorquers: coils whose dipole m turns the satellite against Earth's field, τ = m × B.
 
-An actuator of the plant (:mod:`rbenv.actuators.base`), configured by the scene table
+An actuator of the plant (:mod:`rbenv.satellite.actuators.base`), configured by the scene table
 ``[magnetorquers]``: rod axes (body frame) and the largest dipole of each rod (A·m²). The action
 (every mode) is one entry per rod, the dipole as a fraction of its maximum in [-1, 1]; the body
 dipole is ``m_B = G_t μ``, held over the control step as the envs hold every command, and the
-torque ``m_B × R(q)ᵀ B_N(t)`` with the field of the scene's orbit (:mod:`rbenv.orbit`), fixed in
-inertial axes: the plant evaluates it at every integrator stage (:mod:`rbenv.disturbances`),
-since the body turns under the field. Only the part of a torque perpendicular to B can be
-made.
+torque ``m_B × R(q)ᵀ B_N(t)`` with the field of the scene's orbit (:mod:`rbenv.satellite.orbit`),
+fixed in inertial axes: the plant evaluates it at every integrator stage
+(:mod:`rbenv.satellite.disturbances`), since the body turns under the field. Only the part of a
+torque perpendicular to B can be made.
 
 Effort: electrical power ``Σ |μ_i|/μ_max,i · P_max,i`` over its maximum (``power_W`` per rod at
 full dipole); ``mtq_energy_J`` accounts it. Observation part: the magnetometer, ``B_B`` over
@@ -21,11 +21,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators import tables
-from rbenv.actuators.base import Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
+from rbenv.satellite.actuators import tables
+from rbenv.satellite.actuators.base import Contribution, action_components
 
 __all__ = ["Magnetorquers", "make_magnetorquers", "parse_magnetorquers"]
 

@@ -1,4 +1,4 @@
-"""Single-satellite Gymnasium envs: a thin adapter over :mod:`rbenv.transition`.
+"""Single-satellite Gymnasium envs: a thin adapter over :mod:`rbenv.envs.transition`.
 
 One class, :class:`AttitudeEnv`, serves every task; each shipped id has a subclass that names
 its task entry and carries its documentation (``SatelliteReorientEnv``,
@@ -14,13 +14,13 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 
-from rbenv import transition
-from rbenv.adapter import TaskAdapter, action_array, check_backend, task_of, unknown_options
 from rbenv.core.backend import FLOAT
-from rbenv.draws import EpisodeDraws, check_seed
-from rbenv.options import ENV_OPTIONS
-from rbenv.plant import NO_NOISE
-from rbenv.state import from_start
+from rbenv.envs import transition
+from rbenv.envs.adapter import TaskAdapter, action_array, check_backend, task_of, unknown_options
+from rbenv.envs.options import ENV_OPTIONS
+from rbenv.satellite.draws import EpisodeDraws, check_seed
+from rbenv.satellite.plant import NO_NOISE
+from rbenv.satellite.state import from_start
 from rbenv.tasks import desaturate, detumble, reorient, track
 
 RENDER_MODES = ("human", "rgb_array")
@@ -33,10 +33,10 @@ class AttitudeEnv(TaskAdapter, gym.Env):
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
 
     def __new__(cls, *args, backend="numpy", task=None, **kwargs):
-        """``backend="torch"`` makes the torch single env instead (:class:`rbenv.torch_env.
+        """``backend="torch"`` makes the torch single env instead (:class:`rbenv.envs.torch_env.
         TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
         if check_backend(backend):
-            from rbenv.torch_env import TorchEnv
+            from rbenv.envs.torch_env import TorchEnv
 
             return TorchEnv(*args, task=task_of(cls, task), **kwargs)
         return super().__new__(cls)
@@ -130,7 +130,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             self._renderer = None
 
 
-# One class per shipped id (rbenv.registry registers each as the id's entry point).
+# One class per shipped id (rbenv.envs.registry registers each as the id's entry point).
 
 
 class SatelliteReorientEnv(AttitudeEnv):

@@ -34,7 +34,7 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv.core.backend import FLOAT
-from rbenv.draws import check_seed
+from rbenv.satellite.draws import check_seed
 from rbenv.tasks import v1
 from rbenv.tasks.spec import MAX_EPISODE_STEPS
 
@@ -189,5 +189,5 @@ def register() -> None:
     """Register :data:`GOAL_ID` with Gymnasium (done by ``import rbenv``)."""
     if GOAL_ID in gym.registry:
         del gym.registry[GOAL_ID]
-    gym.register(id=GOAL_ID, entry_point="rbenv.goal:make_goal_env",
+    gym.register(id=GOAL_ID, entry_point="rbenv.envs.goal:make_goal_env",
                  max_episode_steps=MAX_EPISODE_STEPS)

@@ -17,8 +17,8 @@ episode, what a model-based controller believes it knows:
 
 The policy does not observe any of these values, and the scripted baselines keep using the
 nominal model: this is where a learned, robust policy can beat a model-based one. All draws come
-from the episode's counter-based stream ("randomization", :mod:`rbenv.draws`), so the single env
-and sub-env ``i`` of the vector env draw the same physics for the same (seed, episode).
+from the episode's counter-based stream ("randomization", :mod:`rbenv.satellite.draws`), so the
+single env and sub-env ``i`` of the vector env draw the same physics for the same (seed, episode).
 """
 
 from __future__ import annotations
@@ -124,8 +124,8 @@ class EpisodeModel:
     """The true physics of N episodes (N = 1 for the single env): body, actuation, delay.
 
     inertia: (N, 3, 3) kg·m². com_offset_B: (N, 3) m. action_matrix: (N, n, k) throttles →
-    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.plant.action_matrix`. delayed: (N,) bool. body: a
-    :class:`RigidBody` (single) or :class:`BatchBody`. ``single()`` gives the one-env view.
+    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.satellite.plant.action_matrix`. delayed: (N,) bool.
+    body: a :class:`RigidBody` (single) or :class:`BatchBody`. ``single()`` gives the one-env view.
     """
 
     __slots__ = ("action_matrix", "body", "com_offset_B", "delayed", "inertia", "mass")

@@ -1,12 +1,12 @@
 """Thrusters: body-fixed nozzles at lever arms, fired as duty cycles over a control step.
 
-The first actuator of the plant (:mod:`rbenv.actuators.base`). Its scene table is
+The first actuator of the plant (:mod:`rbenv.satellite.actuators.base`). Its scene table is
 ``[thrusters]`` (positions, directions, max_force, isp). Three action modes turn its action
 slice into throttles u in [0, 1]: ``throttle`` (one entry per thruster, ``clip(a, 0, 1)``),
 ``on_off`` (``a > 0`` fires at full throttle) and ``torque`` (a body torque as a fraction of the
-per-axis authority, turned into throttles by an allocator, :mod:`rbenv.allocation`). Faults
-(thrusters stuck off, at reset or mid-episode), a one-step control delay and the episode's
-randomized layout (:mod:`rbenv.randomization`) act on the throttles before they fire.
+per-axis authority, turned into throttles by an allocator, :mod:`rbenv.satellite.allocation`).
+Faults (thrusters stuck off, at reset or mid-episode), a one-step control delay and the episode's
+randomized layout (:mod:`rbenv.satellite.randomization`) act on the throttles before they fire.
 
 Its effort is the thrust fraction ``Σu_iF_i / ΣF_i`` (propellant flow relative to all thrusters
 at full throttle); it accounts the impulse ``Σu_iF_i·dt`` and the propellant
@@ -20,9 +20,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators.base import Contribution, nan_action_error
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY, row_product, rows
+from rbenv.satellite.actuators.base import Contribution, nan_action_error
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "G0", "Thrusters", "action_matrix", "nan_action_error"]
 
@@ -94,7 +94,7 @@ class Thrusters:
                   # per thruster with random faults (kept there: seeded episodes unchanged).
                   "start_slots": lay.n if self.fault_model == "random" else 0}
         if torque:
-            from rbenv.allocation import axis_authority, make_allocator
+            from rbenv.satellite.allocation import axis_authority, make_allocator
 
             values["allocator"] = make_allocator(self.allocator_name, lay.torque_matrix_B)
             values["torque_authority"] = axis_authority(lay.torque_matrix_B)

@@ -3,8 +3,8 @@
 
 Everything else derives from it or is tested against it (tests/rbenv/test_options.py): the
 names the adapters accept (:data:`ENV_OPTIONS`), the keyword arguments of the env
-constructors, :func:`rbenv.tasks.build` and :func:`rbenv.plant.make_plant`, the Arguments table
-of every env's docstring (:func:`options_table`) and the Options table of docs/api.md, which
+constructors, :func:`rbenv.tasks.build` and :func:`rbenv.satellite.plant.make_plant`, the Arguments
+table of every env's docstring (:func:`options_table`) and the Options table of docs/api.md, which
 adds the backend options (:class:`BackendOptions`: numpy or torch, and the torch env's own).
 """
 
@@ -60,7 +60,7 @@ class EnvOptions:
 
 @dataclasses.dataclass(frozen=True)
 class BackendOptions:
-    """The options that choose the array backend (``rbenv.torch_env`` holds the torch envs and
+    """The options that choose the array backend (``rbenv.envs.torch_env`` holds the torch envs and
     takes the torch ones; tests/rbenv/test_options.py holds their defaults equal to its)."""
 
     backend: str = "numpy"

@@ -1,7 +1,7 @@
 """Native NumPy vector envs: N satellites stepped by the same transition as the single env.
 
 :class:`AttitudeVectorEnv` is the thin ``gymnasium.vector.VectorEnv`` adapter over
-:mod:`rbenv.transition` with (N,) arrays; each shipped id has a subclass naming its task entry,
+:mod:`rbenv.envs.transition` with (N,) arrays; each shipped id has a subclass naming its task entry,
 set as the id's ``vector_entry_point``.
 """
 
@@ -14,8 +14,11 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from rbenv import transition
-from rbenv.adapter import (
+from rbenv.core import validation
+from rbenv.core.backend import NUMPY
+from rbenv.core.errors import InvalidParameterError
+from rbenv.envs import transition
+from rbenv.envs.adapter import (
     TaskAdapter,
     action_array,
     autoreset_mode_of,
@@ -24,22 +27,19 @@ from rbenv.adapter import (
     task_of,
     unknown_options,
 )
-from rbenv.core import validation
-from rbenv.core.backend import NUMPY
-from rbenv.core.errors import InvalidParameterError
-from rbenv.draws import EpisodeDraws
-from rbenv.options import AUTORESET_DEFAULT, ENV_OPTIONS
-from rbenv.state import State, assign, from_start
+from rbenv.envs.options import AUTORESET_DEFAULT, ENV_OPTIONS
+from rbenv.satellite.draws import EpisodeDraws
+from rbenv.satellite.state import State, assign, from_start
 from rbenv.tasks import desaturate, detumble, reorient, track
 
 
 class AttitudeVectorEnv(TaskAdapter, VectorEnv):
-    """``num_envs`` copies of a single :class:`rbenv.env.AttitudeEnv` as one NumPy batch.
+    """``num_envs`` copies of a single :class:`rbenv.envs.env.AttitudeEnv` as one NumPy batch.
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
     ``max_episode_steps`` (``make_vec`` passes the registered value; the scene's duration also
     applies, whichever is shorter), ``autoreset_mode`` (unset: NEXT_STEP,
-    :data:`rbenv.options.AUTORESET_DEFAULT`), and ``compiled`` (True: step with the
+    :data:`rbenv.envs.options.AUTORESET_DEFAULT`), and ``compiled`` (True: step with the
     numba-compiled kernels of :mod:`rbenv.core.compiled`, from the extra ``rbenv[fast]``; the first
     step pays a few seconds of compilation).
 
@@ -53,11 +53,11 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     **Seeding**. ``reset(seed=s)`` seeds sub-env ``i`` with ``s + i`` (or takes a list of N
     seeds); every episode start of sub-env ``i`` then equals that of a single env reset with
-    seed ``s + i``, episode by episode (:mod:`rbenv.draws`), so scripted and learned policies
-    meet identical episodes. ``np_random_seed`` is the tuple of the sub-envs' seeds. Per-step
-    randomness (sensor and disturbance noise, mid-episode faults) is drawn for the whole batch
-    from ``self.np_random``: with those models on, sub-envs are reproducible but their noise is
-    not the single env's.
+    seed ``s + i``, episode by episode (:mod:`rbenv.satellite.draws`), so scripted and learned
+    policies meet identical episodes. ``np_random_seed`` is the tuple of the sub-envs' seeds.
+    Per-step randomness (sensor and disturbance noise, mid-episode faults) is drawn for the whole
+    batch from ``self.np_random``: with those models on, sub-envs are reproducible but their noise
+    is not the single env's.
 
     **Info**: a dict of (N,) arrays with a ``_key`` mask each, keys as the single env.
     **Reset options**: as the single env with a leading num_envs axis, row i for sub-env i.
@@ -67,10 +67,10 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
                                 "autoreset_mode": AUTORESET_DEFAULT["numpy"]}
 
     def __new__(cls, *args, backend="numpy", task=None, **kwargs):
-        """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.torch_env`,
+        """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.envs.torch_env`,
         needs torch); "numpy" (default) this one."""
         if check_backend(backend):
-            from rbenv.torch_env import TorchVectorEnv
+            from rbenv.envs.torch_env import TorchVectorEnv
 
             return TorchVectorEnv(*args, task=task_of(cls, task), **kwargs)
         return super().__new__(cls)
@@ -270,7 +270,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
 
     def _own_info(self, values: dict) -> dict:
-        """A step's info dict (:func:`rbenv.transition.info` of every sub-env) as this env
+        """A step's info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
         returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
         writes the state in place, and SyncVectorEnv's info never changes), each with its
         ``_key`` mask."""
@@ -318,7 +318,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             self._renderer = None
 
 
-# One class per shipped id (rbenv.registry registers each as the id's vector entry point).
+# One class per shipped id (rbenv.envs.registry registers each as the id's vector entry point).
 
 
 class SatelliteReorientVectorEnv(AttitudeVectorEnv):

@@ -4,7 +4,7 @@ Both Gymnasium adapters call these functions, the single env with Python floats 
 env with (N,) arrays (``xp`` is the :mod:`rbenv.core.backend` namespace of the state):
 
 * :func:`start` builds episode starts for the envs being reset from their counter-based draws
-  (:mod:`rbenv.draws`) and the reset options;
+  (:mod:`rbenv.satellite.draws`) and the reset options;
 * :func:`step` applies an action and returns ``(new_state, outcome)``: actuation, physics,
   target motion, task evaluation, observation and info, in that order. It never changes the
   state it is given, and it does not raise on divergence: ``outcome.diverged`` flags the
@@ -20,8 +20,8 @@ import numpy as np
 
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
-from rbenv.plant import Plant, StepNoise, nan_action_error
-from rbenv.state import Layout
+from rbenv.satellite.plant import Plant, StepNoise, nan_action_error
+from rbenv.satellite.state import Layout
 from rbenv.tasks.base import _DEG, error_quaternion
 
 __all__ = ["Outcome", "info", "layout", "observe", "raise_diverged", "start", "step"]
@@ -95,7 +95,7 @@ def raise_diverged(plant: Plant, st, action) -> None:
 
 def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     """Observation components; with sensor noise, from the noisy measurement; with sensors
-    as flown, from what they show (rbenv.sensing)."""
+    as flown, from what they show (rbenv.satellite.sensing)."""
     if plant.sensors is not None:
         obs = task.observe(st, st.sensed_q, st.sensed_omega_B, xp)
     elif sensor_noise is None:
@@ -128,7 +128,7 @@ def info(plant: Plant, task, st, terms, success, xp) -> dict:
 
 
 def render_values(plant: Plant, task, st, index: int | None = None) -> dict:
-    """Keyword arguments of :meth:`rbenv.rendering.Renderer.frame` for one satellite.
+    """Keyword arguments of :meth:`rbenv.envs.rendering.Renderer.frame` for one satellite.
 
     index: the sub-env of a batch state, or None for a single env's state.
     """
@@ -163,7 +163,7 @@ def zero_terms(task, value=0.0) -> tuple:
 
 
 def start(plant: Plant, task, draws, options=None, rows=None, num_envs=None) -> dict:
-    """Start values (see :mod:`rbenv.state`) of new episodes for the ``draws.n`` envs.
+    """Start values (see :mod:`rbenv.satellite.state`) of new episodes for the ``draws.n`` envs.
 
     options: the reset options (names in ``task.reset_options`` and ``plant.reset_options``);
     for the vector env their leading axis is ``num_envs`` and ``rows`` selects the rows of the

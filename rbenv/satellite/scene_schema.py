@@ -2,11 +2,12 @@
 its unit, default and meaning.
 
 docs/scenes.md's reference is generated from it (:func:`reference_markdown`; ``python -m
-rbenv.scene_schema`` prints it). tests/rbenv/test_scene_schema.py holds the keys declared here
-equal to the keys each table's parser accepts (:mod:`rbenv.scene`, :mod:`rbenv.actuators`,
-:mod:`rbenv.orbit`, :mod:`rbenv.randomization`, the tasks' ``OPTIONS``), the defaults equal to
-the parsers' dataclass defaults, and the committed page equal to the generated text, so the
-page cannot drift from the code.
+rbenv.satellite.scene_schema`` prints it). tests/rbenv/test_scene_schema.py holds the keys declared
+here equal to the keys each table's parser accepts (:mod:`rbenv.satellite.scene`,
+:mod:`rbenv.satellite.actuators`, :mod:`rbenv.satellite.orbit`,
+:mod:`rbenv.satellite.randomization`, the tasks' ``OPTIONS``), the defaults equal to the parsers'
+dataclass defaults, and the committed page equal to the generated text, so the page cannot drift
+from the code.
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ TABLES: tuple[Table, ...] = (
         Key("max_force", "N", "full thrust: one number, or one per thruster", REQUIRED),
         Key("isp", "s", "specific impulse: propellant = impulse / (isp · g0)", "65.0"),
     )),
-    Table("[wheels]", "reaction wheels (rbenv.actuators.wheels)", (
+    Table("[wheels]", "reaction wheels (rbenv.satellite.actuators.wheels)", (
         Key("axes", "", "spin axes [[x, y, z], ...], body axes (normalised); 1 to 16 wheels",
             REQUIRED),
         Key("inertia", "kg·m²", "spin-axis inertia: one number, or one per wheel", REQUIRED),
@@ -108,15 +109,16 @@ TABLES: tuple[Table, ...] = (
         Key("speed_quantization_rpm", "rpm", "as flown: the observed wheel speed is rounded to "
                                              "this step", "0.0"),
     )),
-    Table("[magnetorquers]", "magnetic torque rods (rbenv.actuators.magnetorquers); they need an "
-                             "[orbit] with magnetic_field = true", (
+    Table("[magnetorquers]", "magnetic torque rods (rbenv.satellite.actuators.magnetorquers); "
+                             "they need an [orbit] with magnetic_field = true", (
         Key("axes", "", "rod axes [[x, y, z], ...], body axes (normalised); 1 to 16 rods",
             REQUIRED),
         Key("max_dipole", "A·m²", "largest dipole: one number, or one per rod", REQUIRED),
         Key("power_W", "W", "electrical power at full dipole: one, or one per rod", "0.0"),
     )),
     Table("[sensors]", "sensing as flown (opt-in): the observed attitude integrated from a "
-                       "gyro with bias and noise, and an observation delay (rbenv.scene)", (
+                       "gyro with bias and noise, and an observation delay "
+                       "(rbenv.satellite.scene)", (
         Key("attitude", "", '"true" (the state, or [sensor_noise]) or "gyro" (integrated from '
                             "the gyro from the true start, so it drifts)"),
         Key("gyro_bias_sigma_dps", "°/s", "gyro bias drawn per episode, 1σ per axis"),
@@ -125,13 +127,13 @@ TABLES: tuple[Table, ...] = (
         Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ"),
         Key("delay_steps", "", "0 or 1: the observation shows the previous control step's "
                                "measurement"),
-    ), "rbenv.scene:Sensors"),
+    ), "rbenv.satellite.scene:Sensors"),
     Table("[physics]", "how the dynamics are integrated", (
         Key("integrator", "", "a name in rbenv.core.INTEGRATORS"),
         Key("substeps", "", "integrator steps per control step"),
         Key("control_dt", "s", "one env step; throttles are duty cycles over it"),
         Key("translation", "", "also integrate the centre of mass under the net force"),
-    ), "rbenv.scene:Physics"),
+    ), "rbenv.satellite.scene:Physics"),
     Table("[disturbance]", "a torque on the body, body axes", (
         Key("model", "", '"none", "constant" or "random"'),
         Key("torque", "N·m", "constant: this torque [x, y, z], always"),
@@ -139,18 +141,18 @@ TABLES: tuple[Table, ...] = (
                                  "episode"),
         Key("noise_sigma", "N·m", "random: per-axis 1σ of white noise redrawn each control "
                                   "step"),
-    ), "rbenv.scene:Disturbance"),
+    ), "rbenv.satellite.scene:Disturbance"),
     Table("[faults]", "thrusters failing stuck off (no thrust, no propellant)", (
         Key("model", "", '"none" or "random"'),
         Key("p_reset", "", "probability that each thruster fails at reset"),
         Key("p_step", "", "probability per control step that a working thruster fails"),
-    ), "rbenv.scene:Faults"),
+    ), "rbenv.satellite.scene:Faults"),
     Table("[sensor_noise]", "Gaussian noise on the observation only, 1σ", (
         Key("model", "", '"none" or "gaussian"'),
         Key("attitude", "rad", "per axis, a small rotation of the measured attitude"),
         Key("rate", "rad/s", "per axis of the measured body rate"),
         Key("magnetometer", "T", "per body axis of the measured field (scenes with rods)"),
-    ), "rbenv.scene:SensorNoise"),
+    ), "rbenv.satellite.scene:SensorNoise"),
     Table("[episode]", "the episode's rules", (
         Key("duration", "s", "episode length (episode steps = round(duration / control_dt))"),
         Key("rate_limit", "rad/s", "|ω| above it is loss of control: the episode terminates"),
@@ -160,8 +162,8 @@ TABLES: tuple[Table, ...] = (
         Key("max_initial_angle_deg", "deg", "initial attitude error at most this (180: "
                                             "attitude and target uniform)"),
         Key("max_initial_rate", "rad/s", "initial tumble |ω| uniform in [0, this]"),
-    ), "rbenv.scene:Episode"),
-    Table("[orbit]", "a circular orbit and its effects on the attitude (rbenv.orbit)", (
+    ), "rbenv.satellite.scene:Episode"),
+    Table("[orbit]", "a circular orbit and its effects on the attitude (rbenv.satellite.orbit)", (
         Key("model", "", '"none" or "circular"'),
         Key("altitude_km", "km", "altitude above the equatorial radius"),
         Key("inclination_deg", "deg", "orbit inclination"),
@@ -175,35 +177,38 @@ TABLES: tuple[Table, ...] = (
         Key("residual_dipole", "", "the nested table [orbit.residual_dipole] (opt-in)"),
         Key("drag", "", "the nested table [orbit.drag] (opt-in)"),
         Key("srp", "", "the nested table [orbit.srp] (opt-in)"),
-    ), "rbenv.orbit:Orbit"),
+    ), "rbenv.satellite.orbit:Orbit"),
     Table("[orbit.residual_dipole]", "the spacecraft's own magnetic dipole, torque m × B "
                                      "evaluated at every integrator stage (needs "
-                                     "magnetic_field = true; rbenv.disturbances)", (
+                                     "magnetic_field = true; rbenv.satellite.disturbances)", (
         Key("moment_B_Am2", "A·m²", "the dipole [x, y, z], body axes, |m| ≤ 10"),
-    ), "rbenv.disturbances:ResidualDipole"),
+    ), "rbenv.satellite.disturbances:ResidualDipole"),
     Table("[orbit.drag]", "aerodynamic torque: exponential atmosphere by altitude (Vallado "
-                          "table 8-4), air co-rotating with the Earth (rbenv.disturbances)", (
+                          "table 8-4), air co-rotating with the Earth "
+                          "(rbenv.satellite.disturbances)", (
         Key("area_m2", "m²", "reference area facing the flow"),
         Key("cd", "", "drag coefficient (≈ 2.2 in free molecular flow)"),
         Key("cp_offset_B_m", "m", "centre of pressure minus centre of mass, body axes"),
         Key("density_scale", "", "factor on the table's density (solar activity)"),
-    ), "rbenv.disturbances:Drag"),
+    ), "rbenv.satellite.disturbances:Drag"),
     Table("[orbit.srp]", "solar radiation pressure torque, cylindrical Earth shadow "
-                         "(info['eclipse']), analytic Sun direction (rbenv.disturbances)", (
+                         "(info['eclipse']), analytic Sun direction "
+                         "(rbenv.satellite.disturbances)", (
         Key("area_m2", "m²", "area facing the Sun"),
         Key("reflectivity", "", "in [0, 1]; C_R = 1 + reflectivity"),
         Key("cp_offset_B_m", "m", "centre of pressure minus centre of mass, body axes"),
         Key("epoch", "", "ISO 8601 UTC date-time of the episode start"),
-    ), "rbenv.disturbances:SolarPressure"),
+    ), "rbenv.satellite.disturbances:SolarPressure"),
     Table("[randomization]", "domain randomization: sizes of the per-episode perturbations, all "
-                             "0 = off (rbenv.randomization; gym.make's randomize= overrides)", (
+                             "0 = off (rbenv.satellite.randomization; gym.make's randomize= "
+                             "overrides)", (
         Key("inertia_scale", "fraction", "each principal second moment scaled by 1 ± this"),
         Key("inertia_rotation_deg", "deg", "the mass distribution turned by up to this"),
         Key("com_offset", "m", "centre of mass moved within a ball of this radius"),
         Key("force_scale", "fraction", "each thruster's force scaled by 1 ± this"),
         Key("misalignment_deg", "deg", "each thruster's direction tilted by up to this"),
         Key("delay_probability", "", "probability of a one-step control delay for the episode"),
-    ), "rbenv.randomization:Randomization"),
+    ), "rbenv.satellite.randomization:Randomization"),
 )
 
 # [tasks.<task>] tables: each task's options (defaults: the task class's OPTIONS).

@@ -1,6 +1,6 @@
-"""Counter-based episode-start draws on torch tensors: :mod:`rbenv.draws` on the device.
+"""Counter-based episode-start draws on torch tensors: :mod:`rbenv.satellite.draws` on the device.
 
-The same numbers as :class:`rbenv.draws.EpisodeDraws` (``value = f(seed, episode, stream,
+The same numbers as :class:`rbenv.satellite.draws.EpisodeDraws` (``value = f(seed, episode, stream,
 slot)``, SplitMix64's finaliser, top 53 bits, Box–Muller), computed with int64 tensor
 operations on any device, so an autoreset needs no generator object and no host round trip.
 torch has no uint64 arithmetic on CPU, so the hash runs on int64: multiplication and addition
@@ -9,8 +9,8 @@ the sign-extended bits. The integer keys are bit-identical to NumPy's; the unifo
 (``z >> 11 < 2⁵³``); normals may differ from NumPy's in the last bit, where torch's ``log1p``
 or ``cos`` rounds differently.
 
-The constants (golden ratio, multipliers, stream keys) are taken from :mod:`rbenv.draws`, never
-restated.
+The constants (golden ratio, multipliers, stream keys) are taken from :mod:`rbenv.satellite.draws`,
+never restated.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import math
 
 import torch
 
-from rbenv import draws as _np_draws
+from rbenv.satellite import draws as _np_draws
 
 __all__ = ["TorchDraws"]
 
@@ -44,7 +44,7 @@ def _shr(z: torch.Tensor, s: int) -> torch.Tensor:
 
 
 def _mix(z: torch.Tensor) -> torch.Tensor:
-    """SplitMix64's finaliser on int64 tensors (the bits of :func:`rbenv.draws._mix`)."""
+    """SplitMix64's finaliser on int64 tensors (the bits of :func:`rbenv.satellite.draws._mix`)."""
     z = (z ^ _shr(z, 30)) * _M1
     z = (z ^ _shr(z, 27)) * _M2
     return z ^ _shr(z, 31)
@@ -58,7 +58,7 @@ def keys(seeds: torch.Tensor, episodes: torch.Tensor) -> torch.Tensor:
 class TorchDraws:
     """The random numbers of one episode start for each of N envs, as (N,) tensors.
 
-    The interface of :class:`rbenv.draws.EpisodeDraws` for a batch (``single`` is False):
+    The interface of :class:`rbenv.satellite.draws.EpisodeDraws` for a batch (``single`` is False):
     ``uniform``/``normal`` give components, ``uniform_array``/``normal_array`` (count, N)
     tensors, in ``xp.dtype`` on ``xp.device``; ``xp`` is the env's torch namespace.
     seeds, episodes: (N,) int64 tensors on the device.

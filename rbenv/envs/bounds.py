@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from rbenv.actuators.thrusters import G0
 from rbenv.core.errors import InvalidParameterError
-from rbenv.scene import Scene, load_scene
+from rbenv.satellite.actuators.thrusters import G0
+from rbenv.satellite.scene import Scene, load_scene
 
 __all__ = [
     "SceneLimits",
@@ -357,8 +357,8 @@ def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = No
     """
     import gymnasium as gym
 
-    from rbenv import transition
-    from rbenv.draws import EpisodeDraws
+    from rbenv.envs import transition
+    from rbenv.satellite.draws import EpisodeDraws
     from rbenv.tasks import reorient
 
     kwargs = dict(env_kwargs)

@@ -26,10 +26,10 @@ import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from rbenv import disturbances as dist
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
+from rbenv.satellite import disturbances as dist
 
 __all__ = ["IGRF14_2025_NT", "MU_EARTH", "OMEGA_EARTH", "R_EQ", "R_REF", "Orbit", "OrbitTable"]
 
@@ -46,10 +46,10 @@ class Orbit:
 
     model: "none" or "circular". gravity_gradient, magnetic_field: each effect on or off.
     residual_dipole, drag, srp: the nested opt-in tables ``[orbit.residual_dipole]``,
-    ``[orbit.drag]`` and ``[orbit.srp]`` (:mod:`rbenv.disturbances`), or None.
+    ``[orbit.drag]`` and ``[orbit.srp]`` (:mod:`rbenv.satellite.disturbances`), or None.
     """
 
-    # Earth's constants, for the disturbances that take an orbit (rbenv.disturbances).
+    # Earth's constants, for the disturbances that take an orbit (rbenv.satellite.disturbances).
     EARTH_RADIUS: ClassVar[float] = R_EQ
     EARTH_RATE: ClassVar[float] = OMEGA_EARTH
 
@@ -61,7 +61,7 @@ class Orbit:
     earth_rotation_deg: float = 0.0
     gravity_gradient: bool = False
     magnetic_field: bool = False
-    # Nested opt-in tables (rbenv.disturbances): a dict from the scene, parsed to a frozen
+    # Nested opt-in tables (rbenv.satellite.disturbances): a dict from the scene, parsed to a frozen
     # dataclass here, or None.
     residual_dipole: object = None
     drag: object = None

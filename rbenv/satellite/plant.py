@@ -1,7 +1,7 @@
 """The plant: one satellite and its actuators, whatever the task asks of it.
 
-The plant splits an action among its actuators (:mod:`rbenv.actuators`; thrusters today), sums
-their contributions (body torque and force, internal angular momentum) and integrates the
+The plant splits an action among its actuators (:mod:`rbenv.satellite.actuators`; thrusters today),
+sums their contributions (body torque and force, internal angular momentum) and integrates the
 attitude (and the centre of mass, when the scene models translation) over one control step
 with the scene's integrator and substeps, under the disturbance torque. It also measures the
 state for the observation (sensor noise) and draws its own part of an episode start
@@ -10,7 +10,7 @@ or rewards: that is the task's business (:mod:`rbenv.tasks`).
 
 A step that leaves the state non-finite is not an exception here: :meth:`Plant.advance`
 returns a per-satellite flag, and the adapters turn it into :class:`NonFiniteError`
-(:func:`rbenv.transition.raise_diverged`).
+(:func:`rbenv.envs.transition.raise_diverged`).
 
 States are component tuples as in :mod:`rbenv.core.kernels`: Python floats for the single env, (N,)
 arrays for the vector env; ``xp`` is the matching :mod:`rbenv.core.backend` namespace.
@@ -24,17 +24,22 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rbenv import sensing
-from rbenv.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
-from rbenv.actuators.thrusters import ACTION_MODES, ALLOCATORS, action_matrix, nan_action_error
 from rbenv.core import INTEGRATORS, validation
 from rbenv.core import kernels as k
 from rbenv.core.dynamics import check_finite_state, translate
 from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
-from rbenv.disturbances import OrbitTorque
-from rbenv.orbit import OrbitTable
-from rbenv.randomization import Randomization, draw_episode_model
-from rbenv.scene import Scene
+from rbenv.satellite import sensing
+from rbenv.satellite.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
+from rbenv.satellite.actuators.thrusters import (
+    ACTION_MODES,
+    ALLOCATORS,
+    action_matrix,
+    nan_action_error,
+)
+from rbenv.satellite.disturbances import OrbitTorque
+from rbenv.satellite.orbit import OrbitTable
+from rbenv.satellite.randomization import Randomization, draw_episode_model
+from rbenv.satellite.scene import Scene
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "NO_NOISE", "PLANT_FIELDS", "Plant", "StepNoise",
            "action_matrix", "make_plant", "nan_action_error"]
@@ -48,17 +53,17 @@ class StepNoise(NamedTuple):
     faults: object
     disturbance: tuple | None
     sensor: tuple | None
-    gyro: tuple | None = None  # 6 normals of the gyro (rbenv.sensing), or None
+    gyro: tuple | None = None  # 6 normals of the gyro (rbenv.satellite.sensing), or None
 
 
-# The plant's own state fields and their storage kinds (rbenv.state). q: body→world
+# The plant's own state fields and their storage kinds (rbenv.satellite.state). q: body→world
 # quaternion. omega_B: body rate, rad/s. x, v: centre-of-mass position (m) and velocity (m/s),
 # with translation only. bias: disturbance bias torque, N·m (random model only). steps: control
-# steps taken. model: the episode's randomized physics (rbenv.randomization.EpisodeModel) or
-# None. The actuators declare their own fields.
+# steps taken. model: the episode's randomized physics (rbenv.satellite.randomization.EpisodeModel)
+# or None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
                 "model": "obj", "field_B_T": "c3",  # field_B_T: Earth's field now, T (orbit)
-                **sensing.FIELDS}  # sensing as flown (rbenv.sensing), None when off
+                **sensing.FIELDS}  # sensing as flown (rbenv.satellite.sensing), None when off
 _ZERO = (0.0, 0.0, 0.0)
 PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration")  # acceleration: wheels only
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
@@ -68,8 +73,8 @@ _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three norm
 class Plant:
     """Scene plus actuation options, with everything the per-step code needs precomputed.
 
-    Build with :func:`make_plant`. ``actuators``: the scene's actuators (rbenv.actuators), in
-    action order.
+    Build with :func:`make_plant`. ``actuators``: the scene's actuators (rbenv.satellite.actuators),
+    in action order.
     """
 
     scene: Scene
@@ -81,9 +86,9 @@ class Plant:
     sole_actuator: object = field(init=False, repr=False)  # the only actuator, or None
     observed: bool = field(init=False)  # some actuator adds to the observation
     body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
-    orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
-    orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
-    # rbenv.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
+    orbit: object = field(init=False, repr=False)  # rbenv.satellite.orbit.Orbit, or None
+    orbit_table: object = field(init=False, repr=False)  # rbenv.satellite.orbit.OrbitTable, or None
+    # rbenv.satellite.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
     # integrator stage; None without them (the kernels then run as for a free body).
     orbit_torque: object = field(init=False, repr=False)
     eclipse_known: bool = field(init=False)  # the scene models the Sun: info has "eclipse"
@@ -99,7 +104,7 @@ class Plant:
     sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
     sensor_draws: int = field(init=False)  # standard normals per sensor draw: 6 or 9
     randomization: Randomization | None = field(init=False)
-    sensors: object = field(init=False)  # rbenv.scene.Sensors when on, else None
+    sensors: object = field(init=False)  # rbenv.satellite.scene.Sensors when on, else None
     gyro_noisy: bool = field(init=False)  # a step draws the gyro's normals
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
@@ -184,7 +189,7 @@ class Plant:
     @property
     def wheels(self):
         """The reaction-wheel actuator (the scene's ``[wheels]``), or None."""
-        from rbenv.actuators import Wheels
+        from rbenv.satellite.actuators import Wheels
 
         return next((a for a in self.actuators if isinstance(a, Wheels)), None)
 
@@ -205,7 +210,8 @@ class Plant:
 
     @property
     def state_parts(self) -> tuple:
-        """(owner, fields) of the plant and each actuator, for :class:`rbenv.state.Layout`."""
+        """(owner, fields) of the plant and each actuator, for
+        :class:`rbenv.satellite.state.Layout`."""
         return (("plant", PLANT_FIELDS),
                 *((f"actuator {a.scene_table!r}", a.state_fields) for a in self.actuators))
 
@@ -258,7 +264,7 @@ class Plant:
 
     def throttle(self, a: np.ndarray, in_place: bool = False) -> np.ndarray:
         """The thrusters' command (throttles in [0, 1]) from a thruster-only action; see
-        :meth:`rbenv.actuators.thrusters.Thrusters.command`."""
+        :meth:`rbenv.satellite.actuators.thrusters.Thrusters.command`."""
         return self.thrusters.command(a, in_place)
 
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
@@ -388,7 +394,7 @@ class Plant:
         return StepNoise(faults, dist, sensor, gyro)
 
     def sense(self, st, noise: StepNoise) -> None:
-        """After the physics of a step: the sensors' part (rbenv.sensing), when on."""
+        """After the physics of a step: the sensors' part (rbenv.satellite.sensing), when on."""
         sensing.sense(self.sensors, st, noise.gyro, self.control_dt)
 
     # ------------------------------------------------------------------- episode start
@@ -397,7 +403,7 @@ class Plant:
         """The plant's and its actuators' part of an episode start for ``draws.n`` envs.
 
         ``bias``: 3 components, N·m, or None (stream "plant", slots 0–5); ``model``: an
-        :class:`rbenv.randomization.EpisodeModel` of the randomized physics, or None; zero
+        :class:`rbenv.satellite.randomization.EpisodeModel` of the randomized physics, or None; zero
         ``steps`` (and position and velocity with translation); then each actuator's fields.
         """
         sc = self.scene
@@ -541,11 +547,11 @@ def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
     integrator, control_dt (s), substeps: override the scene's physics. action_mode:
     "throttle" | "on_off" | "torque". allocator: "pinv" | "nnls" | "lp" (torque mode).
     randomize: None keeps the scene's domain randomization; a dict overrides its fields
-    (see :class:`rbenv.randomization.Randomization`); False turns it off. compiled: step the
-    batch with the numba-compiled kernels (``rbenv[fast]``; rk4, euler, semi_implicit,
+    (see :class:`rbenv.satellite.randomization.Randomization`); False turns it off. compiled: step
+    the batch with the numba-compiled kernels (``rbenv[fast]``; rk4, euler, semi_implicit,
     euler_seed).
     """
-    from rbenv.scene import load_scene
+    from rbenv.satellite.scene import load_scene
 
     sc = load_scene("cubesat-12u" if scene is None else scene)
     sc = sc.with_physics(integrator=integrator, control_dt=control_dt, substeps=substeps)

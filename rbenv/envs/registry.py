@@ -4,9 +4,9 @@ training.
 :func:`register` takes an entry (id, task class and maker, docs, default scene, the scene
 tables it needs), refuses an id already taken by another task, and registers the id with
 Gymnasium: its single env and its native vector env. A shipped id has its own classes,
-``class SatelliteReorientEnv(AttitudeEnv)`` in :mod:`rbenv.env` and
-``class SatelliteReorientVectorEnv(AttitudeVectorEnv)`` in :mod:`rbenv.vector_env`; any other
-id runs on :class:`rbenv.env.AttitudeEnv` and :class:`rbenv.vector_env.AttitudeVectorEnv`
+``class SatelliteReorientEnv(AttitudeEnv)`` in :mod:`rbenv.envs.env` and
+``class SatelliteReorientVectorEnv(AttitudeVectorEnv)`` in :mod:`rbenv.envs.vector_env`; any other
+id runs on :class:`rbenv.envs.env.AttitudeEnv` and :class:`rbenv.envs.vector_env.AttitudeVectorEnv`
 themselves, given the entry as ``task``. ``rbenv.ENV_IDS`` and every tool that lists tasks read
 this registry.
 
@@ -25,13 +25,14 @@ from __future__ import annotations
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from rbenv import env as single_env
-from rbenv import tasks, vector_env
+from rbenv import tasks
 from rbenv.core.errors import InvalidParameterError
-from rbenv.options import ENV_OPTIONS
-from rbenv.scene import load_scene
+from rbenv.envs import env as single_env
+from rbenv.envs import vector_env
+from rbenv.envs.options import ENV_OPTIONS
+from rbenv.satellite.scene import load_scene
+from rbenv.satellite.usage import check_choice
 from rbenv.tasks.spec import MAX_EPISODE_STEPS, TaskSpec
-from rbenv.usage import check_choice
 
 __all__ = ["MAX_EPISODE_STEPS", "VECTOR_OPTIONS", "TaskSpec", "by_name", "check_env_options",
            "get", "plain_env", "register", "specs", "unregister"]

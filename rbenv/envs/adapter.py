@@ -1,8 +1,8 @@
 """What the single-env and the vector-env adapters share: the plant, the task, their spaces.
 
-Both adapters take the same env options (:data:`rbenv.options.ENV_OPTIONS`, declared once in
-:class:`rbenv.options.EnvOptions`), build the (plant, task) pair with :func:`rbenv.tasks.build`,
-and expose the same accessors; only how they hold the state
+Both adapters take the same env options (:data:`rbenv.envs.options.ENV_OPTIONS`, declared once in
+:class:`rbenv.envs.options.EnvOptions`), build the (plant, task) pair with
+:func:`rbenv.tasks.build`, and expose the same accessors; only how they hold the state
 (floats or arrays) and Gymnasium's API shape differ.
 """
 
@@ -14,11 +14,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from rbenv import transition
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
-from rbenv.draws import check_seed
-from rbenv.options import AUTORESET_DEFAULT
+from rbenv.envs import transition
+from rbenv.envs.options import AUTORESET_DEFAULT
+from rbenv.satellite.draws import check_seed
 from rbenv.tasks import build
 from rbenv.tasks.spec import TaskSpec
 
@@ -69,7 +69,7 @@ _MODES = {mode.value: mode for mode in AutoresetMode}
 
 def autoreset_mode_of(value, backend: str) -> AutoresetMode:
     """``value`` as an :class:`AutoresetMode` (the mode or its value; None: ``backend``'s
-    default, :data:`rbenv.options.AUTORESET_DEFAULT`); a named error else."""
+    default, :data:`rbenv.envs.options.AUTORESET_DEFAULT`); a named error else."""
     if value is None:
         return AUTORESET_DEFAULT[backend]
     mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
@@ -83,7 +83,7 @@ def autoreset_mode_of(value, backend: str) -> AutoresetMode:
 def seed_list(seed, num_envs: int) -> list[int] | None:
     """The episode-start seed of each sub-env for a vector env's ``reset(seed=)``: sub-env i
     gets s + i for an int s, or entry i of a list (array, tensor) of ``num_envs`` seeds, each
-    checked by :func:`rbenv.draws.check_seed`; None for None."""
+    checked by :func:`rbenv.satellite.draws.check_seed`; None for None."""
     if seed is None:
         return None
     if isinstance(seed, (list, tuple, np.ndarray)) or (hasattr(seed, "tolist")
@@ -117,8 +117,8 @@ def task_of(cls: type, task) -> TaskSpec:
 
 
 class TaskAdapter:
-    """Mixin of the env classes (:class:`rbenv.env.AttitudeEnv`,
-    :class:`rbenv.vector_env.AttitudeVectorEnv`, :class:`rbenv.torch_env.TorchVectorEnv`).
+    """Mixin of the env classes (:class:`rbenv.envs.env.AttitudeEnv`,
+    :class:`rbenv.envs.vector_env.AttitudeVectorEnv`, :class:`rbenv.envs.torch_env.TorchVectorEnv`).
 
     A shipped id's class names its entry in ``task_spec``; the generic classes take it as the
     ``task`` option (``gym.make`` passes it for an id registered without classes of its own).
@@ -159,7 +159,7 @@ class TaskAdapter:
 
     @property
     def config(self):
-        """The :class:`rbenv.plant.Plant` (scene, action mode, torque authority)."""
+        """The :class:`rbenv.satellite.plant.Plant` (scene, action mode, torque authority)."""
         return self.plant
 
     def set_initial_ranges(self, max_initial_angle_deg=None, max_initial_rate=None) -> None:
@@ -177,7 +177,7 @@ class TaskAdapter:
         if self._st is None:
             raise gym.error.ResetNeeded("call reset() before render()")
         if self._renderer is None:
-            from rbenv.rendering import Renderer
+            from rbenv.envs.rendering import Renderer
 
             self._renderer = Renderer.for_scene(self.plant.scene)
         return self._renderer

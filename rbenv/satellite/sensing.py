@@ -1,8 +1,8 @@
 """Sensing as flown: an attitude integrated from a biased, noisy gyro, and an observation delay.
 
-The scene's ``[sensors]`` table (:class:`rbenv.scene.Sensors`) turns it on. The satellite knows
-its attitude at the episode's start exactly (a star-tracker fix) and then propagates it with the
-gyro's rate ``ω_m = ω + b + σ_n n``; the estimate's error ``δ = q* ⊗ q_est`` (body axes) grows
+The scene's ``[sensors]`` table (:class:`rbenv.satellite.scene.Sensors`) turns it on. The satellite
+knows its attitude at the episode's start exactly (a star-tracker fix) and then propagates it with
+the gyro's rate ``ω_m = ω + b + σ_n n``; the estimate's error ``δ = q* ⊗ q_est`` (body axes) grows
 with the integrated gyro error over each control step::
 
     δ ← δ ⊗ exp((b + σ_n n)·dt),     b ← b + σ_w √dt n',
