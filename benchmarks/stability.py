@@ -180,7 +180,7 @@ def _momentum_W(env) -> np.ndarray:
     from rbenv.core import kernels
 
     st, plant = env._st, env.plant
-    ws = plant.wheels.wheels
+    ws = plant.actuator("wheels").wheels
     w = np.array(st.omega_B, dtype=float)
     h = ws.inertia * (np.array(st.wheel_speed) + ws.axes_B @ w)
     return np.array(kernels.rotate(st.q, tuple(plant.body.inertia @ w + h @ ws.axes_B)))

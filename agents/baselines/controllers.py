@@ -93,7 +93,7 @@ class _TorqueController:
         plant = self.plant
         if len(plant.actuators) == 1:
             return self._act_one(torque_B)
-        driver = plant.wheels or plant.thrusters
+        driver = plant.actuator("wheels") or plant.actuator("thrusters")
         out = np.zeros((len(torque_B), plant.action_shape[0]), np.float32)
         out[:, plant.action_slices[plant.actuators.index(driver)]] = self._act_one(torque_B)
         return out
@@ -103,7 +103,7 @@ class _TorqueController:
         if plant.action_mode == "torque":
             return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
         if plant.action_mode == "acceleration":  # α = u/J_eff of the motor torques u = −G⁺τ
-            wheels = plant.wheels
+            wheels = plant.actuator("wheels")
             alpha = -(torque_B @ wheels.pinv.T) / np.asarray(wheels.eff_inertia)
             a = alpha / wheels.wheels.max_acceleration
             scale = np.maximum(np.abs(a).max(axis=-1, keepdims=True), 1.0)
@@ -113,8 +113,8 @@ class _TorqueController:
                 f"scripted controllers drive action_mode 'throttle', 'torque' or "
                 f"'acceleration', got {plant.action_mode!r}"
             )
-        if plant.wheels is not None:  # reaction wheels (they drive, thrusters or not): −G u = τ
-            wheels = plant.wheels
+        wheels = plant.actuator("wheels")
+        if wheels is not None:  # reaction wheels (they drive, thrusters or not): −G u = τ
             u = -(torque_B @ wheels.pinv.T) / wheels.wheels.max_torque
             scale = np.maximum(np.abs(u).max(axis=-1, keepdims=True), 1.0)
             return (u / scale).astype(np.float32)
@@ -408,7 +408,7 @@ class WheelHoldPD(QuaternionPD):
 
     def __post_init__(self):
         super().__post_init__()
-        wheels = self.plant.wheels
+        wheels = self.plant.actuator("wheels")
         if wheels is None:
             raise NotApplicable(f"{type(self).__name__} needs reaction wheels; scene "
                                 f"{self.plant.scene.name!r} has none")
@@ -466,7 +466,7 @@ class Unload(WheelHoldPD):
     def __post_init__(self):
         super().__post_init__()
         rods = next((a for a in self.plant.actuators if isinstance(a, Magnetorquers)), None)
-        if rods is None and self.plant.thrusters is None:
+        if rods is None and self.plant.actuator("thrusters") is None:
             raise NotApplicable(f"unload needs magnetorquers or thrusters; scene "
                                 f"{self.plant.scene.name!r} has neither")
         object.__setattr__(self, "rods", rods)
@@ -491,7 +491,7 @@ class Unload(WheelHoldPD):
             tau_ext = cross(mu.astype(float) @ self.rods.dipole_matrix, b)
             out[:, plant.action_slices[plant.actuators.index(self.rods)]] = mu
         else:
-            thr = plant.thrusters
+            thr = plant.actuator("thrusters")
             demand = -(self.dump_fraction / plant.control_dt) * h_w
             throttle = self.allocate(demand).astype(np.float32)
             tau_ext = throttle.astype(float) @ plant.scene.thrusters.torque_matrix_B.T
@@ -529,7 +529,7 @@ class InnoCubePD:
     wheel_slice: slice = field(init=False, repr=False)
 
     def __post_init__(self):
-        plant, wheels = self.plant, self.plant.wheels
+        plant, wheels = self.plant, self.plant.actuator("wheels")
         if wheels is None or plant.action_mode not in ("acceleration", "throttle") \
                 or not wheels.wheels.max_acceleration:
             raise NotApplicable(

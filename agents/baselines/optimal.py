@@ -242,7 +242,7 @@ def replay(throttles, seed: int, scene=None) -> dict:
     env = gym.make(rbenv.ENV_ID, **({} if scene is None else {"scene": scene}))
     try:
         plant = env.unwrapped.plant
-        zero = np.zeros(plant.n, dtype=np.float32)
+        zero = np.zeros(plant.actuator("thrusters").n, dtype=np.float32)
         policy = None if isinstance(throttles, np.ndarray) else throttles
         if isinstance(policy, str):
             policy = baseline(env, policy)
@@ -253,7 +253,7 @@ def replay(throttles, seed: int, scene=None) -> dict:
                 a, state = policy.predict(obs, state=state, deterministic=True)
             else:
                 a = np.asarray(throttles[k], np.float32) if k < len(throttles) else zero
-            applied.append(plant.throttle(np.asarray(a, float)))
+            applied.append(plant.actuator("thrusters").command(np.asarray(a, float)))
             obs, _, term, trunc, info = env.step(a)
             k += 1
             if term or trunc:

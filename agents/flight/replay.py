@@ -133,7 +133,7 @@ def simulate(maneuvers: list[SubManeuver], scene, policy, *, env_id: str, env_kw
         if isinstance(policy, str):
             policy = make_policy(policy, envs, seed)
         obs, _ = envs.reset(seed=seed, options=start_options(maneuvers, envs.unwrapped.plant))
-        wheels = envs.unwrapped.plant.wheels is not None
+        wheels = envs.unwrapped.plant.actuator("wheels") is not None
         trace = {"error_deg": np.full((steps + 1, n), np.nan),
                  "rate_dps": np.full((steps + 1, n, 3), np.nan),
                  **({"wheel_rpm": np.full((steps + 1, n, 3), np.nan)} if wheels else {})}

@@ -234,8 +234,9 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
                 tr["attitude_error_deg"].append(float(info.get(error_key, nan)[i]))
                 tr["rate_dps"].append(float(info.get("rate_dps", nan)[i]))
                 a_i = np.asarray(action[i], float)
-                tr["throttle"].append((a_i if plant.thrusters is None or len(plant.actuators) > 1
-                                       else plant.throttle(a_i)).tolist())
+                thr = plant.actuator("thrusters")
+                tr["throttle"].append((a_i if thr is None or len(plant.actuators) > 1
+                                       else thr.command(a_i)).tolist())
         done = (term | trunc) & alive
         if done.any():
             idx = np.flatnonzero(done)

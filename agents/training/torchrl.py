@@ -290,7 +290,7 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
     ended = torch.zeros(n, dtype=torch.bool, device=cfg.device)
     success = torch.zeros_like(ended)
     scene = env.unwrapped.plant.scene
-    thrusters_only = scene.thrusters is not None and not scene.actuators
+    thrusters_only = set(scene.actuators) == {"thrusters"}
     while not bool(ended.all()):
         loc, scale = module.module(obs.float())
         action = loc

@@ -199,7 +199,7 @@ def scene_limits(scene=None) -> SceneLimits:
         control_dt=float(dt), success_angle=math.radians(ep.success_angle_deg),
         success_rate=float(ep.success_rate),
         settle_time_max=float(ep.duration - ep.hold_time + dt),
-        fuel_per_impulse=1.0 / (sc.isp * G0), constant_torque_B=constant)
+        fuel_per_impulse=1.0 / (sc.actuators["thrusters"].isp * G0), constant_torque_B=constant)
 
 
 # --------------------------------------------------------------------------- settle time

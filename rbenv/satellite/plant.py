@@ -1,12 +1,15 @@
 """The plant: one satellite and its actuators, whatever the task asks of it.
 
-The plant splits an action among its actuators (:mod:`rbenv.satellite.actuators`; thrusters today),
-sums their contributions (body torque and force, internal angular momentum) and integrates the
+The plant splits an action among its actuators (:mod:`rbenv.actuators`), sums their
+contributions (body torque and force, internal angular momentum, magnetic dipole) and integrates the
 attitude (and the centre of mass, when the scene models translation) over one control step
 with the scene's integrator and substeps, under the disturbance torque. It also measures the
 state for the observation (sensor noise) and draws its own part of an episode start
 (disturbance bias, domain randomization, and each actuator's part). It knows nothing of targets
-or rewards: that is the task's business (:mod:`rbenv.tasks`).
+or rewards: that is the task's business (:mod:`rbenv.tasks`). It knows no actuator by name:
+it asks each, through :class:`rbenv.actuators.base.Actuator`, for its action slice and bounds,
+its contribution and draw, its state, observation part, reset options, per-step random draws
+and the spin inertia it carries; :meth:`Plant.actuator` hands out one by its scene table.
 
 A step that leaves the state non-finite is not an exception here: :meth:`Plant.advance`
 returns a per-satellite flag, and the adapters turn it into :class:`NonFiniteError`
@@ -24,6 +27,15 @@ from typing import NamedTuple
 
 import numpy as np
 
+from rbenv import sensing
+from rbenv.actuators import (
+    ACTION_MODES,
+    ACTUATORS,
+    ALLOCATORS,
+    DEFAULT_ACTION_MODE,
+    Contribution,
+    make_actuators,
+)
 from rbenv.core import INTEGRATORS, validation
 from rbenv.core import kernels as k
 from rbenv.core.dynamics import check_finite_state, translate
@@ -41,14 +53,14 @@ from rbenv.satellite.orbit import OrbitTable
 from rbenv.satellite.randomization import Randomization, draw_episode_model
 from rbenv.satellite.scene import Scene
 
-__all__ = ["ACTION_MODES", "ALLOCATORS", "NO_NOISE", "PLANT_FIELDS", "Plant", "StepNoise",
-           "action_matrix", "make_plant", "nan_action_error"]
+__all__ = ["NO_NOISE", "PLANT_FIELDS", "Plant", "StepNoise", "make_plant"]
 
 
 class StepNoise(NamedTuple):
-    """Per-step random draws: fault uniforms (n or (N, n)), disturbance normals (3
-    components), sensor normals (6 components), gyro normals (6 components); each None when
-    the model is off."""
+    """Per-step random draws: the actuators' uniforms (u or (N, u), ``Plant.step_uniforms``:
+    faults), disturbance normals (3 components), sensor normals (6 components, then the
+    actuators' sensors' ``sensor_normals``), gyro normals (6 components); each None when the
+    model is off."""
 
     faults: object
     disturbance: tuple | None
@@ -65,7 +77,6 @@ PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", 
                 "model": "obj", "field_B_T": "c3",  # field_B_T: Earth's field now, T (orbit)
                 **sensing.FIELDS}  # sensing as flown (rbenv.satellite.sensing), None when off
 _ZERO = (0.0, 0.0, 0.0)
-PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration")  # acceleration: wheels only
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
@@ -78,17 +89,22 @@ class Plant:
     """
 
     scene: Scene
-    action_mode: str = "throttle"
+    action_mode: str = DEFAULT_ACTION_MODE
     allocator_name: str = "pinv"
     compiled: bool = False  # step with core.compiled (numba) instead of NumPy
     actuators: tuple = field(init=False)
     accounting: tuple = field(init=False, repr=False)  # actuators with work after the physics
     sole_actuator: object = field(init=False, repr=False)  # the only actuator, or None
+    by_table: dict = field(init=False, repr=False)  # scene table -> its actuator
+    # (actuator, its action slice, its slice of the step's uniforms or None: all of them)
+    actuation: tuple = field(init=False, repr=False)
+    observers: tuple = field(init=False, repr=False)  # (actuator, its sensor normals' slice)
+    step_uniforms: int = field(init=False)  # uniforms the actuators draw per step
     observed: bool = field(init=False)  # some actuator adds to the observation
-    body: object = field(init=False, repr=False)  # the integrated body (rotors' spin removed)
-    orbit: object = field(init=False, repr=False)  # rbenv.satellite.orbit.Orbit, or None
-    orbit_table: object = field(init=False, repr=False)  # rbenv.satellite.orbit.OrbitTable, or None
-    # rbenv.satellite.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
+    body: object = field(init=False, repr=False)  # the integrated body (less the spin inertia)
+    orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
+    orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
+    # rbenv.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
     # integrator stage; None without them (the kernels then run as for a free body).
     orbit_torque: object = field(init=False, repr=False)
     eclipse_known: bool = field(init=False)  # the scene models the Sun: info has "eclipse"
@@ -102,14 +118,14 @@ class Plant:
     disturbance_torque: tuple | None = field(init=False)  # N·m, constant model only
     dist_noise: float = field(init=False)  # N·m, 1σ per-step disturbance noise (0: none)
     sensor_noise: tuple | None = field(init=False)  # (attitude rad, rate rad/s) or None
-    sensor_draws: int = field(init=False)  # standard normals per sensor draw: 6 or 9
+    sensor_draws: int = field(init=False)  # standard normals per sensor draw (6 and sensors')
     randomization: Randomization | None = field(init=False)
     sensors: object = field(init=False)  # rbenv.satellite.scene.Sensors when on, else None
     gyro_noisy: bool = field(init=False)  # a step draws the gyro's normals
     noisy: bool = field(init=False)  # a step draws random numbers (faults, noise)
 
     def __post_init__(self):
-        validation.choice("action_mode", self.action_mode, PLANT_ACTION_MODES)
+        validation.choice("action_mode", self.action_mode, ACTION_MODES)
         validation.choice("allocator", self.allocator_name, ALLOCATORS)
         values = _scene_scalars(self.scene)
         acts = make_actuators(self.scene, action_mode=self.action_mode,
@@ -125,13 +141,11 @@ class Plant:
                       action_slices=tuple(slice(a, b) for a, b in itertools.pairwise(edges)))
         values["accounting"] = tuple(a for a in acts if a.needs_account)
         values["sole_actuator"] = acts[0] if len(acts) == 1 else None
+        values["by_table"] = {a.scene_table: a for a in acts}
         values["observed"] = any(a.observation_structure for a in acts)
-        if values["sensor_draws"] > 6 and not any("field_B" in a.observation_structure
-                                                  for a in acts):
-            raise InvalidParameterError(
-                f"sensor_noise.magnetometer = {self.scene.sensor_noise.magnetometer!r} needs a "
-                f"magnetometer to be noisy, but scene {self.scene.name!r} observes no field; "
-                "give it [magnetorquers] or set sensor_noise.magnetometer = 0")
+        values.update(_draw_slices(acts, values["sensor_noise"] is not None))
+        values["actuation"] = tuple(zip(acts, values["action_slices"], values.pop("uniforms"),
+                                        strict=True))
         values["body"] = _integrated_body(self.scene, acts)
         values["orbit"] = self.scene.orbit if self.scene.orbit.enabled else None
         values["orbit_table"] = None if values["orbit"] is None else OrbitTable(
@@ -142,14 +156,14 @@ class Plant:
             if OrbitTorque.needed(self.scene.orbit, acts) else None
         values["eclipse_known"] = values["orbit"] is not None and values["orbit"].srp is not None
         if values["randomization"] is not None and values["body"] is not self.scene.body:
+            spinning = [a.scene_table for a in acts if a.spin_inertia_B is not None]
             raise InvalidParameterError(
-                "domain randomization of the inertia does not know the wheels' rotors yet; "
-                "turn randomization off for a scene with [wheels]")
-        thr = next((a for a in acts if isinstance(a, Thrusters)), None)
+                f"domain randomization of the inertia does not know the spin inertia that the "
+                f"actuators {spinning} carry yet; turn randomization off for this scene")
         sensors = self.scene.sensors
         values["sensors"] = sensors if sensors.enabled else None
         values["gyro_noisy"] = bool(sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
-        values["noisy"] = bool((thr is not None and thr.p_fault) or values["dist_noise"]
+        values["noisy"] = bool(values["step_uniforms"] or values["dist_noise"]
                                or values["sensor_noise"] is not None or values["gyro_noisy"])
         _check_integrator_supports(self.scene, values["randomization"])
         if validation.flag("compiled", self.compiled):
@@ -175,30 +189,16 @@ class Plant:
         shadow now."""
         return self.orbit_table.lit(2 * st.steps * self.substeps, xp) == 0.0
 
-    @property
-    def thrusters(self) -> Thrusters | None:
-        """The thruster actuator (the scene's ``[thrusters]``), or None."""
-        return next((a for a in self.actuators if isinstance(a, Thrusters)), None)
-
-    @property
-    def n(self) -> int:
-        """Number of thrusters (0 without them)."""
-        thr = self.thrusters
-        return 0 if thr is None else thr.n
-
-    @property
-    def wheels(self):
-        """The reaction-wheel actuator (the scene's ``[wheels]``), or None."""
-        from rbenv.satellite.actuators import Wheels
-
-        return next((a for a in self.actuators if isinstance(a, Wheels)), None)
+    def actuator(self, table: str):
+        """The actuator that the scene table ``table`` configures (``"wheels"``), or None."""
+        return self.by_table.get(table)
 
     @property
     def torque_authority(self):
         """(3,) N·m per unit torque action (torque mode) of the first actuator that takes a
-        body torque (wheels or thrusters), else None."""
+        body torque, else None."""
         return next((a.torque_authority for a in self.actuators
-                     if getattr(a, "torque_authority", None) is not None), None)
+                     if a.torque_authority is not None), None)
 
     @property
     def action_bounds(self) -> tuple:
@@ -217,35 +217,23 @@ class Plant:
 
     @property
     def reset_options(self) -> dict:
-        """The plant's names in ``reset(options=...)`` and their widths: ``wheel_speed``
-        (rad/s, each wheel's speed relative to the body) with wheels; ``wheel_clock_s`` (s since
-        the wheels' first command, −1: not yet commanded, the default) with wheels as flown,
-        so that a start in mid-run is past the start-up delay."""
-        wheels = self.wheels
-        if wheels is None:
-            return {}
-        return {"wheel_speed": wheels.n,
-                **({"wheel_clock_s": 1} if wheels.wheels.as_flown else {})}
+        """The plant's names in ``reset(options=...)`` and their widths: its actuators'
+        (:attr:`rbenv.actuators.base.Actuator.reset_options`)."""
+        out = {}
+        for act in self.actuators:
+            out.update(act.reset_options)
+        return out
 
     def check_start(self, start: dict) -> None:
-        """Refuse a start whose wheel speeds exceed the wheels' limits (named error)."""
-        wheels = self.wheels
-        if wheels is None:
-            return
-        if isinstance(start.get("wheel_clock_s"), tuple):  # a reset option: one component
-            start["wheel_clock_s"] = start["wheel_clock_s"][0]
-        speed = np.abs(np.asarray(start["wheel_speed"], dtype=float).reshape(wheels.n, -1))
-        limit = np.asarray(wheels.max_speed)[:, None]
-        if np.any(speed > limit * (1.0 + 1e-12)):
-            i = int(np.argwhere(speed > limit * (1.0 + 1e-12))[0][0])
-            raise InvalidParameterError(
-                f"reset options['wheel_speed'][{i}] must be within ±{limit[i, 0]:.6g} rad/s "
-                f"(the wheel's max_speed_rpm), got {speed[i].max():.6g} in magnitude")
+        """Each actuator checks (and settles) its part of a start given by reset options."""
+        for act in self.actuators:
+            if act.reset_options:
+                act.check_start(start)
 
     @property
     def start_slots(self) -> int:
         """Slots of stream "plant" that :meth:`sample_start` draws: 0–5 the disturbance bias
-        (three normals), then one uniform per thruster with random faults."""
+        (three normals), then those of the actuators that draw from it."""
         return _BIAS_SLOTS + sum(a.start_slots for a in self.actuators
                                  if a.start_stream == "plant")
 
@@ -262,20 +250,16 @@ class Plant:
 
     # ------------------------------------------------------------------- actuation
 
-    def throttle(self, a: np.ndarray, in_place: bool = False) -> np.ndarray:
-        """The thrusters' command (throttles in [0, 1]) from a thruster-only action; see
-        :meth:`rbenv.satellite.actuators.thrusters.Thrusters.command`."""
-        return self.thrusters.command(a, in_place)
-
     def actuate(self, st, action: np.ndarray, noise, xp, in_place: bool = False) -> Contribution:
         """The actuators' summed contribution under ``action`` (each takes its slice); they
         set their own fields on ``st``. ``in_place``: the caller owns ``action``."""
         act = self.sole_actuator
         if act is not None:
             return act.actuate(st, act.command(action, in_place, xp), noise, xp)
-        acts = self.actuators
-        parts = [a.actuate(st, a.command(action[..., s], False, xp), noise, xp)
-                 for a, s in zip(acts, self.action_slices, strict=True)]
+        parts = [a.actuate(st, a.command(action[..., s], False, xp), noise if u is None or
+                           noise.faults is None else noise._replace(faults=noise.faults[..., u]),
+                           xp)
+                 for a, s, u in self.actuation]
         return sum_contributions(parts)
 
     # ------------------------------------------------------------------- motion
@@ -305,7 +289,7 @@ class Plant:
             st.steps, c.dipole_B, xp)
         try:
             for j in range(self.substeps):
-                if st.x is not None:  # actuators without a force (wheels, rods) push nothing
+                if st.x is not None:  # actuators without a force push nothing
                     self._translate(st, body, k.rotate(q, _ZERO if c.force_B is None
                                                        else c.force_B))
                 if step_torque is not None:  # torques of (t, q), at every stage
@@ -313,7 +297,7 @@ class Plant:
                                    step_torque.substep(j))
                 elif h_int is None and h_dot is None:
                     q, w = advance(body, q, w, h, tau, None)
-                else:  # internal momentum (wheels), moving linearly over the step
+                else:  # internal momentum (spinning rotors), moving linearly over the step
                     q, w = advance(body, q, w, h, tau, None, h_int, h_dot)
                 if h_int is not None and h_dot is not None:
                     h_int = k.add(h_int, h_dot, h)
@@ -369,7 +353,7 @@ class Plant:
         return q, k.add(st.omega_B, noise[3:], s_rate)
 
     def draw_sensor_noise(self, rng: np.random.Generator, batch: int | None):
-        """6 standard-normal components, 9 with a noisy magnetometer (one satellite, or
+        """6 standard-normal components, then the actuators' sensors' (one satellite, or
         (batch,) arrays), or None."""
         return None if self.sensor_noise is None else _components(rng, self.sensor_draws,
                                                                   batch)
@@ -377,13 +361,14 @@ class Plant:
     def draw_step_noise(self, rng: np.random.Generator, batch: int | None) -> StepNoise:
         """This step's random draws from ``rng``: one satellite (batch None) or ``batch``.
 
-        Order: fault uniforms, disturbance normals, sensor normals (each only when modelled).
+        Order: the actuators' uniforms, disturbance normals, sensor normals (each only when
+        modelled).
         """
         if not self.noisy:
             return NO_NOISE
-        n = self.n
+        n = self.step_uniforms
         faults = dist = sensor = gyro = None
-        if n and self.thrusters.p_fault:
+        if n:
             faults = rng.random(n if batch is None else (batch, n))
         if self.dist_noise:
             dist = _components(rng, 3, batch)
@@ -444,12 +429,11 @@ class Plant:
 
     def observe(self, st, xp, sensor_noise=None) -> tuple:
         """The actuators' observation components; ``sensor_noise``: this step's sensor normals
-        (its components 6-8, with a noisy magnetometer, go to the actuators' sensors)."""
-        sensed = None if sensor_noise is None or self.sensor_draws == 6 else sensor_noise[6:9]
+        (after the first 6, each actuator's sensor takes its ``sensor_normals``)."""
         out = ()
-        for act in self.actuators:
-            if act.observation_structure:
-                out = out + act.observe(st, xp, sensed)
+        for act, sensed in self.observers:
+            out = out + act.observe(st, xp, None if sensor_noise is None or sensed is None
+                                    else sensor_noise[sensed])
         return out
 
 
@@ -475,10 +459,30 @@ def sum_contributions(parts) -> Contribution:
     return total
 
 
+def _draw_slices(acts: tuple, sensor_noise: bool) -> dict:
+    """Where each actuator's random draws sit in a step's: ``uniforms``, per actuator, its
+    slice of the step's uniforms (None: it draws none, or it is the only one that draws, and
+    takes them all); ``step_uniforms``, their count; ``observers``, (actuator, slice of the
+    sensor normals or None) of those that observe; ``sensor_draws``, sensor normals per step."""
+    counts = [a.step_uniforms for a in acts]
+    edges = np.cumsum([0, *counts]).tolist()
+    several = sum(1 for c in counts if c) > 1
+    uniforms = tuple(slice(a, b) if several and b > a else None
+                     for a, b in itertools.pairwise(edges))
+    observers, first = [], 6  # normals 0-5: the attitude and rate sensors (measure)
+    for act in acts:
+        width = act.sensor_normals if sensor_noise else 0
+        if act.observation_structure:
+            observers.append((act, slice(first, first + width) if width else None))
+        first += width
+    return {"uniforms": uniforms, "step_uniforms": edges[-1], "observers": tuple(observers),
+            "sensor_draws": first}
+
+
 def _integrated_body(scene: Scene, actuators: tuple):
-    """The scene's body, or with wheels its inertia less the rotors' spin inertia (the
-    wheels' spin momentum is the integrators' internal momentum)."""
-    spin = [a.spin_inertia_B for a in actuators if getattr(a, "spin_inertia_B", None) is not None]
+    """The scene's body, or its inertia less the spin inertia its actuators carry (their
+    spin momentum is the integrators' internal momentum)."""
+    spin = [a.spin_inertia_B for a in actuators if a.spin_inertia_B is not None]
     if not spin:
         return scene.body
     from rbenv.core import RigidBody
@@ -486,9 +490,11 @@ def _integrated_body(scene: Scene, actuators: tuple):
     try:
         return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
     except RbenvValueError as exc:
+        tables = [a.scene_table for a in actuators if a.spin_inertia_B is not None]
         raise InvalidParameterError(
-            f"wheels.inertia: the scene's inertia less the rotors' spin inertia Σ J ĝĝᵀ must "
-            f"still be a rigid body's (the bus carries the rotors), but {exc}") from None
+            f"{tables[0]}.inertia: the scene's inertia less the spin inertia Σ J ĝĝᵀ of "
+            f"{tables} must still be a rigid body's (the bus carries them), but "
+            f"{exc}") from None
 
 
 def _scene_scalars(sc: Scene) -> dict:
@@ -499,8 +505,6 @@ def _scene_scalars(sc: Scene) -> dict:
         "disturbance_torque": tuple(dist.torque.tolist()) if dist.model == "constant" else None,
         "dist_noise": dist.noise_sigma if dist.model == "random" else 0.0,
         "sensor_noise": (sensor.attitude, sensor.rate) if sensor.model == "gaussian" else None,
-        # 6 normals for the attitude and rate, 3 more for a noisy magnetometer.
-        "sensor_draws": 9 if sensor.model == "gaussian" and sensor.magnetometer else 6,
         "advance_kernel": INTEGRATORS[sc.physics.integrator].advance,
         "randomization": sc.randomization if sc.randomization.enabled else None,
     }
@@ -523,8 +527,8 @@ def _compiled_advance(sc: Scene, rnd: Randomization | None, orbit_torque):
     if orbit_torque is not None:
         raise InvalidParameterError(
             "compiled=True compiles rigid-body kernels under a held torque, but the scene's "
-            "orbit torques (orbit.gravity_gradient, [magnetorquers], [orbit.residual_dipole], "
-            "[orbit.drag], [orbit.srp]) are evaluated at every integrator stage; use "
+            "orbit torques (orbit.gravity_gradient, [orbit.residual_dipole], [orbit.drag], "
+            "[orbit.srp], an actuator's dipole) are evaluated at every integrator stage; use "
             "compiled=False")
     if rnd is not None and (rnd.inertia_scale or rnd.inertia_rotation_deg):
         raise InvalidParameterError(
@@ -540,12 +544,13 @@ def _components(rng: np.random.Generator, count: int, batch: int | None) -> tupl
 
 
 def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
-               action_mode="throttle", allocator="pinv", randomize=None,
+               action_mode=DEFAULT_ACTION_MODE, allocator="pinv", randomize=None,
                compiled=False) -> Plant:
     """Resolve env options against a scene (name, path or Scene) into a :class:`Plant`.
 
-    integrator, control_dt (s), substeps: override the scene's physics. action_mode:
-    "throttle" | "on_off" | "torque". allocator: "pinv" | "nnls" | "lp" (torque mode).
+    integrator, control_dt (s), substeps: override the scene's physics. action_mode: one of
+    :data:`rbenv.actuators.ACTION_MODES`. allocator: one of :data:`rbenv.actuators.ALLOCATORS`
+    (torque mode).
     randomize: None keeps the scene's domain randomization; a dict overrides its fields
     (see :class:`rbenv.satellite.randomization.Randomization`); False turns it off. compiled: step
     the batch with the numba-compiled kernels (``rbenv[fast]``; rk4, euler, semi_implicit,

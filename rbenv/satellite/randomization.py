@@ -124,8 +124,9 @@ class EpisodeModel:
     """The true physics of N episodes (N = 1 for the single env): body, actuation, delay.
 
     inertia: (N, 3, 3) kg·m². com_offset_B: (N, 3) m. action_matrix: (N, n, k) throttles →
-    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.satellite.plant.action_matrix`. delayed: (N,) bool.
-    body: a :class:`RigidBody` (single) or :class:`BatchBody`. ``single()`` gives the one-env view.
+    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.actuators.thrusters.action_matrix`. delayed: (N,)
+    bool. body: a
+    :class:`RigidBody` (single) or :class:`BatchBody`. ``single()`` gives the one-env view.
     """
 
     __slots__ = ("action_matrix", "body", "com_offset_B", "delayed", "inertia", "mass")
@@ -203,7 +204,8 @@ def draw_episode_model(plant, draws) -> EpisodeModel:
     (tilt angles) and 1 uniform (delay).
     """
     rnd, sc = plant.randomization, plant.scene
-    thr, n, N = sc.thrusters, plant.n, draws.n
+    thr, N = sc.thrusters, draws.n
+    n = 0 if thr is None else thr.n
     u = draws.uniform_array
     scale = 1.0 + rnd.inertia_scale * (2.0 * u("randomization", 3) - 1.0)
     rot = math.radians(rnd.inertia_rotation_deg) * draws.normal_array("randomization", 3, 4)

@@ -102,16 +102,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rbenv.core import INTEGRATORS, RigidBody, ThrusterLayout
+from rbenv.actuators import ACTUATORS
+from rbenv.core import INTEGRATORS, RigidBody
 from rbenv.core import inertia as inertia_lib
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
-from rbenv.core.forces import MAX_THRUSTERS
-from rbenv.satellite.actuators.tables import safe_to_square
-from rbenv.satellite.allocation import validate_torque_matrix
-from rbenv.satellite.orbit import Orbit
-from rbenv.satellite.randomization import Randomization
-from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
+from rbenv.orbit import Orbit
+from rbenv.randomization import Randomization
+from rbenv.usage import InvalidChoiceError, invalid_choice
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -350,15 +348,14 @@ def _unused(model: str, needs: str, path: str, is_set) -> None:
 class Scene:
     """A satellite and its task: everything fixed during an episode. Validated at construction.
 
-    body: mass (kg) and inertia (kg·m², about the centre of mass, body axes). thrusters: layout in
-    body axes (positions m, directions, max_force N, com_B m). isp: s. The groups say what the
-    step models; ``episode_steps`` is derived: ``round(duration / control_dt)``.
+    body: mass (kg) and inertia (kg·m², about the centre of mass, body axes). actuators: each
+    actuator table (``[thrusters]``, ``[wheels]``, ...) as its module parsed it
+    (:data:`rbenv.actuators.ACTUATORS`), at least one. The groups say what the step models;
+    ``episode_steps`` is derived: ``round(duration / control_dt)``.
     """
 
     name: str
     body: RigidBody
-    thrusters: ThrusterLayout | None = None
-    isp: float = 65.0
     physics: Physics = field(default_factory=Physics)
     disturbance: Disturbance = field(default_factory=Disturbance)
     faults: Faults = field(default_factory=Faults)
@@ -369,8 +366,7 @@ class Scene:
     sources: tuple = ()
     randomization: Randomization = field(default_factory=Randomization)
     tasks: dict = field(default_factory=dict)  # task name -> its option table (the task checks)
-    # Actuator tables other than [thrusters], parsed by their modules (rbenv.satellite.actuators):
-    # table name -> parameters.
+    # The actuator tables, parsed by their modules (rbenv.actuators): table name -> parameters.
     actuators: dict = field(default_factory=dict)
     orbit: Orbit = field(default_factory=Orbit)
 
@@ -380,13 +376,9 @@ class Scene:
         object.__setattr__(self, "tasks", _task_tables(self.tasks))
         if not isinstance(self.name, str) or not self.name:
             raise InvalidParameterError(f"name must be a non-empty string, got {self.name!r}")
-        if self.thrusters is not None and not isinstance(self.thrusters, ThrusterLayout):
+        if not self.actuators:
             raise InvalidParameterError(
-                f"thrusters must be a ThrusterLayout or None, got {type(self.thrusters).__name__}")
-        if self.thrusters is None and not self.actuators:
-            raise InvalidParameterError(
-                "a scene needs at least one actuator table: [thrusters] or one of "
-                f"{sorted(_actuator_tables())}")
+                f"a scene needs at least one actuator table, one of {sorted(_actuator_tables())}")
         for attr, cls in (("body", RigidBody), ("physics", Physics),
                           ("disturbance", Disturbance), ("faults", Faults),
                           ("sensor_noise", SensorNoise), ("sensors", Sensors),
@@ -395,7 +387,6 @@ class Scene:
                 raise InvalidParameterError(
                     f"{attr} must be a {cls.__name__}, got {type(getattr(self, attr)).__name__}"
                 )
-        object.__setattr__(self, "isp", _number("thrusters.isp", self.isp, low=1.0, high=1e5))
         object.__setattr__(self, "sources", _sources(self.sources))
         for task_name in self.tasks:  # per-task physics/episode overrides fail at load
             self.for_task(task_name)
@@ -403,12 +394,15 @@ class Scene:
             raise InvalidParameterError(
                 f"description must be a string, got {describe(self.description)}"
             )
+        if self.sensor_noise.magnetometer and "magnetorquers" not in self.actuators:
+            raise InvalidParameterError(
+                f"sensor_noise.magnetometer = {self.sensor_noise.magnetometer!r} needs a "
+                f"magnetometer to be noisy, but scene {self.name!r} observes no field; "
+                "give it [magnetorquers] or set sensor_noise.magnetometer = 0")
         if self.sensors.enabled and self.sensor_noise.model != "none":
             raise InvalidParameterError(
                 "sensors (attitude from a gyro, or a delay) and sensor_noise.model = "
                 f"{self.sensor_noise.model!r} both shape the observation; give one of them")
-        if self.thrusters is not None:
-            validate_torque_matrix(self.thrusters.torque_matrix_B, name="thrusters")
         steps = self.episode.duration / self.physics.control_dt
         if not steps <= MAX_EPISODE_STEPS or round(steps) < 1:
             raise InvalidParameterError(
@@ -428,9 +422,11 @@ class Scene:
         return max(1, math.ceil(self.episode.hold_time / self.physics.control_dt - 1e-9))
 
     @property
-    def n_thrusters(self) -> int:
-        """Number of thrusters (0 without a [thrusters] table)."""
-        return 0 if self.thrusters is None else self.thrusters.n
+    def thrusters(self):
+        """The ``[thrusters]`` layout (:class:`rbenv.core.ThrusterLayout`), or None: a
+        shorthand for ``actuators["thrusters"].layout``, which baselines and bounds read."""
+        table = self.actuators.get("thrusters")
+        return None if table is None else table.layout
 
     def with_randomization(self, randomize) -> Scene:
         """A copy with domain randomization replaced: a dict of sizes (overriding the scene's
@@ -478,9 +474,9 @@ class Scene:
             raise InvalidParameterError(f"a scene must be a table (dict), got {describe(data)}")
         data = dict(data)
         tables = _actuator_tables()
-        _check_keys("scene", data, {"name", "description", "sources", "body", "thrusters",
-                                    "physics", "disturbance", "faults", "sensor_noise",
-                                    "sensors", "episode", "randomization", "tasks", "orbit",
+        _check_keys("scene", data, {"name", "description", "sources", "body", "physics",
+                                    "disturbance", "faults", "sensor_noise", "sensors", "episode",
+                                    "randomization", "tasks", "orbit",
                                     *tables})
         scene_name = data.get("name", name)
         if "name" in data and (not isinstance(scene_name, str) or not scene_name):
@@ -490,9 +486,6 @@ class Scene:
         try:
             mass, com_B, inertia = mass_properties(_table(data, "body", required=True))
             body = RigidBody(mass=mass, inertia=inertia)
-            thrusters, isp = None, 65.0
-            if "thrusters" in data:
-                thrusters, isp = _thrusters(_table(data, "thrusters", required=True), com_B)
             actuators = {name: parse(_table(data, name), com_B)
                          for name, parse in tables.items() if name in data}
             groups = {}
@@ -502,8 +495,7 @@ class Scene:
                 table = _table(data, key)
                 _check_keys(key, table, {f.name for f in dataclasses.fields(group) if f.init})
                 groups[key] = group(**table)
-            return cls(name=scene_name or "unnamed", body=body, thrusters=thrusters, isp=isp,
-                       actuators=actuators,
+            return cls(name=scene_name or "unnamed", body=body, actuators=actuators,
                        description=data.get("description", ""),
                        sources=data.get("sources", ()),
                        randomization=_table(data, "randomization"),
@@ -641,10 +633,7 @@ def _checked(path: str, table, group) -> dict:
 
 
 def _actuator_tables() -> dict:
-    """Scene table name → parser of every registered actuator but the thrusters (whose table
-    this module parses itself)."""
-    from rbenv.satellite.actuators import ACTUATORS
-
+    """Scene table name → parser of every registered actuator (rbenv.actuators)."""
     return {name: entry.parse for name, entry in ACTUATORS.items() if entry.parse is not None}
 
 
@@ -750,38 +739,6 @@ def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
     inertia = sum(inertia_lib.parallel_axis(J, m, p - com)
                   for m, p, J in zip(masses, positions, inertias, strict=True))
     return total, np.asarray(com, dtype=float), inertia
-
-
-# --------------------------------------------------------------------------- thrusters
-
-
-def _thrusters(table: dict, com_B: np.ndarray) -> tuple[ThrusterLayout, float]:
-    _check_keys("thrusters", table, {"positions", "directions", "max_force", "isp"})
-    pos = check.finite_array("thrusters.positions", table.get("positions"))
-    if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) == 0:
-        raise InvalidParameterError(
-            f"thrusters.positions must be a list of [x, y, z] (m), got shape {pos.shape}"
-        )
-    n = len(pos)
-    if n > MAX_THRUSTERS:
-        raise InvalidParameterError(
-            f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
-        )
-    pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
-    dirs = safe_to_square(_array("thrusters.directions", table.get("directions"), (n, 3)))
-    fmax = check.finite_array("thrusters.max_force", table.get("max_force"))
-    fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
-                  (n,), bound=1e4)
-    if (fmax <= 0).any():
-        i = int(np.argmax(fmax <= 0))
-        raise InvalidParameterError(f"thrusters.max_force[{i}] must be > 0 N, got {fmax[i]!r}")
-    lengths = np.linalg.norm(dirs, axis=1)
-    if (lengths == 0).any():
-        i = int(np.argmax(lengths == 0))
-        raise InvalidParameterError(f"thrusters.directions[{i}] must be non-zero, got "
-                                    f"{describe(dirs[i])}")
-    isp = _number("thrusters.isp", table.get("isp"), low=1.0, high=1e5)
-    return ThrusterLayout(positions_B=pos, directions_B=dirs, max_force=fmax, com_B=com_B), isp
 
 
 # --------------------------------------------------------------------------- registry

@@ -173,7 +173,7 @@ def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
     """The desaturation task on ``plant`` (options: scene ``[tasks.desaturate]``, then
     ``task_options``); a scene without wheels is refused by name."""
     opts = option_table(plant.scene, Desaturate, task_options)
-    wheels = plant.wheels
+    wheels = plant.actuator("wheels")
     if wheels is None:
         raise InvalidParameterError(
             f"task 'desaturate' unloads reaction wheels, but scene {plant.scene.name!r} has "

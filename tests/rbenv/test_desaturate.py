@@ -158,11 +158,11 @@ def test_thrusters_unload_the_wheels_of_cubesat_12u_rw():
     obs, info = env.reset(seed=2)
     u = env.unwrapped
     torque_matrix = u.plant.scene.thrusters.torque_matrix_B
-    thr = u.plant.action_slices[u.plant.actuators.index(u.plant.thrusters)]
+    thr = u.plant.action_slices[u.plant.actuators.index(u.plant.actuator("thrusters"))]
 
     def total_W():
         st = u._st
-        ws = u.plant.wheels.wheels
+        ws = u.plant.actuator("wheels").wheels
         h = (np.array(st.wheel_speed) + ws.axes_B @ np.array(st.omega_B)) * ws.inertia
         return np.array(k.rotate(st.q, tuple(u.plant.body.inertia @ np.array(st.omega_B)
                                              + h @ ws.axes_B)))
@@ -192,7 +192,7 @@ def test_the_wheels_reorient_cubesat_12u_rw():
     env = gym.make("rbenv/SatelliteReorient-v0", scene="cubesat-12u-rw")
     policy = baseline(env, "pd")
     u = env.unwrapped
-    thr = u.plant.action_slices[u.plant.actuators.index(u.plant.thrusters)]
+    thr = u.plant.action_slices[u.plant.actuators.index(u.plant.actuator("thrusters"))]
     wins = 0
     for seed in range(30):
         obs, _ = env.reset(seed=seed)

@@ -62,7 +62,7 @@ def quiet_scenes(tmp_path_factory) -> dict:
         if plant.noisy:
             path = tmp_path_factory.mktemp("scenes") / f"{scene}-quiet.toml"
             text = QUIET.format(scene=scene)
-            if not (plant.thrusters and plant.thrusters.p_fault):
+            if not (plant.actuator("thrusters") and plant.actuator("thrusters").p_fault):
                 text = text.replace("[faults]\np_step = 0.0\n", "")
             if not plant.dist_noise:
                 text = text.replace("[disturbance]\nnoise_sigma = 0.0\n", "")

@@ -60,7 +60,7 @@ def test_default_scene_is_a_plausible_12u_cubesat():
     # Lever arm of each thruster about the centre of mass, perpendicular to its thrust.
     arms = np.linalg.norm(np.cross(thr.positions_B - thr.com_B, thr.directions_B), axis=1)
     assert np.all((arms > 0.1) & (arms < 0.2))
-    assert 60.0 <= scene.isp <= 70.0
+    assert 60.0 <= scene.actuators["thrusters"].isp <= 70.0
     assert scene.physics.translation is False
     assert scene.hold_steps == 4 and scene.physics.control_dt == 0.5
 
@@ -158,10 +158,10 @@ def test_scene_from_path_name_and_object_in_make(tmp_path):
     path = tmp_path / "copy.toml"
     path.write_text(text.replace('name = "microsat-100kg"', 'name = "copy"'))
     scene = load_scene(path)
-    assert scene.name == "copy" and scene.n_thrusters == 8
+    assert scene.name == "copy" and scene.thrusters.n == 8
     for spec in (path, str(path), scene, "microsat-100kg"):
         env = gym.make(rbenv.ENV_ID, scene=spec)
-        assert env.unwrapped.scene.n_thrusters == 8
+        assert env.unwrapped.scene.thrusters.n == 8
         assert env.action_space.shape == (8,)
     with pytest.raises(InvalidParameterError, match="shipped name"):
         load_scene("no-such-scene")

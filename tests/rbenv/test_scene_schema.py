@@ -15,9 +15,9 @@ import pytest
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv.satellite import scene_schema
-from rbenv.satellite.actuators import ACTUATORS
-from rbenv.satellite.scene import Scene
+from rbenv import scene_schema
+from rbenv.actuators import ACTUATORS, thrusters
+from rbenv.scene import Scene, scene_table
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "scenes.md"
@@ -57,7 +57,7 @@ def test_the_declared_keys_are_the_keys_each_parser_accepts():
     headers = {t.header.strip("[]") for t in scene_schema.TABLES if t.header.startswith("[")}
     nested = {h for h in headers if "." in h}  # [body.parts], [orbit.drag], ...: not top level
     assert top - {"tasks"} == (headers - nested) | _declared("Top level") - {"base"}
-    assert set(ACTUATORS) - {"thrusters"} <= headers  # every actuator table is documented
+    assert set(ACTUATORS) <= headers  # every actuator table is documented
     body = set()
     for form in ({**BODY}, {"shape": "cylinder", "mass": 1.0, "radius": 0.1, "height": 0.1},
                  {"mass": 1.0, "inertia": [1e-3, 1e-3, 1e-3]},
@@ -88,7 +88,11 @@ def test_the_declared_defaults_are_the_parsers():
     wheels = rbenv.load_scene("cubesat-6u-rw").actuators["wheels"]
     assert wheels.viscous == wheels.coulomb == 0.0  # the file sets neither: the default, 0.0
     isp = {k.name: k.default for k in scene_schema.TABLES[3].keys}["isp"]
-    assert float(isp) == Scene.__dataclass_fields__["isp"].default
+    assert float(isp) == thrusters.DEFAULT_ISP
+    table = {key: value for key, value in scene_table("cubesat-12u").items()
+             if key in ("body", "thrusters")}
+    del table["thrusters"]["isp"]
+    assert Scene.from_dict(table).actuators["thrusters"].isp == thrusters.DEFAULT_ISP
 
 
 def example_toml() -> str:

@@ -5,27 +5,35 @@ the actuator's parameters, kept in ``Scene.actuators``) and the maker that build
 from a scene and the env's actuation options (``action_mode``, ``allocator``). The plant builds
 one actuator for every registered table its scene has, in this order, and concatenates their
 action slices in the same order. A new actuator is its module (the class, see
-:class:`rbenv.satellite.actuators.base.Actuator`, its table parser and maker) plus one entry here.
-
-``[thrusters]`` predates the registry: ``rbenv.satellite.scene`` parses it into ``Scene.thrusters``
-(its parser here is None).
+:class:`rbenv.actuators.base.Actuator`, its table parser and maker) plus one entry here, or,
+outside rbenv, one :func:`register` call.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
-from rbenv.satellite.actuators.base import Actuator, Contribution
-from rbenv.satellite.actuators.magnetorquers import (
-    Magnetorquers,
-    make_magnetorquers,
-    parse_magnetorquers,
-)
-from rbenv.satellite.actuators.thrusters import Thrusters, make_thrusters
-from rbenv.satellite.actuators.wheels import Wheels, make_wheels, parse_wheels
+from rbenv.actuators import magnetorquers, thrusters, wheels
+from rbenv.actuators.base import Actuator, ActuatorDefaults, Contribution
+from rbenv.actuators.magnetorquers import Magnetorquers
+from rbenv.actuators.thrusters import Thrusters
+from rbenv.actuators.wheels import Wheels
 
-__all__ = ["ACTUATORS", "Actuator", "Contribution", "Magnetorquers", "Thrusters", "Wheels",
-           "make_actuators"]
+__all__ = [
+    "ACTION_MODES",
+    "ACTUATORS",
+    "ALLOCATORS",
+    "DEFAULT_ACTION_MODE",
+    "Actuator",
+    "ActuatorDefaults",
+    "Contribution",
+    "Entry",
+    "Magnetorquers",
+    "Thrusters",
+    "Wheels",
+    "make_actuators",
+    "register",
+]
 
 
 class Entry(NamedTuple):
@@ -36,21 +44,33 @@ class Entry(NamedTuple):
     make: object
 
 
-ACTUATORS = {"wheels": Entry(parse_wheels, make_wheels),
-             "thrusters": Entry(None, make_thrusters),
-             "magnetorquers": Entry(parse_magnetorquers, make_magnetorquers)}
+ACTUATORS = {"wheels": Entry(wheels.parse_wheels, wheels.make_wheels),
+             "thrusters": Entry(thrusters.parse_thrusters, thrusters.make_thrusters),
+             "magnetorquers": Entry(magnetorquers.parse_magnetorquers,
+                                    magnetorquers.make_magnetorquers)}
+# The env's actuation options. action_mode: every mode some actuator reads (an actuator
+# without a use for a mode keeps its own, one entry per element: magnetorquers always);
+# allocator: how the thrusters turn a torque into throttles.
+ACTION_MODES = ("throttle", "on_off", "torque", "acceleration")
+DEFAULT_ACTION_MODE = "throttle"
+ALLOCATORS = thrusters.ALLOCATORS
 
 
-def _present(scene, table: str) -> bool:
-    if table == "thrusters":
-        return scene.thrusters is not None
-    return table in scene.actuators
+def register(table: str, parse, make) -> None:
+    """Register an actuator by its scene table: ``parse(table, com_B) -> params`` and
+    ``make(scene, action_mode=, allocator=) -> Actuator``. A scene with the table is then
+    parsed with it and builds the actuator, after those registered before."""
+    if not (isinstance(table, str) and table.isidentifier()) or not callable(parse) \
+            or not callable(make):
+        raise TypeError(f"register(table, parse, make) takes a table name and two "
+                        f"callables, got {table!r}, {parse!r}, {make!r}")
+    ACTUATORS[table] = Entry(parse, make)
 
 
 def make_actuators(scene, **options) -> tuple:
     """The scene's actuators, in :data:`ACTUATORS` order (at least one)."""
     out = tuple(entry.make(scene, **options) for table, entry in ACTUATORS.items()
-                if _present(scene, table))
+                if table in scene.actuators)
     for actuator in out:
         if not isinstance(actuator, Actuator):
             raise TypeError(f"{type(actuator).__name__} does not satisfy "

@@ -6,10 +6,11 @@ contributions of its actuators and integrates (:mod:`rbenv.satellite.plant`)::
 
     I ω̇_B = −ω_B × (I ω_B + h_B) − ḣ_B + τ_B        (h_B: internal angular momentum)
 
-Thrusters (:mod:`rbenv.satellite.actuators.thrusters`) are the first implementation; they store no
-momentum (h = ḣ = None). A new actuator is one module with a class that satisfies
-:class:`Actuator`, its scene table parser, and one entry in
-:data:`rbenv.satellite.actuators.ACTUATORS`.
+Thrusters (:mod:`rbenv.actuators.thrusters`) store no momentum (h = ḣ = None); wheels
+(:mod:`rbenv.actuators.wheels`) do; magnetorquers (:mod:`rbenv.actuators.magnetorquers`) give a
+dipole. A new actuator is one module with a class that satisfies :class:`Actuator` (mixing in
+:class:`ActuatorDefaults` for what it lacks), its scene table parser and maker, and one entry in
+:data:`rbenv.actuators.ACTUATORS`.
 
 Values are components as in :mod:`rbenv.core.kernels`: Python floats for one satellite, (N,) arrays
 for N; ``xp`` is the :mod:`rbenv.core.backend` namespace that matches them.
@@ -24,7 +25,7 @@ import numpy as np
 from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
 
-__all__ = ["Actuator", "Contribution"]
+__all__ = ["Actuator", "ActuatorDefaults", "Contribution"]
 
 
 class Contribution(NamedTuple):
@@ -64,7 +65,16 @@ class Actuator(Protocol):
       :class:`rbenv.satellite.draws.EpisodeDraws` that :meth:`sample_start` draws from (its
       ``scene_table``, or ``"plant"`` after the plant's own slots) and how many slots (a hint);
     * ``needs_account``: whether :meth:`account` must run after the physics;
-    * ``stores_momentum``: whether its contribution carries internal angular momentum.
+    * ``stores_momentum``: whether its contribution carries internal angular momentum;
+    * ``spin_inertia_B``: (3, 3) kg·m², the part of the scene's inertia that spins with its
+      rotors (the plant integrates the bus without it), or None;
+    * ``torque_authority``: (3,) N·m per unit action when its action is a body torque, or None;
+    * ``step_uniforms``: uniforms in [0, 1) it draws per step (``noise.faults`` in
+      :meth:`actuate`, its own slice);
+    * ``sensor_normals``: standard normals its sensor draws per step (``sensed`` in
+      :meth:`observe`);
+    * ``reset_options``: its names in ``reset(options=...)`` → width (values of its state
+      fields), checked by :meth:`check_start`.
     """
 
     scene_table: ClassVar[str]
@@ -77,6 +87,11 @@ class Actuator(Protocol):
     observation_structure: dict
     info_keys: tuple
     start_slots: int
+    spin_inertia_B: object
+    torque_authority: object
+    step_uniforms: int
+    sensor_normals: int
+    reset_options: dict
 
     def command(self, action, in_place: bool = False, xp=None):
         """The physical command from its (clipped) action slice; NaN raises a named error.
@@ -99,6 +114,42 @@ class Actuator(Protocol):
 
     def info(self, st, xp, out: dict) -> None:
         """Write its info values into ``out`` (units in the key names)."""
+
+    def check_start(self, start: dict) -> None:
+        """Refuse (named error) or settle a start whose values came from reset options."""
+
+
+class ActuatorDefaults:
+    """The declarations and methods of an actuator without the feature: mix it in and override
+    what the actuator has (class attributes, or dataclass fields set in ``__post_init__``)."""
+
+    observation_structure: ClassVar[dict] = {}
+    info_keys: ClassVar[tuple] = ()
+    needs_account: ClassVar[bool] = False
+    stores_momentum: ClassVar[bool] = False
+    start_slots: ClassVar[int] = 0
+    spin_inertia_B: ClassVar[object] = None
+    torque_authority: ClassVar[object] = None
+    step_uniforms: ClassVar[int] = 0
+    sensor_normals: ClassVar[int] = 0
+    reset_options: ClassVar[dict] = {}
+
+    def account(self, st, contribution: Contribution, dt: float, xp) -> None:
+        """Nothing after the physics."""
+
+    def sample_start(self, draws) -> dict:
+        """No state of its own."""
+        return {}
+
+    def observe(self, st, xp, sensed=None) -> tuple:
+        """No observation of its own."""
+        return ()
+
+    def info(self, st, xp, out: dict) -> None:
+        """No info of its own."""
+
+    def check_start(self, start: dict) -> None:
+        """No reset options to check."""
 
 
 def nan_action_error(action) -> InvalidParameterError:

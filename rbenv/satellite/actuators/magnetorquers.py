@@ -21,6 +21,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from rbenv.actuators import tables
+from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
@@ -60,15 +62,12 @@ def parse_magnetorquers(table: dict, com_B=None) -> RodSet:
 
 
 @dataclass(frozen=True, eq=False)
-class Magnetorquers:
+class Magnetorquers(ActuatorDefaults):
     """The scene's magnetorquers, precomputed for the per-step path."""
 
     scene_table: ClassVar[str] = "magnetorquers"
     info_keys: ClassVar[tuple] = ("mtq_energy_J",)
-    needs_account: ClassVar[bool] = False
-    stores_momentum: ClassVar[bool] = False
     start_stream: ClassVar[str] = "magnetorquers"
-    start_slots: ClassVar[int] = 0
     observation_structure: ClassVar[dict] = {"field_B": 3}
 
     rods: RodSet
@@ -83,6 +82,7 @@ class Magnetorquers:
     dipoles: tuple = field(init=False, repr=False)  # n rows μ_max,i ĝ_i, 3-tuples of floats
     powers: tuple = field(init=False, repr=False)  # n floats, W at full dipole
     state_fields: dict = field(init=False, repr=False)
+    sensor_normals: int = field(init=False)  # the magnetometer's: 3 when noisy, else 0
 
     def __post_init__(self):
         rods = self.rods
@@ -99,7 +99,8 @@ class Magnetorquers:
                   "powers": tuple(float(p) for p in rods.power),
                   # mtq_dipole_B: the body dipole of the last step, A·m² (3 components).
                   # mtq_energy_J: cumulative. (The field is the plant's field_B_T.)
-                  "state_fields": {"mtq_dipole_B": "c3", "mtq_energy_J": "f"}}
+                  "state_fields": {"mtq_dipole_B": "c3", "mtq_energy_J": "f"},
+                  "sensor_normals": 3 if self.noise_T else 0}
         for name, value in values.items():
             object.__setattr__(self, name, value)
 
@@ -122,9 +123,6 @@ class Magnetorquers:
         st.mtq_energy_J = st.mtq_energy_J + power * self.control_dt
         zero = k.scale(m_B, 0.0)  # the torque m_B × B is the plant's, at every stage
         return _new(Contribution, (zero, None, None, None, power * self.inv_max_power, m_B))
-
-    def account(self, st, contribution, dt, xp) -> None:
-        """Nothing after the physics."""
 
     def sample_start(self, draws) -> dict:
         m = draws.n

@@ -1,7 +1,9 @@
 """Thrusters: body-fixed nozzles at lever arms, fired as duty cycles over a control step.
 
-The first actuator of the plant (:mod:`rbenv.satellite.actuators.base`). Its scene table is
-``[thrusters]`` (positions, directions, max_force, isp). Three action modes turn its action
+An actuator of the plant (:mod:`rbenv.actuators.base`). Its scene table is ``[thrusters]``
+(positions, directions, max_force, isp), parsed here (:func:`parse_thrusters`) into a
+:class:`ThrusterTable`; the module owns standard gravity ``G0``, which defines the specific
+impulse. Three action modes turn its action
 slice into throttles u in [0, 1]: ``throttle`` (one entry per thruster, ``clip(a, 0, 1)``),
 ``on_off`` (``a > 0`` fires at full throttle) and ``torque`` (a body torque as a fraction of the
 per-axis authority, turned into throttles by an allocator, :mod:`rbenv.satellite.allocation`).
@@ -20,21 +22,87 @@ from typing import ClassVar
 
 import numpy as np
 
+from rbenv.actuators import tables
+from rbenv.actuators.base import ActuatorDefaults, Contribution, nan_action_error
+from rbenv.allocation import axis_authority, make_allocator, validate_torque_matrix
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY, row_product, rows
-from rbenv.satellite.actuators.base import Contribution, nan_action_error
+from rbenv.core.errors import InvalidParameterError, describe
+from rbenv.core.forces import MAX_THRUSTERS, ThrusterLayout
 
-__all__ = ["ACTION_MODES", "ALLOCATORS", "G0", "Thrusters", "action_matrix", "nan_action_error"]
+__all__ = ["ACTION_MODES", "ALLOCATORS", "G0", "ThrusterTable", "Thrusters", "action_matrix",
+           "make_thrusters", "nan_action_error", "parse_thrusters"]
 
 G0 = 9.80665  # m/s², standard gravity (defines specific impulse)
+DEFAULT_ISP = 65.0  # s, thrusters.isp when the table omits it (cold gas, scene_schema)
 ACTION_MODES = ("throttle", "on_off", "torque")
 ALLOCATORS = ("pinv", "nnls", "lp")
 # tuple.__new__ builds a NamedTuple without its Python-level __new__ (fields given in order).
 _new = tuple.__new__
+_COORD = 1e3  # m, |position| components (the scene's bound on coordinates)
 
 
 @dataclass(frozen=True, eq=False)
-class Thrusters:
+class ThrusterTable:
+    """The scene's ``[thrusters]`` table, validated: the layout (body axes, positions m,
+    directions, max_force N, com_B m) and the specific impulse isp (s)."""
+
+    layout: ThrusterLayout
+    isp: float
+
+    @property
+    def n(self) -> int:
+        return self.layout.n
+
+
+def parse_thrusters(table: dict, com_B: np.ndarray) -> ThrusterTable:
+    """The ``[thrusters]`` table: positions (m, body axes, the parts' origin), directions
+    (normalised by the layout), max_force (N, one or per thruster), isp (s, default
+    ``DEFAULT_ISP``). The layout must
+    torque the body both ways about every axis."""
+    tables.keys("thrusters", table, {"positions", "directions", "max_force", "isp"}, ())
+    pos = validation.finite_array("thrusters.positions", table.get("positions"))
+    if pos.ndim != 2 or pos.shape[1] != 3 or len(pos) == 0:
+        raise InvalidParameterError(
+            f"thrusters.positions must be a list of [x, y, z] (m), got shape {pos.shape}"
+        )
+    n = len(pos)
+    if n > MAX_THRUSTERS:
+        raise InvalidParameterError(
+            f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
+        )
+    pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
+    dirs = tables.safe_to_square(_array("thrusters.directions", table.get("directions"),
+                                        (n, 3)))
+    fmax = validation.finite_array("thrusters.max_force", table.get("max_force"))
+    fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
+                  (n,), bound=1e4)
+    if (fmax <= 0).any():
+        i = int(np.argmax(fmax <= 0))
+        raise InvalidParameterError(f"thrusters.max_force[{i}] must be > 0 N, got {fmax[i]!r}")
+    lengths = np.linalg.norm(dirs, axis=1)
+    if (lengths == 0).any():
+        i = int(np.argmax(lengths == 0))
+        raise InvalidParameterError(f"thrusters.directions[{i}] must be non-zero, got "
+                                    f"{describe(dirs[i])}")
+    isp = validation.number("thrusters.isp", table.get("isp", DEFAULT_ISP), low=1.0, high=1e5)
+    layout = ThrusterLayout(positions_B=pos, directions_B=dirs, max_force=fmax, com_B=com_B)
+    validate_torque_matrix(layout.torque_matrix_B, name="thrusters")
+    return ThrusterTable(layout, isp)
+
+
+def _array(path: str, value, shape, *, bound=None) -> np.ndarray:
+    """A read-only finite float array of ``shape``; entries within ±``bound`` if given."""
+    arr = validation.array(path, value, shape, readonly=True)
+    if bound is not None and arr.size and np.abs(arr).max() > bound:
+        raise InvalidParameterError(
+            f"{path} entries must lie within ±{bound:g}, got {describe(arr)}"
+        )
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Thrusters(ActuatorDefaults):
     """The scene's thrusters with their action mode, precomputed for the per-step path.
 
     layout: :class:`rbenv.core.forces.ThrusterLayout` (body axes). isp: s. ``action_matrix`` (n, 4
@@ -42,10 +110,7 @@ class Thrusters:
     """
 
     scene_table: ClassVar[str] = "thrusters"
-    observation_structure: ClassVar[dict] = {}
     info_keys: ClassVar[tuple] = ("fuel_kg", "impulse_Ns")
-    needs_account: ClassVar[bool] = False
-    stores_momentum: ClassVar[bool] = False
     start_stream: ClassVar[str] = "plant"  # its start draws follow the plant's bias slots
 
     layout: object
@@ -68,6 +133,7 @@ class Thrusters:
     fuel_per_impulse: float = field(init=False)  # kg/(N·s) = 1 / (Isp g0)
     state_fields: dict = field(init=False, repr=False)
     start_slots: int = field(init=False)
+    step_uniforms: int = field(init=False)  # n with mid-episode faults: one uniform each
 
     def __post_init__(self):
         validation.choice("action_mode", self.action_mode, ACTION_MODES)
@@ -92,10 +158,9 @@ class Thrusters:
                   "fuel_per_impulse": 1.0 / (self.isp * G0), "state_fields": fields,
                   # The plant's stream: slots 0-5 are its disturbance bias, then one uniform
                   # per thruster with random faults (kept there: seeded episodes unchanged).
-                  "start_slots": lay.n if self.fault_model == "random" else 0}
+                  "start_slots": lay.n if self.fault_model == "random" else 0,
+                  "step_uniforms": lay.n if self.p_fault else 0}
         if torque:
-            from rbenv.satellite.allocation import axis_authority, make_allocator
-
             values["allocator"] = make_allocator(self.allocator_name, lay.torque_matrix_B)
             values["torque_authority"] = axis_authority(lay.torque_matrix_B)
         for name, value in values.items():
@@ -165,9 +230,6 @@ class Thrusters:
             u = fired
         return u
 
-    def account(self, st, contribution: Contribution, dt: float, xp) -> None:
-        """Nothing after the physics: the propellant is accounted in :meth:`actuate`."""
-
     # ------------------------------------------------------------------- start, sensing
 
     def sample_start(self, draws) -> dict:
@@ -183,10 +245,6 @@ class Thrusters:
                 "throttle": rows(xp).zeros((m, self.n)),
                 "pending": rows(xp).zeros((m, self.n)) if self.delay else None}
 
-    def observe(self, st, xp, sensed=None) -> tuple:
-        """No observation of its own."""
-        return ()
-
     def info(self, st, xp, out: dict) -> None:
         """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""
         out["fuel_kg"] = st.fuel_kg
@@ -197,8 +255,8 @@ class Thrusters:
 
 def make_thrusters(scene, action_mode: str = "throttle", allocator: str = "pinv") -> Thrusters:
     """The scene's thrusters (its ``[thrusters]``, faults and randomization) in a mode."""
-    faults, rnd = scene.faults, scene.randomization
-    return Thrusters(layout=scene.thrusters, isp=scene.isp,
+    faults, rnd, table = scene.faults, scene.randomization, scene.actuators["thrusters"]
+    return Thrusters(layout=table.layout, isp=table.isp,
                      control_dt=scene.physics.control_dt,
                      translation=scene.physics.translation, fault_model=faults.model,
                      p_reset=faults.p_reset if faults.model == "random" else 0.0,

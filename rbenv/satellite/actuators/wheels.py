@@ -50,6 +50,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from rbenv.actuators import tables
+from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
@@ -190,7 +192,7 @@ def _as_flown(table: dict) -> dict:
 
 
 @dataclass(frozen=True, eq=False)
-class Wheels:
+class Wheels(ActuatorDefaults):
     """The scene's reaction wheels in an action mode, precomputed for the per-step path."""
 
     scene_table: ClassVar[str] = "wheels"
@@ -224,6 +226,10 @@ class Wheels:
     state_fields: dict = field(init=False, repr=False)
     observation_structure: dict = field(init=False, repr=False)
     start_slots: int = field(init=False)
+    # wheel_speed (rad/s, each wheel's speed relative to the body); with wheels as flown
+    # wheel_clock_s (s since the first command, −1: not yet commanded, the default), so that
+    # a start in mid-run is past the start-up delay.
+    reset_options: dict = field(init=False, repr=False)
 
     def __post_init__(self):
         validation.choice("action_mode (wheels)", self.action_mode, MODES)
@@ -281,7 +287,9 @@ class Wheels:
                   "authority": None if authority is None else tuple(authority.tolist()),
                   "standby": float(ws.n * ws.standby_power),
                   "observation_structure": {"wheel_speed": ws.n},
-                  "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0)}
+                  "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0),
+                  "reset_options": {"wheel_speed": ws.n,
+                                    **({"wheel_clock_s": 1} if ws.as_flown else {})}}
         values["inv_max_power"] = 1.0 / values["max_power"]
         for name, value in values.items():
             object.__setattr__(self, name, value)
@@ -407,6 +415,18 @@ class Wheels:
         if quantum:
             speed = tuple([xp.round(s * (1.0 / quantum)) * quantum for s in speed])
         return tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(speed)])
+
+    def check_start(self, start: dict) -> None:
+        """Refuse a start whose wheel speeds exceed the wheels' limits (named error)."""
+        if isinstance(start.get("wheel_clock_s"), tuple):  # a reset option: one component
+            start["wheel_clock_s"] = start["wheel_clock_s"][0]
+        speed = np.abs(np.asarray(start["wheel_speed"], dtype=float).reshape(self.n, -1))
+        limit = np.asarray(self.max_speed)[:, None]
+        if np.any(speed > limit * (1.0 + 1e-12)):
+            i = int(np.argwhere(speed > limit * (1.0 + 1e-12))[0][0])
+            raise InvalidParameterError(
+                f"reset options['wheel_speed'][{i}] must be within ±{limit[i, 0]:.6g} rad/s "
+                f"(the wheel's max_speed_rpm), got {speed[i].max():.6g} in magnitude")
 
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum

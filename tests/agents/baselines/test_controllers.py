@@ -57,13 +57,13 @@ def test_predict_allocates_demanded_torque_with_valid_throttles(env):
     w = rng.normal(0, 0.005, (64, 3))
     obs = np.hstack([q, w / cfg.scene.episode.rate_limit]).astype(np.float32)
     actions, state = pd.predict(obs)
-    assert actions.shape == (64, cfg.n) and actions.dtype == np.float32
+    assert actions.shape == (64, *cfg.action_shape) and actions.dtype == np.float32
     assert np.all((actions >= 0) & (actions <= 1))
     demanded = pd.torque(q, obs[:, 4:7].astype(float) * cfg.scene.episode.rate_limit)
     achieved = actions.astype(float) @ cfg.scene.thrusters.torque_matrix_B.T
     assert np.allclose(achieved, demanded, atol=1e-6 * np.abs(demanded).max())
     single, _ = pd.predict(obs[0])
-    assert single.shape == (cfg.n,)
+    assert single.shape == cfg.action_shape
     assert np.allclose(single, actions[0])
     assert state.shape == (64, 4)
 
