@@ -9,6 +9,7 @@ from rbenv.core import kernels, quaternion
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidInertiaError
 from rbenv.core.inertia import validate
+from rbenv.core.vec import unit_rows
 
 # A tensor whose principal moments agree to this relative tolerance is treated as isotropic.
 _ISOTROPIC_RTOL = 1e-12
@@ -22,8 +23,9 @@ class Wheels:
 
     axes: (n, 3) spin axes in body axes (normalised here). inertia: (n,) kg·m², each rotor's
     spin-axis inertia (> 0). The rotors' spin inertia is part of the body's inertia; the
-    integrators step the bus ``I − Σ J ĝĝᵀ`` with the rotors' absolute spin momentum as
-    internal angular momentum (:mod:`rbenv.core.integrators`).
+    integrators step the bus ``I − Σ J ĝĝᵀ`` (:func:`bus_inertia`) with the rotors' absolute
+    spin momentum as internal angular momentum (:mod:`rbenv.core.integrators`). The env's
+    reaction wheels (:mod:`rbenv.actuators.wheels`) are these rotors with motors.
     """
 
     axes: np.ndarray
@@ -34,15 +36,13 @@ class Wheels:
         if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= len(axes) <= 64:
             raise check.InvalidParameterError(
                 f"wheels.axes must be 1 to 64 spin axes [x, y, z], got shape {axes.shape}")
-        norms = np.linalg.norm(axes, axis=1)
-        if np.any(norms <= 1e-12):
-            raise check.InvalidParameterError(f"wheels.axes must be non-zero, got {axes.tolist()}")
+        axes = unit_rows("wheels.axes", axes)
         inertia = np.broadcast_to(check.finite_array("wheels.inertia", self.inertia),
                                   (len(axes),)).astype(float)
         if np.any(inertia <= 0.0):
             raise check.InvalidParameterError(
                 f"wheels.inertia must be > 0 kg·m² per rotor, got {inertia.tolist()}")
-        object.__setattr__(self, "axes", axes / norms[:, None])
+        object.__setattr__(self, "axes", axes)
         object.__setattr__(self, "inertia", inertia)
 
     @property
@@ -53,6 +53,12 @@ class Wheels:
     def spin_inertia(self) -> np.ndarray:
         """(3, 3) ``Σ J_i ĝ_i ĝ_iᵀ``, kg·m²."""
         return (self.axes.T * self.inertia) @ self.axes
+
+
+def bus_inertia(inertia, spin_inertia) -> np.ndarray:
+    """(3, 3) kg·m²: the bus's inertia ``I − Σ J ĝĝᵀ``, a body's whole inertia (rotors
+    included) less its rotors' spin inertia (:attr:`Wheels.spin_inertia`, or several summed)."""
+    return np.asarray(inertia, dtype=float) - spin_inertia
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,8 +97,8 @@ class RigidBody:
                 raise check.InvalidParameterError(
                     f"wheels must be a core.Wheels, got {type(self.wheels).__name__}")
             try:
-                bus = RigidBody(mass, np.asarray(self.inertia, dtype=float)
-                                - self.wheels.spin_inertia, self.specialize)
+                bus = RigidBody(mass, bus_inertia(self.inertia, self.wheels.spin_inertia),
+                                self.specialize)
             except InvalidInertiaError as exc:
                 raise InvalidInertiaError(
                     f"wheels.inertia: the body's inertia less its rotors' spin inertia must "

@@ -115,7 +115,7 @@ class Renderer:
     """Draws RGB frames of the satellite; optionally shows them in a pygame window.
 
     inertia: (3, 3) kg·m² about the centre of mass, body axes; mass: kg;
-    thruster_positions_B: (n, 3) m, mount points in the body frame;
+    thruster_positions_B: (n, 3) m, mount points in the body frame (None: no thrusters);
     thruster_directions_B: (n, 3), direction of each thruster's force on the body (any non-zero
     length; the plume points the opposite way); width, height: frame size in pixels;
     supersample: render at this multiple of the size and downscale (antialiasing; 1 is fastest);
@@ -126,30 +126,21 @@ class Renderer:
 
     @classmethod
     def for_scene(cls, scene, **kwargs) -> Renderer:
-        """Renderer for an :class:`rbenv.Scene`: its mass properties and its actuators
-        (thrusters, reaction wheels and torque rods, each where the scene has them).
-
-        Thruster positions are taken relative to the centre of mass, the origin of the drawing.
-        """
-        thr, tables = scene.thrusters, scene.actuators
-        pos, dirs = (np.zeros((0, 3)), np.zeros((0, 3))) if thr is None else \
-            (thr.positions_B - thr.com_B, thr.directions_B)
-        wheels, rods = tables.get("wheels"), tables.get("magnetorquers")
-        if wheels is not None:
-            kwargs = {"wheel_axes_B": wheels.axes_B, "wheel_max_speed": wheels.max_speed,
-                      **kwargs}
-        if rods is not None:
-            full = float(np.linalg.norm(rods.axes_B.T @ np.abs(rods.max_dipole)))
-            kwargs = {"full_dipole": full, **kwargs}
-        return cls(inertia=scene.body.inertia, mass=scene.body.mass,
-                   thruster_positions_B=pos, thruster_directions_B=dirs, **kwargs)
+        """Renderer for an :class:`rbenv.Scene`: its mass properties and what each of its
+        actuator tables asks to be drawn (its parameters' ``drawing()``: keyword arguments of
+        this class; a table without one is not drawn)."""
+        drawn = {}
+        for params in scene.actuators.values():
+            drawing = getattr(params, "drawing", None)
+            drawn.update(drawing() if drawing is not None else {})
+        return cls(inertia=scene.body.inertia, mass=scene.body.mass, **{**drawn, **kwargs})
 
     def __init__(
         self,
         inertia,
         mass: float,
-        thruster_positions_B,
-        thruster_directions_B,
+        thruster_positions_B=None,
+        thruster_directions_B=None,
         width: int = 480,
         height: int = 480,
         *,
@@ -162,9 +153,11 @@ class Renderer:
         self.height = check.count("height", height, low=8, high=8192)
         ss = check.count("supersample", supersample, low=1, high=4)
         half, R_p = equivalent_box(inertia, mass)
-        pos = check.array("thruster_positions_B", thruster_positions_B, (None, 3))
+        pos = check.array("thruster_positions_B", np.zeros((0, 3)) if thruster_positions_B
+                          is None else thruster_positions_B, (None, 3))
         n = len(pos)
-        dirs = check.array("thruster_directions_B", thruster_directions_B, (n, 3))
+        dirs = check.array("thruster_directions_B", np.zeros((0, 3)) if thruster_directions_B
+                           is None else thruster_directions_B, (n, 3))
         norms = np.linalg.norm(dirs, axis=1)
         if n and not (norms > 0).all():
             i = int(np.argmin(norms))

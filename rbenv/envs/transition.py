@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rbenv.actuators.base import nan_action_error
+from rbenv.actuators.base import nan_action_error, one_row
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 from rbenv.plant import Plant, StepNoise
@@ -136,23 +136,16 @@ def render_values(plant: Plant, task, st, index: int | None = None) -> dict:
     def pick(c):
         return float(c if index is None else c[index])
 
-    def vector(components):  # a state field of components (None: the actuator is absent)
-        return None if components is None else np.array([pick(c) for c in components])
-
-    q = vector(st.q)
     target = task.target(st)
-    w = vector(st.omega_B)
-    throttle = getattr(st, "throttle", None)
-    if throttle is not None and index is not None:
-        throttle = throttle[index]
     angle = task.error_angle(st)
-    return {"q": q, "q_target": vector(target),
-            "throttle": None if throttle is None else np.asarray(throttle, dtype=float),
-            "wheel_speed": vector(getattr(st, "wheel_speed", None)),
-            "dipole_B": vector(getattr(st, "mtq_dipole_B", None)),
-            "error_deg": float(np.degrees(pick(angle))) if angle is not None else 0.0,
-            "rate_dps": float(np.degrees(np.linalg.norm(w))),
-            "time_s": pick(st.steps) * plant.control_dt}
+    out = {"q": one_row(st.q, index),
+           "q_target": None if target is None else one_row(target, index),
+           "error_deg": float(np.degrees(pick(angle))) if angle is not None else 0.0,
+           "rate_dps": float(np.degrees(np.linalg.norm(one_row(st.omega_B, index)))),
+           "time_s": pick(st.steps) * plant.control_dt}
+    for act in plant.actuators:  # what each draws: plumes, discs, an arrow
+        out.update(act.render_values(st, index))
+    return out
 
 
 def zero_terms(task, value=0.0) -> tuple:

@@ -38,6 +38,7 @@ from rbenv.actuators import (
 )
 from rbenv.core import INTEGRATORS, validation
 from rbenv.core import kernels as k
+from rbenv.core.body import RigidBody, bus_inertia
 from rbenv.core.dynamics import check_finite_state, translate
 from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.satellite import sensing
@@ -485,10 +486,8 @@ def _integrated_body(scene: Scene, actuators: tuple):
     spin = [a.spin_inertia_B for a in actuators if a.spin_inertia_B is not None]
     if not spin:
         return scene.body
-    from rbenv.core import RigidBody
-
     try:
-        return RigidBody(mass=scene.body.mass, inertia=scene.body.inertia - sum(spin))
+        return RigidBody(mass=scene.body.mass, inertia=bus_inertia(scene.body.inertia, sum(spin)))
     except RbenvValueError as exc:
         tables = [a.scene_table for a in actuators if a.spin_inertia_B is not None]
         raise InvalidParameterError(

@@ -118,6 +118,10 @@ class Actuator(Protocol):
     def check_start(self, start: dict) -> None:
         """Refuse (named error) or settle a start whose values came from reset options."""
 
+    def render_values(self, st, index: int | None) -> dict:
+        """Its keyword arguments of :meth:`rbenv.rendering.Renderer.frame` for one satellite
+        (sub-env ``index`` of a batch state, or None for a single env's)."""
+
 
 class ActuatorDefaults:
     """The declarations and methods of an actuator without the feature: mix it in and override
@@ -150,6 +154,16 @@ class ActuatorDefaults:
 
     def check_start(self, start: dict) -> None:
         """No reset options to check."""
+
+    def render_values(self, st, index: int | None) -> dict:
+        """Nothing to draw."""
+        return {}
+
+
+def one_row(components, index: int | None) -> np.ndarray:
+    """A state field of components (floats, or (N,) arrays with ``index`` the row) as one
+    satellite's (k,) float array."""
+    return np.array([float(c if index is None else c[index]) for c in components])
 
 
 def nan_action_error(action) -> InvalidParameterError:

@@ -22,7 +22,7 @@ from typing import ClassVar
 import numpy as np
 
 from rbenv.actuators import tables
-from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components
+from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components, one_row
 from rbenv.core import kernels as k
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
@@ -46,6 +46,11 @@ class RodSet:
     @property
     def n(self) -> int:
         return len(self.max_dipole)
+
+    def drawing(self) -> dict:
+        """Keyword arguments of :class:`rbenv.rendering.Renderer`: the dipole drawn at the
+        arrow's full length, every rod at its maximum."""
+        return {"full_dipole": float(np.linalg.norm(self.axes_B.T @ np.abs(self.max_dipole)))}
 
 
 def parse_magnetorquers(table: dict, com_B=None) -> RodSet:
@@ -135,6 +140,10 @@ class Magnetorquers(ActuatorDefaults):
         s, clip = 1.0 / FIELD_SCALE_T, xp.clip
         b = st.field_B_T if sensed is None else k.add(st.field_B_T, sensed, self.noise_T)
         return (clip(b[0] * s, -1.0, 1.0), clip(b[1] * s, -1.0, 1.0), clip(b[2] * s, -1.0, 1.0))
+
+    def render_values(self, st, index: int | None) -> dict:
+        """The body dipole of the last step, A·m² (an arrow)."""
+        return {"dipole_B": one_row(st.mtq_dipole_B, index)}
 
     def info(self, st, xp, out: dict) -> None:
         """mtq_energy_J (cumulative)."""

@@ -9,8 +9,9 @@ import numpy as np
 
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
+from rbenv.core.vec import safe_to_square, unit_rows
 
-__all__ = ["axes", "keys", "per_element"]
+__all__ = ["axes", "axis_rows", "keys", "per_element", "safe_to_square"]
 
 MAX_ELEMENTS = 16  # wheels or rods in one table
 
@@ -26,29 +27,19 @@ def keys(name: str, table: dict, allowed: set, required: tuple) -> None:
             raise InvalidParameterError(f"{name}.{key} is required")
 
 
-def safe_to_square(rows: np.ndarray) -> np.ndarray:
-    """The (n, 3) rows, each whose |entry| exceeds 1e150 divided by its largest |entry|, so its
-    squared norm cannot overflow; a direction is unchanged, other rows are returned as given."""
-    huge = np.abs(rows).max(axis=1) > 1e150
-    if not huge.any():
-        return rows
-    rows = np.array(rows, dtype=float)
-    rows[huge] /= np.abs(rows[huge]).max(axis=1, keepdims=True)
-    return rows
-
-
-def axes(name: str, value) -> np.ndarray:
-    """``name.axes``: 1 to 16 non-zero [x, y, z] body axes, returned normalised, (n, 3)."""
+def axis_rows(name: str, value) -> np.ndarray:
+    """``name.axes``: 1 to 16 [x, y, z] body axes as given (finite), (n, 3)."""
     arr = validation.finite_array(f"{name}.axes", value)
     if arr.ndim != 2 or arr.shape[1] != 3 or not 1 <= len(arr) <= MAX_ELEMENTS:
         raise InvalidParameterError(
             f"{name}.axes must be a list of 1 to {MAX_ELEMENTS} [x, y, z] axes, got shape "
             f"{arr.shape}")
-    arr = safe_to_square(arr)
-    norms = np.linalg.norm(arr, axis=1)
-    if np.any(norms < 1e-9):
-        raise InvalidParameterError(f"{name}.axes must be non-zero, got {arr.tolist()}")
-    return arr / norms[:, None]
+    return arr
+
+
+def axes(name: str, value) -> np.ndarray:
+    """``name.axes``: 1 to 16 non-zero [x, y, z] body axes, returned normalised, (n, 3)."""
+    return unit_rows(f"{name}.axes", axis_rows(name, value))
 
 
 def per_element(name: str, table: dict, key: str, n: int, default, low, high) -> np.ndarray:

@@ -54,6 +54,13 @@ class ThrusterTable:
     def n(self) -> int:
         return self.layout.n
 
+    def drawing(self) -> dict:
+        """Keyword arguments of :class:`rbenv.rendering.Renderer`: the mount points relative
+        to the centre of mass (the drawing's origin) and the force directions."""
+        lay = self.layout
+        return {"thruster_positions_B": lay.positions_B - lay.com_B,
+                "thruster_directions_B": lay.directions_B}
+
 
 def parse_thrusters(table: dict, com_B: np.ndarray) -> ThrusterTable:
     """The ``[thrusters]`` table: positions (m, body axes, the parts' origin), directions
@@ -244,6 +251,11 @@ class Thrusters(ActuatorDefaults):
         return {"health": health, "fuel_kg": zero, "impulse_Ns": zero,
                 "throttle": rows(xp).zeros((m, self.n)),
                 "pending": rows(xp).zeros((m, self.n)) if self.delay else None}
+
+    def render_values(self, st, index: int | None) -> dict:
+        """The throttles fired in the last step (plumes)."""
+        throttle = st.throttle if index is None else st.throttle[index]
+        return {"throttle": np.asarray(throttle, dtype=float)}
 
     def info(self, st, xp, out: dict) -> None:
         """fuel_kg and impulse_Ns (cumulative); failed_thrusters with the fault model."""

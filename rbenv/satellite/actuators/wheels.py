@@ -51,10 +51,12 @@ from typing import ClassVar
 import numpy as np
 
 from rbenv.actuators import tables
-from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components
+from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components, one_row
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
+from rbenv.core.body import Wheels as Rotors
+from rbenv.core.body import bus_inertia
 from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.actuators import tables
 from rbenv.satellite.actuators.base import Contribution, action_components
@@ -69,10 +71,11 @@ _ZERO = (0.0, 0.0, 0.0)  # the motor torque is internal: no external torque on t
 
 @dataclass(frozen=True, eq=False)
 class WheelSet:
-    """The scene's ``[wheels]`` table, validated (SI units; speeds in rad/s)."""
+    """The scene's ``[wheels]`` table, validated (SI units; speeds in rad/s): the rotors
+    (:class:`rbenv.core.Wheels`, the one model of their spin axes and inertia that
+    :mod:`rbenv.core` steps too) and their motors, limits and non-idealities."""
 
-    axes_B: np.ndarray  # (n, 3) unit spin axes, body frame
-    inertia: np.ndarray  # (n,) kg·m², spin-axis inertia J_s
+    rotors: Rotors  # spin axes (n, 3, unit, body frame) and spin-axis inertias J_s (n,) kg·m²
     max_torque: np.ndarray  # (n,) N·m
     max_speed: np.ndarray  # (n,) rad/s
     viscous: float = 0.0  # N·m·s/rad
@@ -101,13 +104,27 @@ class WheelSet:
 
     @property
     def n(self) -> int:
-        return len(self.inertia)
+        return self.rotors.n
+
+    @property
+    def axes_B(self) -> np.ndarray:
+        """(n, 3) unit spin axes, body frame."""
+        return self.rotors.axes
+
+    @property
+    def inertia(self) -> np.ndarray:
+        """(n,) kg·m², each rotor's spin-axis inertia J_s."""
+        return self.rotors.inertia
 
     @property
     def spin_inertia_B(self) -> np.ndarray:
         """(3, 3) ``Σ J_i ĝ_i ĝ_iᵀ``, kg·m²: the rotors' share of the scene's inertia."""
-        g = self.axes_B
-        return (g.T * self.inertia) @ g
+        return self.rotors.spin_inertia
+
+    def drawing(self) -> dict:
+        """Keyword arguments of :class:`rbenv.rendering.Renderer`: discs on the spin axes,
+        their speed as a fraction of the limit."""
+        return {"wheel_axes_B": self.axes_B, "wheel_max_speed": self.max_speed}
 
 
 def parse_wheels(table: dict, com_B=None) -> WheelSet:
@@ -120,7 +137,7 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
                                   "viscous", "coulomb", "standby_power", "initial_speed_rpm",
                                   "random_speed_rpm", *_FLOWN_KEYS},
                 ("axes", "inertia", "max_torque", "max_speed_rpm"))
-    axes = tables.axes("wheels", table["axes"])
+    axes = tables.axis_rows("wheels", table["axes"])  # normalised by the rotors
     n = len(axes)
 
     def per_wheel(key, low, high, scale=1.0):
@@ -135,7 +152,7 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
         raise InvalidParameterError(
             "wheels.initial_speed_rpm must be within ±max_speed_rpm, got "
             f"{table['initial_speed_rpm']}")
-    return WheelSet(axes_B=axes, inertia=per_wheel("inertia", 1e-9, 1e3),
+    return WheelSet(rotors=Rotors(axes, per_wheel("inertia", 1e-9, 1e3)),
                     max_torque=per_wheel("max_torque", 1e-9, 1e3), max_speed=speed,
                     viscous=scalar("viscous", 1e3), coulomb=scalar("coulomb", 1e3),
                     standby_power=scalar("standby_power", 1e4), initial_speed=start,
@@ -203,7 +220,7 @@ class Wheels(ActuatorDefaults):
 
     wheels: WheelSet
     control_dt: float  # s
-    bus_inertia: np.ndarray  # (3, 3) kg·m², the whole spacecraft's (rotors included)
+    spacecraft_inertia: np.ndarray  # (3, 3) kg·m², the whole spacecraft's (rotors included)
     action_mode: str = "throttle"
     n: int = field(init=False)
     action_shape: tuple = field(init=False)
@@ -248,7 +265,7 @@ class Wheels(ActuatorDefaults):
         for arr in (low, high):
             arr.setflags(write=False)
         pinv = np.linalg.pinv(g.T)  # (n, 3): u = −pinv τ gives the body torque τ (−G u = τ)
-        inv_bus = np.linalg.inv(self.bus_inertia - ws.spin_inertia_B)  # I_RW⁻¹
+        inv_bus = np.linalg.inv(bus_inertia(self.spacecraft_inertia, ws.spin_inertia_B))  # I_RW⁻¹
         # Authority per axis: the largest body torque along it with every |u_i| <= u_max.
         col = np.abs(pinv)
         authority = np.array([np.min(ws.max_torque[col[:, a] > 0] / col[col[:, a] > 0, a])
@@ -428,6 +445,10 @@ class Wheels(ActuatorDefaults):
                 f"reset options['wheel_speed'][{i}] must be within ±{limit[i, 0]:.6g} rad/s "
                 f"(the wheel's max_speed_rpm), got {speed[i].max():.6g} in magnitude")
 
+    def render_values(self, st, index: int | None) -> dict:
+        """Each wheel's speed relative to the body, rad/s (spinning discs)."""
+        return {"wheel_speed": one_row(st.wheel_speed, index)}
+
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
         relative to the bus)."""
@@ -442,4 +463,4 @@ def make_wheels(scene, action_mode: str = "throttle", allocator: str = "pinv") -
     """The scene's wheels (its ``[wheels]`` table) in an action mode (``allocator`` is the
     thrusters' option: wheels always use the pseudo-inverse)."""
     return Wheels(wheels=scene.actuators["wheels"], control_dt=scene.physics.control_dt,
-                  bus_inertia=scene.body.inertia, action_mode=action_mode)
+                  spacecraft_inertia=scene.body.inertia, action_mode=action_mode)
