@@ -289,8 +289,7 @@ class OrbitTorque:
         """Whether the scene applies any orbit torque (else the plant passes no torque_fn)."""
         return bool(orbit.enabled and (orbit.gravity_gradient or orbit.residual_dipole
                                        or orbit.drag or orbit.srp
-                                       or any(a.scene_table == "magnetorquers"
-                                              for a in actuators)))
+                                       or any(a.gives_dipole for a in actuators)))
 
     def names(self, dipole) -> tuple:
         """The table vectors the torques read (dipole: whether a dipole acts)."""

@@ -66,6 +66,8 @@ class Actuator(Protocol):
       ``scene_table``, or ``"plant"`` after the plant's own slots) and how many slots (a hint);
     * ``needs_account``: whether :meth:`account` must run after the physics;
     * ``stores_momentum``: whether its contribution carries internal angular momentum;
+    * ``gives_dipole``: whether its contribution carries a magnetic dipole (the plant then
+      evaluates the orbit's torques at every integrator stage);
     * ``spin_inertia_B``: (3, 3) kg·m², the part of the scene's inertia that spins with its
       rotors (the plant integrates the bus without it), or None;
     * ``torque_authority``: (3,) N·m per unit action when its action is a body torque, or None;
@@ -81,6 +83,7 @@ class Actuator(Protocol):
     start_stream: ClassVar[str]
     needs_account: ClassVar[bool]
     stores_momentum: ClassVar[bool]
+    gives_dipole: ClassVar[bool]
     action_shape: tuple
     action_bounds: tuple
     state_fields: dict
@@ -131,6 +134,7 @@ class ActuatorDefaults:
     info_keys: ClassVar[tuple] = ()
     needs_account: ClassVar[bool] = False
     stores_momentum: ClassVar[bool] = False
+    gives_dipole: ClassVar[bool] = False
     start_slots: ClassVar[int] = 0
     spin_inertia_B: ClassVar[object] = None
     torque_authority: ClassVar[object] = None

@@ -72,6 +72,7 @@ class Magnetorquers(ActuatorDefaults):
 
     scene_table: ClassVar[str] = "magnetorquers"
     info_keys: ClassVar[tuple] = ("mtq_energy_J",)
+    gives_dipole: ClassVar[bool] = True
     start_stream: ClassVar[str] = "magnetorquers"
     observation_structure: ClassVar[dict] = {"field_B": 3}
 
