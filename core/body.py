@@ -25,7 +25,7 @@ class Wheels:
     spin-axis inertia (> 0). The rotors' spin inertia is part of the body's inertia; the
     integrators step the bus ``I − Σ J ĝĝᵀ`` (:func:`bus_inertia`) with the rotors' absolute
     spin momentum as internal angular momentum (:mod:`rbenv.core.integrators`). The env's
-    reaction wheels (:mod:`rbenv.actuators.wheels`) are these rotors with motors.
+    reaction wheels (:mod:`rbenv.satellite.actuators.wheels`) are these rotors with motors.
     """
 
     axes: np.ndarray

@@ -18,11 +18,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rbenv.actuators.base import nan_action_error, one_row
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
-from rbenv.plant import Plant, StepNoise
-from rbenv.state import Layout
+from rbenv.satellite.actuators.base import nan_action_error, one_row
+from rbenv.satellite.plant import Plant, StepNoise
+from rbenv.satellite.state import Layout
 from rbenv.tasks.base import _DEG, error_quaternion
 
 __all__ = ["Outcome", "info", "layout", "observe", "raise_diverged", "start", "step"]

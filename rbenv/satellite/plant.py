@@ -1,15 +1,16 @@
 """The plant: one satellite and its actuators, whatever the task asks of it.
 
-The plant splits an action among its actuators (:mod:`rbenv.actuators`), sums their
+The plant splits an action among its actuators (:mod:`rbenv.satellite.actuators`), sums their
 contributions (body torque and force, internal angular momentum, magnetic dipole) and integrates the
 attitude (and the centre of mass, when the scene models translation) over one control step
 with the scene's integrator and substeps, under the disturbance torque. It also measures the
 state for the observation (sensor noise) and draws its own part of an episode start
 (disturbance bias, domain randomization, and each actuator's part). It knows nothing of targets
 or rewards: that is the task's business (:mod:`rbenv.tasks`). It knows no actuator by name:
-it asks each, through :class:`rbenv.actuators.base.Actuator`, for its action slice and bounds,
-its contribution and draw, its state, observation part, reset options, per-step random draws
-and the spin inertia it carries; :meth:`Plant.actuator` hands out one by its scene table.
+it asks each, through :class:`rbenv.satellite.actuators.base.Actuator`, for its action slice
+and bounds, its contribution and draw, its state, observation part, reset options, per-step
+random draws and the spin inertia it carries; :meth:`Plant.actuator` hands out one by its
+scene table.
 
 A step that leaves the state non-finite is not an exception here: :meth:`Plant.advance`
 returns a per-satellite flag, and the adapters turn it into :class:`NonFiniteError`
@@ -27,27 +28,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rbenv import sensing
-from rbenv.actuators import (
-    ACTION_MODES,
-    ACTUATORS,
-    ALLOCATORS,
-    DEFAULT_ACTION_MODE,
-    Contribution,
-    make_actuators,
-)
 from rbenv.core import INTEGRATORS, validation
 from rbenv.core import kernels as k
 from rbenv.core.body import RigidBody, bus_inertia
 from rbenv.core.dynamics import check_finite_state, translate
 from rbenv.core.errors import InvalidParameterError, NonFiniteError, RbenvValueError
 from rbenv.satellite import sensing
-from rbenv.satellite.actuators import ACTUATORS, Contribution, Thrusters, make_actuators
-from rbenv.satellite.actuators.thrusters import (
+from rbenv.satellite.actuators import (
     ACTION_MODES,
+    ACTUATORS,
     ALLOCATORS,
-    action_matrix,
-    nan_action_error,
+    DEFAULT_ACTION_MODE,
+    Contribution,
+    make_actuators,
 )
 from rbenv.satellite.disturbances import OrbitTorque
 from rbenv.satellite.orbit import OrbitTable
@@ -72,8 +65,8 @@ class StepNoise(NamedTuple):
 # The plant's own state fields and their storage kinds (rbenv.satellite.state). q: body→world
 # quaternion. omega_B: body rate, rad/s. x, v: centre-of-mass position (m) and velocity (m/s),
 # with translation only. bias: disturbance bias torque, N·m (random model only). steps: control
-# steps taken. model: the episode's randomized physics (rbenv.satellite.randomization.EpisodeModel)
-# or None. The actuators declare their own fields.
+# steps taken. model: the episode's randomized physics
+# (rbenv.satellite.randomization.EpisodeModel) or None. The actuators declare their own fields.
 PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", "steps": "i",
                 "model": "obj", "field_B_T": "c3",  # field_B_T: Earth's field now, T (orbit)
                 **sensing.FIELDS}  # sensing as flown (rbenv.satellite.sensing), None when off
@@ -103,9 +96,9 @@ class Plant:
     step_uniforms: int = field(init=False)  # uniforms the actuators draw per step
     observed: bool = field(init=False)  # some actuator adds to the observation
     body: object = field(init=False, repr=False)  # the integrated body (less the spin inertia)
-    orbit: object = field(init=False, repr=False)  # rbenv.orbit.Orbit, or None
-    orbit_table: object = field(init=False, repr=False)  # rbenv.orbit.OrbitTable, or None
-    # rbenv.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
+    orbit: object = field(init=False, repr=False)  # rbenv.satellite.orbit.Orbit, or None
+    orbit_table: object = field(init=False, repr=False)  # rbenv.satellite.orbit.OrbitTable, or None
+    # rbenv.satellite.disturbances.OrbitTorque: the orbit's torques of (t, q), evaluated at every
     # integrator stage; None without them (the kernels then run as for a free body).
     orbit_torque: object = field(init=False, repr=False)
     eclipse_known: bool = field(init=False)  # the scene models the Sun: info has "eclipse"
@@ -219,7 +212,7 @@ class Plant:
     @property
     def reset_options(self) -> dict:
         """The plant's names in ``reset(options=...)`` and their widths: its actuators'
-        (:attr:`rbenv.actuators.base.Actuator.reset_options`)."""
+        (:attr:`rbenv.satellite.actuators.base.Actuator.reset_options`)."""
         out = {}
         for act in self.actuators:
             out.update(act.reset_options)
@@ -548,8 +541,8 @@ def make_plant(scene, *, integrator=None, control_dt=None, substeps=None,
     """Resolve env options against a scene (name, path or Scene) into a :class:`Plant`.
 
     integrator, control_dt (s), substeps: override the scene's physics. action_mode: one of
-    :data:`rbenv.actuators.ACTION_MODES`. allocator: one of :data:`rbenv.actuators.ALLOCATORS`
-    (torque mode).
+    :data:`rbenv.satellite.actuators.ACTION_MODES`. allocator: one of
+    :data:`rbenv.satellite.actuators.ALLOCATORS` (torque mode).
     randomize: None keeps the scene's domain randomization; a dict overrides its fields
     (see :class:`rbenv.satellite.randomization.Randomization`); False turns it off. compiled: step
     the batch with the numba-compiled kernels (``rbenv[fast]``; rk4, euler, semi_implicit,

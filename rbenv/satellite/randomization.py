@@ -124,9 +124,9 @@ class EpisodeModel:
     """The true physics of N episodes (N = 1 for the single env): body, actuation, delay.
 
     inertia: (N, 3, 3) kg·m². com_offset_B: (N, 3) m. action_matrix: (N, n, k) throttles →
-    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.actuators.thrusters.action_matrix`. delayed: (N,)
-    bool. body: a
-    :class:`RigidBody` (single) or :class:`BatchBody`. ``single()`` gives the one-env view.
+    ``[τ_B, Σu_iF_i, F_B]`` as :func:`rbenv.satellite.actuators.thrusters.action_matrix`.
+    delayed: (N,) bool. body: a :class:`RigidBody` (single) or :class:`BatchBody`. ``single()``
+    gives the one-env view.
     """
 
     __slots__ = ("action_matrix", "body", "com_offset_B", "delayed", "inertia", "mass")

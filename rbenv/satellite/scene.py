@@ -102,14 +102,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rbenv.actuators import ACTUATORS
 from rbenv.core import INTEGRATORS, RigidBody
 from rbenv.core import inertia as inertia_lib
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
-from rbenv.orbit import Orbit
-from rbenv.randomization import Randomization
-from rbenv.usage import InvalidChoiceError, invalid_choice
+from rbenv.satellite.actuators import ACTUATORS
+from rbenv.satellite.orbit import Orbit
+from rbenv.satellite.randomization import Randomization
+from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 __all__ = [
     "DEFAULT_SCENE",
@@ -350,8 +350,8 @@ class Scene:
 
     body: mass (kg) and inertia (kg·m², about the centre of mass, body axes). actuators: each
     actuator table (``[thrusters]``, ``[wheels]``, ...) as its module parsed it
-    (:data:`rbenv.actuators.ACTUATORS`), at least one. The groups say what the step models;
-    ``episode_steps`` is derived: ``round(duration / control_dt)``.
+    (:data:`rbenv.satellite.actuators.ACTUATORS`), at least one. The groups say what the step
+    models; ``episode_steps`` is derived: ``round(duration / control_dt)``.
     """
 
     name: str
@@ -366,7 +366,8 @@ class Scene:
     sources: tuple = ()
     randomization: Randomization = field(default_factory=Randomization)
     tasks: dict = field(default_factory=dict)  # task name -> its option table (the task checks)
-    # The actuator tables, parsed by their modules (rbenv.actuators): table name -> parameters.
+    # The actuator tables, parsed by their modules (rbenv.satellite.actuators): table name ->
+    # parameters.
     actuators: dict = field(default_factory=dict)
     orbit: Orbit = field(default_factory=Orbit)
 
@@ -633,7 +634,7 @@ def _checked(path: str, table, group) -> dict:
 
 
 def _actuator_tables() -> dict:
-    """Scene table name → parser of every registered actuator (rbenv.actuators)."""
+    """Scene table name → parser of every registered actuator (rbenv.satellite.actuators)."""
     return {name: entry.parse for name, entry in ACTUATORS.items() if entry.parse is not None}
 
 

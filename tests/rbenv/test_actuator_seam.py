@@ -1,4 +1,5 @@
-"""The plant knows no actuator by name: it asks each through rbenv.actuators.base.Actuator."""
+"""The plant knows no actuator by name: it asks each through the protocol
+rbenv.satellite.actuators.base.Actuator."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import ast
 import re
 from pathlib import Path
 
-import rbenv.plant
+import rbenv.satellite.plant
 
 # Names of the shipped actuators and of what only one of them has (the thrusters' throttle,
 # the wheels' rotors, the magnetorquers' rods and magnetometer).
@@ -47,7 +48,7 @@ def actuator_names(path: Path) -> list[str]:
 
 
 def test_the_plant_names_no_actuator():
-    assert actuator_names(Path(rbenv.plant.__file__)) == []
+    assert actuator_names(Path(rbenv.satellite.plant.__file__)) == []
 
 
 def test_the_count_can_fail(tmp_path):

@@ -2,9 +2,9 @@
 
 It defines an ideal three-axis torquer (a body torque per axis, as a fraction of its limit;
 nothing else in the repository knows it), registers its scene table with
-:func:`rbenv.actuators.register`, and uses it as a user would: a scene with its table, ``gym.make``
-and ``gym.make_vec``, Gymnasium's env checker, rendering. The physics is checked against SciPy's
-integration of Euler's equations, and it shares a scene with the shipped wheels.
+:func:`rbenv.satellite.actuators.register`, and uses it as a user would: a scene with its table,
+``gym.make`` and ``gym.make_vec``, Gymnasium's env checker, rendering. The physics is checked
+against SciPy's integration of Euler's equations, and it shares a scene with the shipped wheels.
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from rbenv.core.errors import InvalidParameterError
 from scipy.integrate import solve_ivp
 
 import rbenv
-from rbenv import actuators
-from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components
-from rbenv.scene import Scene
+from rbenv.satellite import actuators
+from rbenv.satellite.actuators.base import ActuatorDefaults, Contribution, action_components
+from rbenv.satellite.scene import Scene
 
 TABLE = "torquer"
 

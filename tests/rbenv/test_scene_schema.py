@@ -15,9 +15,9 @@ import pytest
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv import scene_schema
-from rbenv.actuators import ACTUATORS, thrusters
-from rbenv.scene import Scene, scene_table
+from rbenv.satellite import scene_schema
+from rbenv.satellite.actuators import ACTUATORS, thrusters
+from rbenv.satellite.scene import Scene, scene_table
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "scenes.md"

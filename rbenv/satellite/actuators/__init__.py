@@ -5,19 +5,19 @@ the actuator's parameters, kept in ``Scene.actuators``) and the maker that build
 from a scene and the env's actuation options (``action_mode``, ``allocator``). The plant builds
 one actuator for every registered table its scene has, in this order, and concatenates their
 action slices in the same order. A new actuator is its module (the class, see
-:class:`rbenv.actuators.base.Actuator`, its table parser and maker) plus one entry here, or,
-outside rbenv, one :func:`register` call.
+:class:`rbenv.satellite.actuators.base.Actuator`, its table parser and maker) plus one entry
+here, or, outside rbenv, one :func:`register` call.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
-from rbenv.actuators import magnetorquers, thrusters, wheels
-from rbenv.actuators.base import Actuator, ActuatorDefaults, Contribution
-from rbenv.actuators.magnetorquers import Magnetorquers
-from rbenv.actuators.thrusters import Thrusters
-from rbenv.actuators.wheels import Wheels
+from rbenv.satellite.actuators import magnetorquers, thrusters, wheels
+from rbenv.satellite.actuators.base import Actuator, ActuatorDefaults, Contribution
+from rbenv.satellite.actuators.magnetorquers import Magnetorquers
+from rbenv.satellite.actuators.thrusters import Thrusters
+from rbenv.satellite.actuators.wheels import Wheels
 
 __all__ = [
     "ACTION_MODES",

@@ -6,11 +6,13 @@ contributions of its actuators and integrates (:mod:`rbenv.satellite.plant`)::
 
     I ω̇_B = −ω_B × (I ω_B + h_B) − ḣ_B + τ_B        (h_B: internal angular momentum)
 
-Thrusters (:mod:`rbenv.actuators.thrusters`) store no momentum (h = ḣ = None); wheels
-(:mod:`rbenv.actuators.wheels`) do; magnetorquers (:mod:`rbenv.actuators.magnetorquers`) give a
-dipole. A new actuator is one module with a class that satisfies :class:`Actuator` (mixing in
-:class:`ActuatorDefaults` for what it lacks), its scene table parser and maker, and one entry in
-:data:`rbenv.actuators.ACTUATORS`.
+Thrusters (:mod:`rbenv.satellite.actuators.thrusters`) store no momentum (h = ḣ = None); wheels
+(:mod:`rbenv.satellite.actuators.wheels`) do; magnetorquers
+(:mod:`rbenv.satellite.actuators.magnetorquers`) give a dipole. A new actuator is one module
+with a class that satisfies :class:`Actuator` (mixing in :class:`ActuatorDefaults` for what it
+lacks), its scene table parser and maker, and one entry in
+:data:`rbenv.satellite.actuators.ACTUATORS` (or one :func:`rbenv.satellite.actuators.register`
+call).
 
 Values are components as in :mod:`rbenv.core.kernels`: Python floats for one satellite, (N,) arrays
 for N; ``xp`` is the :mod:`rbenv.core.backend` namespace that matches them.
@@ -122,7 +124,7 @@ class Actuator(Protocol):
         """Refuse (named error) or settle a start whose values came from reset options."""
 
     def render_values(self, st, index: int | None) -> dict:
-        """Its keyword arguments of :meth:`rbenv.rendering.Renderer.frame` for one satellite
+        """Its keyword arguments of :meth:`rbenv.envs.rendering.Renderer.frame` for one satellite
         (sub-env ``index`` of a batch state, or None for a single env's)."""
 
 

@@ -21,13 +21,16 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators import tables
-from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components, one_row
 from rbenv.core import kernels as k
 from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.actuators import tables
-from rbenv.satellite.actuators.base import Contribution, action_components
+from rbenv.satellite.actuators.base import (
+    ActuatorDefaults,
+    Contribution,
+    action_components,
+    one_row,
+)
 
 __all__ = ["Magnetorquers", "make_magnetorquers", "parse_magnetorquers"]
 
@@ -48,7 +51,7 @@ class RodSet:
         return len(self.max_dipole)
 
     def drawing(self) -> dict:
-        """Keyword arguments of :class:`rbenv.rendering.Renderer`: the dipole drawn at the
+        """Keyword arguments of :class:`rbenv.envs.rendering.Renderer`: the dipole drawn at the
         arrow's full length, every rod at its maximum."""
         return {"full_dipole": float(np.linalg.norm(self.axes_B.T @ np.abs(self.max_dipole)))}
 

@@ -1,6 +1,6 @@
 """Thrusters: body-fixed nozzles at lever arms, fired as duty cycles over a control step.
 
-An actuator of the plant (:mod:`rbenv.actuators.base`). Its scene table is ``[thrusters]``
+An actuator of the plant (:mod:`rbenv.satellite.actuators.base`). Its scene table is ``[thrusters]``
 (positions, directions, max_force, isp), parsed here (:func:`parse_thrusters`) into a
 :class:`ThrusterTable`; the module owns standard gravity ``G0``, which defines the specific
 impulse. Three action modes turn its action
@@ -22,13 +22,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators import tables
-from rbenv.actuators.base import ActuatorDefaults, Contribution, nan_action_error
-from rbenv.allocation import axis_authority, make_allocator, validate_torque_matrix
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY, row_product, rows
 from rbenv.core.errors import InvalidParameterError, describe
 from rbenv.core.forces import MAX_THRUSTERS, ThrusterLayout
+from rbenv.satellite.actuators import tables
+from rbenv.satellite.actuators.base import ActuatorDefaults, Contribution, nan_action_error
+from rbenv.satellite.allocation import axis_authority, make_allocator, validate_torque_matrix
 
 __all__ = ["ACTION_MODES", "ALLOCATORS", "G0", "ThrusterTable", "Thrusters", "action_matrix",
            "make_thrusters", "nan_action_error", "parse_thrusters"]
@@ -55,7 +55,7 @@ class ThrusterTable:
         return self.layout.n
 
     def drawing(self) -> dict:
-        """Keyword arguments of :class:`rbenv.rendering.Renderer`: the mount points relative
+        """Keyword arguments of :class:`rbenv.envs.rendering.Renderer`: the mount points relative
         to the centre of mass (the drawing's origin) and the force directions."""
         lay = self.layout
         return {"thruster_positions_B": lay.positions_B - lay.com_B,

@@ -50,8 +50,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from rbenv.actuators import tables
-from rbenv.actuators.base import ActuatorDefaults, Contribution, action_components, one_row
 from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT, NUMPY
@@ -59,7 +57,12 @@ from rbenv.core.body import Wheels as Rotors
 from rbenv.core.body import bus_inertia
 from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.actuators import tables
-from rbenv.satellite.actuators.base import Contribution, action_components
+from rbenv.satellite.actuators.base import (
+    ActuatorDefaults,
+    Contribution,
+    action_components,
+    one_row,
+)
 
 __all__ = ["Wheels", "make_wheels", "parse_wheels"]
 
@@ -122,7 +125,7 @@ class WheelSet:
         return self.rotors.spin_inertia
 
     def drawing(self) -> dict:
-        """Keyword arguments of :class:`rbenv.rendering.Renderer`: discs on the spin axes,
+        """Keyword arguments of :class:`rbenv.envs.rendering.Renderer`: discs on the spin axes,
         their speed as a fraction of the limit."""
         return {"wheel_axes_B": self.axes_B, "wheel_max_speed": self.max_speed}
 
