@@ -7,6 +7,10 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
+import rbenv.envs.adapter
+import rbenv.envs.transition
 import rbenv.satellite.plant
 
 # Names of the shipped actuators and of what only one of them has (the thrusters' throttle,
@@ -47,8 +51,11 @@ def actuator_names(path: Path) -> list[str]:
     return [name for name in _names(path.read_text()) if ACTUATOR_WORDS.search(name)]
 
 
-def test_the_plant_names_no_actuator():
-    assert actuator_names(Path(rbenv.satellite.plant.__file__)) == []
+@pytest.mark.parametrize("module", [rbenv.satellite.plant, rbenv.envs.transition,
+                                    rbenv.envs.adapter], ids=lambda m: m.__name__)
+def test_the_plant_and_the_env_core_name_no_actuator(module):
+    """The transition and the adapters draw, observe and inform through the actuators too."""
+    assert actuator_names(Path(module.__file__)) == []
 
 
 def test_the_count_can_fail(tmp_path):
