@@ -221,7 +221,7 @@ def _load_and_step(path):
         env.close()
 
 
-@settings(max_examples=300, deadline=5000, derandomize=True, database=None,
+@settings(max_examples=300, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(leaf=st.sampled_from(LEAVES), new=TOML_VALUES, scale=st.one_of(st.none(), SCALES),
        splice=st.binary(min_size=1, max_size=8), do_splice=st.integers(0, 3), at=st.floats(0, 1))
