@@ -99,9 +99,13 @@ def _diverged_inside(exc: Exception, integrator: str, h: float):
 
 
 def _advance(kernel, integrator, body, q, w_B, h, tau_B, tau_W):
-    """``kernel.advance``, with arithmetic overflow inside the kernel reported as divergence."""
+    """``kernel.advance``, with arithmetic overflow inside the kernel reported as divergence.
+
+    On arrays NumPy's overflow is silenced here (it would only warn): the non-finite result
+    is what :func:`check_finite_state` then reports, by name."""
     try:
-        return kernel.advance(body, q, w_B, h, tau_B, tau_W)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return kernel.advance(body, q, w_B, h, tau_B, tau_W)
     except _OVERFLOW as exc:
         _diverged_inside(exc, integrator, h)
 
