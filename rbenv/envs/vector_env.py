@@ -251,36 +251,27 @@ class AttitudeVectorEnv(VectorContract):
         noise = self.plant.draw_sensor_noise(self.np_random, self.num_envs)
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
 
-    def _own_info(self, values: dict) -> dict:
-        """A step's info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
+    def _info(self, terms, success) -> dict:
+        """The reset's info: of every sub-env, or in a partial reset (the mask
+        :meth:`_reset_mask` kept) of the reset ones only."""
+        rows = getattr(self, "_info_rows", None)
+        self._info_rows = None
+        return self._own_info(
+            transition.info(self.plant, self.task, self._st, terms, success, NUMPY), rows)
+
+    def _own_info(self, values: dict, rows: np.ndarray | None = None) -> dict:
+        """An info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
         returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
         writes the state in place, and SyncVectorEnv's info never changes), each with its
-        ``_key`` mask."""
-        out, mask = {}, self._mask
+        ``_key`` mask. rows: a partial reset's mask; the other rows hold zeros and ``_key`` is
+        False there, as ``SyncVectorEnv`` builds it from the sub-envs it reset."""
+        out, mask = {}, self._mask if rows is None else rows
         owned = _array_ids(self._st)
         for key, value in values.items():
             if np.ndim(value) == 0:
                 value = np.array(np.broadcast_to(value, mask.shape))
             elif id(value) in owned:
                 value = value.copy()
-            out[key] = value
-            out["_" + key] = mask
-        return out
-
-    def _info(self, terms, success) -> dict:
-        """Info of every sub-env, or, in a partial reset (the mask :meth:`_reset_mask` kept),
-        of the reset ones only: the other rows hold zeros and ``_key`` is False there, as
-        ``SyncVectorEnv`` builds it from the sub-envs it reset."""
-        rows = getattr(self, "_info_rows", None)
-        self._info_rows = None
-        values = transition.info(self.plant, self.task, self._st, terms, success, NUMPY)
-        out, mask = {}, self._mask if rows is None else rows
-        owned = _array_ids(self._st)
-        for key, value in values.items():
-            if np.ndim(value) == 0:
-                value = np.array(np.broadcast_to(value, mask.shape))
-            elif id(value) in owned:  # the state's own array, which a later autoreset
-                value = value.copy()  # overwrites in place (SyncVectorEnv's info never changes)
             out[key] = value if rows is None else np.where(rows, value, np.zeros_like(value))
             out["_" + key] = mask
         return out

@@ -123,3 +123,21 @@ def test_a_toy_backend_gets_the_numpy_vector_envs_episodes_from_the_contract(mod
             obs_b, _ = numpy.reset(options={"reset_mask": done})
             np.testing.assert_array_equal(obs_a, obs_b[done])
     assert restarted >= N  # the run crossed autoresets
+
+
+def test_the_autoreset_default_changed_in_one_place_reaches_a_new_backend_too(monkeypatch):
+    """With the NumPy and torch vector envs (tests/rbenv/test_options.py), the third shell:
+    the one value rbenv.envs.options.AUTORESET_DEFAULT sets the toy's mode, which it then acts
+    on without a line of its own."""
+    from rbenv.envs import options
+
+    assert SingleEnvsVectorEnv(2).autoreset_mode is AutoresetMode.NEXT_STEP
+    monkeypatch.setattr(options, "AUTORESET_DEFAULT", AutoresetMode.SAME_STEP)
+    ours = SingleEnvsVectorEnv(2)
+    assert ours.autoreset_mode is AutoresetMode.SAME_STEP
+    for env in ours.envs:
+        env._max_steps = 1
+    ours.reset(seed=0)
+    obs, _, _, truncated, info = ours.step(np.zeros(ours.action_space.shape, np.float32))
+    assert truncated.all() and all(o is not None for o in info["final_obs"])
+    assert not np.array_equal(obs[0], info["final_obs"][0])  # the new episode's first obs
