@@ -1,11 +1,14 @@
 """The env options, declared once: :class:`EnvOptions`, one field per ``gym.make`` /
 ``gym.make_vec`` keyword argument, with its default and its docstring.
 
-Everything else derives from it or is tested against it (tests/rbenv/test_options.py): the
-names the adapters accept (:data:`ENV_OPTIONS`), the keyword arguments of the env
-constructors, :func:`rbenv.tasks.build` and :func:`rbenv.satellite.plant.make_plant`, the Arguments
-table of every env's docstring (:func:`options_table`) and the Options table of docs/api.md, which
-adds the backend options (:class:`BackendOptions`: numpy or torch, and the torch env's own).
+The shells' own options are declared beside it (:class:`ShellOptions`, :class:`VectorOptions`,
+:class:`BackendOptions`: numpy or torch, and the torch env's own), and :data:`SHELLS` names
+the options each shell takes. Each shell has one constructor, ``(num_envs, scene,
+**options)``, that hands its keywords to :func:`take`: the declared defaults filled in, an
+unknown name refused as Python refuses it. Everything else derives from the declarations or
+is tested against them (tests/rbenv/test_options.py): :func:`rbenv.tasks.build` and
+:func:`rbenv.satellite.plant.make_plant`, the Arguments table of every env's docstring
+(:func:`options_table`) and the Options table of docs/api.md.
 """
 
 from __future__ import annotations
