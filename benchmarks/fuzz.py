@@ -461,8 +461,8 @@ def torch_probes():
     for v, e in [(1, VALID), (0, INVALID), (-3, INVALID), (2**25, INVALID), (2.5, INVALID)]:
         add("make_vec num_envs", ("num_envs",), v, e, lambda v=v: _torch_episode(num_envs=v))
     for key, v in [("integrator", "midpoint"), ("integrator", "splitting"),
-                   ("action_mode", "torque"), ("autoreset_mode", "NextStep"),
-                   ("render_mode", "rgb_array"), ("compiled", True)]:
+                   ("action_mode", "torque"), ("render_mode", "rgb_array"),
+                   ("compiled", True)]:
         add(f"make_vec {key} (not supported)", (key,), v, INVALID,
             lambda k=key, v=v: _torch_episode(**{k: v}))
     add("make_vec scene (randomized)", ("randomiz",), "cubesat-12u-dr", INVALID,

@@ -211,7 +211,8 @@ def _rsl_env(num_envs: int, seed: int):
 
     class RslEnv(VecEnv):
         def __init__(self):
-            self.env = gym.make_vec(ENV_ID, num_envs=num_envs, backend="torch", device="cpu")
+            self.env = gym.make_vec(ENV_ID, num_envs=num_envs, backend="torch", device="cpu",
+                                    autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
             self.num_envs, self.device, self.cfg = num_envs, "cpu", {}
             self.num_actions = self.env.single_action_space.shape[0]
             self.max_episode_length = 160
@@ -296,7 +297,8 @@ def torch_success_rate(act, episodes: int) -> float:
     import torch
     from rbenv.agents.policies.sb3 import expected_throttle
 
-    env = gym.make_vec(ENV_ID, num_envs=episodes, backend="torch", device="cpu")
+    env = gym.make_vec(ENV_ID, num_envs=episodes, backend="torch", device="cpu",
+                       autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)  # final_info
     obs, _ = env.reset(seed=HELD_OUT_SEED)
     ended = torch.zeros(episodes, dtype=torch.bool)
     success = torch.zeros_like(ended)

@@ -47,7 +47,8 @@ def peak_kib():
         return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 n = int(sys.argv[1])
 before = peak_kib()
-env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n, backend="torch")
+env = gym.make_vec("rbenv/SatelliteReorient-v0", num_envs=n, backend="torch",
+                   autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
 env.reset(seed=0)
 a = torch.rand(n, 12, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
 for _ in range(10):
@@ -150,7 +151,8 @@ def memory(n: int, device) -> dict:
     if device.type == "cuda":
         torch.cuda.reset_peak_memory_stats(device)
         before = torch.cuda.max_memory_allocated(device)
-        env = gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device)
+        env = gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device,
+                           autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
         env.reset(seed=0)
         a = torch.rand(n, 12, dtype=torch.float64, device=device)
         for _ in range(10):
@@ -167,7 +169,8 @@ def float32_cost(device, n: int = 4096, steps: int = 160) -> dict:
     """float32 against float64 from the same starts and actions, after ``steps`` steps
     (episodes truncated later, so every sub-env runs one episode)."""
     envs = {d: gym.make_vec(REORIENT_V0, num_envs=n, backend="torch", device=device, dtype=d,
-                            max_episode_steps=steps + 1, check_every=0)
+                            max_episode_steps=steps + 1, check_every=0,
+                            autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
             for d in ("float64", "float32")}
     for e in envs.values():
         e.reset(seed=7)
@@ -196,7 +199,9 @@ def float32_cost(device, n: int = 4096, steps: int = 160) -> dict:
 def float32_speed(device, n: int, rounds: int) -> list[dict]:
     a = torch.full((n, 12), -1.0, dtype=torch.float64).to(device)
     cases = {d: _stepper(gym.make_vec(REORIENT_V0, num_envs=n, backend="torch",
-                                      device=device, dtype=d), a, device)
+                                      device=device, dtype=d,
+                                      autoreset_mode=gym.vector.AutoresetMode.SAME_STEP),
+                         a, device)
              for d in ("float64", "float32")}
     best = _best(cases, device, rounds, 0.3)
     return [{"dtype": d, "num_envs": n, "env_steps_per_s": n / t} for d, t in best.items()]

@@ -284,7 +284,7 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
 
     n = cfg.eval_episodes
     env = gym.make_vec(cfg.env_id, num_envs=n, backend="torch", device=cfg.device,
-                       **env_kwargs)
+                       autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)  # final_info
     obs, _ = env.reset(seed=HELD_OUT_SEED)
     module = actor.module[0]  # the (loc, scale) network
     ended = torch.zeros(n, dtype=torch.bool, device=cfg.device)

@@ -16,8 +16,7 @@ from gymnasium.vector import AutoresetMode
 
 from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
-from rbenv.envs import transition
-from rbenv.envs.options import AUTORESET_DEFAULT
+from rbenv.envs import options, transition
 from rbenv.satellite.draws import check_seed
 from rbenv.tasks import build
 from rbenv.tasks.spec import TaskSpec
@@ -52,26 +51,14 @@ def _as_array(value, shape: tuple, name: str) -> np.ndarray:
                         f"{validation.show(value)} of type {type(value).__name__}") from None
 
 
-def unknown_options(owner: str, unknown: dict, valid) -> None:
-    """Raise the TypeError of an unexpected keyword, naming the valid ones.
-
-    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
-    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
-    drops ``frameskip`` so)."""
-    first, *rest = sorted(unknown)
-    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
-    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
-                    f"the valid options are {', '.join(sorted(valid))}")
-
-
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
-def autoreset_mode_of(value, backend: str) -> AutoresetMode:
-    """``value`` as an :class:`AutoresetMode` (the mode or its value; None: ``backend``'s
-    default, :data:`rbenv.envs.options.AUTORESET_DEFAULT`); a named error else."""
+def autoreset_mode_of(value) -> AutoresetMode:
+    """``value`` as an :class:`AutoresetMode` (the mode or its value; None: the default,
+    :data:`rbenv.envs.options.AUTORESET_DEFAULT`, read now); a named error else."""
     if value is None:
-        return AUTORESET_DEFAULT[backend]
+        return options.AUTORESET_DEFAULT
     mode = value if isinstance(value, AutoresetMode) else _MODES.get(value)
     if mode is None:
         raise InvalidParameterError(
@@ -125,13 +112,31 @@ class TaskAdapter:
     """
 
     task_spec: ClassVar[TaskSpec | None] = None
+    SHELLS: ClassVar[dict]  # env id -> the shipped class, each shell its own dict
 
-    def _setup(self, task, options: dict, render_mode,
-               render_modes) -> tuple[gym.Space, gym.Space]:
-        """Build plant and task from ``options`` (the env options by name) for ``task`` (None:
-        the class's entry); returns the single-satellite action and observation spaces."""
-        self.task_spec = task_of(type(self), task)
-        self.plant, self.task = build(self.task_spec, **options)
+    def __init_subclass__(cls, spec: TaskSpec | None = None, **kwargs):
+        """``class SatelliteReorientEnv(AttitudeEnv, spec=reorient.SPEC)``: a shipped id's
+        class. It runs ``spec``, carries the documentation the shell writes for it
+        (:meth:`_id_doc`) and is listed in the shell's ``SHELLS``, which the registry reads."""
+        super().__init_subclass__(**kwargs)
+        if spec is not None:
+            cls.task_spec = spec
+            cls.__doc__ = cls._id_doc(spec)
+            cls.SHELLS[spec.env_id] = cls
+
+    @classmethod
+    def _id_doc(cls, spec: TaskSpec) -> str:
+        """The docstring of the class of ``spec``'s id: its env documentation."""
+        return spec.env_doc
+
+    def _setup(self, o: dict, render_modes) -> tuple[gym.Space, gym.Space]:
+        """Build plant and task from ``o`` (the shell's options by name,
+        :func:`rbenv.envs.options.take`) for its ``task`` (None: the class's entry); returns
+        the single-satellite action and observation spaces."""
+        render_mode = o["render_mode"]
+        self.task_spec = task_of(type(self), o["task"])
+        self.plant, self.task = build(self.task_spec,
+                                      **{name: o[name] for name in options.ENV_OPTIONS})
         if render_mode is not None and render_mode not in render_modes:
             raise InvalidParameterError(
                 f"render_mode must be None or one of {list(render_modes)}, got {render_mode!r}")

@@ -16,8 +16,8 @@ import numpy as np
 
 from rbenv.core.backend import FLOAT
 from rbenv.envs import transition
-from rbenv.envs.adapter import TaskAdapter, action_array, check_backend, task_of, unknown_options
-from rbenv.envs.options import ENV_OPTIONS
+from rbenv.envs.adapter import TaskAdapter, action_array, check_backend, task_of
+from rbenv.envs.options import take
 from rbenv.satellite.draws import EpisodeDraws, check_seed
 from rbenv.satellite.plant import NO_NOISE
 from rbenv.satellite.state import from_start
@@ -28,29 +28,24 @@ _F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
 
 
 class AttitudeEnv(TaskAdapter, gym.Env):
-    """A satellite, its thrusters and one task, as a Gymnasium env (see the subclasses)."""
+    """A satellite, its actuators and one task, as a Gymnasium env (see the subclasses)."""
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
+    SHELLS: ClassVar[dict] = {}
 
-    def __new__(cls, *args, backend="numpy", task=None, **kwargs):
+    def __new__(cls, *args, **options):
         """``backend="torch"`` makes the torch single env instead (:class:`rbenv.envs.torch_env.
         TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
-        if check_backend(backend):
+        if check_backend(options.get("backend", "numpy")):
             from rbenv.envs.torch_env import TorchEnv
 
-            return TorchEnv(*args, task=task_of(cls, task), **kwargs)
+            return TorchEnv(*args, **{**options, "task": task_of(cls, options.get("task"))})
         return super().__new__(cls)
 
-    def __init__(self, scene=None, *, integrator=None, control_dt=None, substeps=None,
-                 action_mode="throttle", reward_weights=None, max_initial_angle_deg=None,
-                 max_initial_rate=None, allocator="pinv", randomize=None, task_options=None,
-                 render_mode=None, compiled=False, backend="numpy", task=None, **unknown):
-        if unknown:
-            unknown_options(type(self).__name__, unknown,
-                            (*ENV_OPTIONS, "render_mode", "backend"))
-        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
-        self.action_space, self.observation_space = self._setup(task, options, render_mode,
-                                                                RENDER_MODES)
+    def __init__(self, scene=None, **options):
+        """Options: :data:`rbenv.envs.options.SHELLS` ``["single"]`` (see the Arguments table)."""
+        o = take(type(self).__name__, "single", {"scene": scene, **options})
+        self.action_space, self.observation_space = self._setup(o, RENDER_MODES)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.plant.control_dt}
         self._max_steps = self.plant.scene.episode_steps
         self._seed_key: int | None = None
@@ -130,45 +125,15 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             self._renderer = None
 
 
-# One class per shipped id (rbenv.envs.registry registers each as the id's entry point).
+# One class per shipped id (rbenv.envs.registry registers each as the id's entry point; the
+# base gives it its task entry and documentation).
+class SatelliteReorientEnv(AttitudeEnv, spec=reorient.SPEC): ...
+class SatelliteDetumbleEnv(AttitudeEnv, spec=detumble.SPEC): ...
+class SatelliteTrackEnv(AttitudeEnv, spec=track.SPEC): ...
+class SatelliteDesaturateEnv(AttitudeEnv, spec=desaturate.SPEC): ...
+class SatelliteReorientV1Env(AttitudeEnv, spec=reorient.SPEC_V1): ...
+class SatelliteDetumbleV1Env(AttitudeEnv, spec=detumble.SPEC_V1): ...
+class SatelliteTrackV1Env(AttitudeEnv, spec=track.SPEC_V1): ...
 
 
-class SatelliteReorientEnv(AttitudeEnv):
-    __doc__ = reorient.SPEC.env_doc
-    task_spec = reorient.SPEC
-
-
-class SatelliteDetumbleEnv(AttitudeEnv):
-    __doc__ = detumble.SPEC.env_doc
-    task_spec = detumble.SPEC
-
-
-class SatelliteTrackEnv(AttitudeEnv):
-    __doc__ = track.SPEC.env_doc
-    task_spec = track.SPEC
-
-
-class SatelliteDesaturateEnv(AttitudeEnv):
-    __doc__ = desaturate.SPEC.env_doc
-    task_spec = desaturate.SPEC
-
-
-class SatelliteReorientV1Env(AttitudeEnv):
-    __doc__ = reorient.SPEC_V1.env_doc
-    task_spec = reorient.SPEC_V1
-
-
-class SatelliteDetumbleV1Env(AttitudeEnv):
-    __doc__ = detumble.SPEC_V1.env_doc
-    task_spec = detumble.SPEC_V1
-
-
-class SatelliteTrackV1Env(AttitudeEnv):
-    __doc__ = track.SPEC_V1.env_doc
-    task_spec = track.SPEC_V1
-
-
-# env id -> its class.
-SHELLS = {cls.task_spec.env_id: cls for cls in (
-    SatelliteReorientEnv, SatelliteDetumbleEnv, SatelliteTrackEnv, SatelliteDesaturateEnv,
-    SatelliteReorientV1Env, SatelliteDetumbleV1Env, SatelliteTrackV1Env)}
+SHELLS = AttitudeEnv.SHELLS  # env id -> its class

@@ -1,11 +1,14 @@
 """The env options, declared once: :class:`EnvOptions`, one field per ``gym.make`` /
 ``gym.make_vec`` keyword argument, with its default and its docstring.
 
-Everything else derives from it or is tested against it (tests/rbenv/test_options.py): the
-names the adapters accept (:data:`ENV_OPTIONS`), the keyword arguments of the env
-constructors, :func:`rbenv.tasks.build` and :func:`rbenv.satellite.plant.make_plant`, the Arguments
-table of every env's docstring (:func:`options_table`) and the Options table of docs/api.md, which
-adds the backend options (:class:`BackendOptions`: numpy or torch, and the torch env's own).
+The shells' own options are declared beside it (:class:`ShellOptions`, :class:`VectorOptions`,
+:class:`BackendOptions`: numpy or torch, and the torch env's own), and :data:`SHELLS` names
+the options each shell takes. Each shell has one constructor, ``(num_envs, scene,
+**options)``, that hands its keywords to :func:`take`: the declared defaults filled in, an
+unknown name refused as Python refuses it. Everything else derives from the declarations or
+is tested against them (tests/rbenv/test_options.py): :func:`rbenv.tasks.build` and
+:func:`rbenv.satellite.plant.make_plant`, the Arguments table of every env's docstring
+(:func:`options_table`) and the Options table of docs/api.md.
 """
 
 from __future__ import annotations
@@ -79,17 +82,74 @@ class BackendOptions:
     ``check()``); every step by default, as the NumPy env."""
 
 
+@dataclasses.dataclass(frozen=True)
+class ShellOptions:
+    """What the shells take besides the env options: the render mode and the task entry."""
+
+    render_mode: str | None = None
+    """``"rgb_array"`` or ``"human"`` (single env)"""
+    task: object = None
+    """The :class:`rbenv.tasks.spec.TaskSpec` to run; unset: the class's own (each shipped id's
+    class has one; ``gym.make`` passes it for an id registered without classes)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class VectorOptions:
+    """What a vector env (``gym.make_vec``) adds to the single env's options."""
+
+    num_envs: int = 1
+    """Number of sub-envs."""
+    max_episode_steps: int | None = None
+    """Steps per episode, at most the scene's (``make_vec`` passes the registered value)."""
+    autoreset_mode: object = None
+    """An ``AutoresetMode`` or its value; unset: :data:`AUTORESET_DEFAULT`."""
+
+
 ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions))
 BACKEND_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BackendOptions))
+SHELL_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(ShellOptions))
+VECTOR_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(VectorOptions))
 
-# The vector envs' autoreset mode when ``autoreset_mode`` is not given, per backend; the one
-# place that says it (every vector env reads it when made). NumPy: NEXT_STEP, Gymnasium's own
-# default (SyncVectorEnv's). Torch: SAME_STEP, the convention of the GPU learners it serves
-# (rsl_rl, skrl, Isaac Lab), and the only one that keeps a step free of host reads (NEXT_STEP
-# would branch on the last step's flags).
-AUTORESET_DEFAULT: dict[str, AutoresetMode] = {"numpy": AutoresetMode.NEXT_STEP,
-                                               "torch": AutoresetMode.SAME_STEP}
+# The options each shell takes, by its backend (rbenv.envs.env, vector_env, torch_env). The
+# NumPy shells take ``backend`` alone of the backend options (to hand "torch" over).
+SHELLS: dict[str, tuple[str, ...]] = {
+    "single": (*ENV_OPTIONS, *SHELL_OPTIONS, "backend"),
+    "numpy": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, "backend"),
+    "torch": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, *BACKEND_OPTIONS),
+}
+
+# The vector envs' autoreset mode when ``autoreset_mode`` is not given, on every backend; the
+# one place that says it (each vector env reads it when made): NEXT_STEP, Gymnasium's own
+# default (SyncVectorEnv's). The torch env runs it without a host read on a GPU, as SAME_STEP.
+AUTORESET_DEFAULT: AutoresetMode = AutoresetMode.NEXT_STEP
 DEFAULTS: dict = {f.name: f.default for f in dataclasses.fields(EnvOptions)}
+_ALL_DEFAULTS: dict = {f.name: f.default for cls in (EnvOptions, ShellOptions, VectorOptions,
+                                                     BackendOptions)
+                       for f in dataclasses.fields(cls)}
+
+
+def take(owner: str, shell: str, given: dict) -> dict:
+    """The keyword arguments ``given`` to the constructor of ``owner`` (a class name), a shell
+    of :data:`SHELLS`, completed with the declared defaults: name -> value for every option
+    that shell takes. An unknown name raises Python's own TypeError (see
+    :func:`unknown_options`)."""
+    names = SHELLS[shell]
+    unknown = set(given).difference(names)
+    if unknown:
+        unknown_options(owner, unknown, names)
+    return {name: given.get(name, _ALL_DEFAULTS[name]) for name in names}
+
+
+def unknown_options(owner: str, unknown, valid) -> None:
+    """Raise the TypeError of an unexpected keyword, naming the valid ones.
+
+    The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
+    clients match it to retry without an option the env does not take (TorchRL's ``GymEnv``
+    drops ``frameskip`` so)."""
+    first, *rest = sorted(unknown)
+    more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
+    raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
+                    f"the valid options are {', '.join(sorted(valid))}")
 
 
 @cache
@@ -118,7 +178,7 @@ def default_text(name: str) -> str:
 def _rows() -> list[tuple[str, str, str]]:
     docs = field_docs(EnvOptions)
     rows = [(name, default_text(name), docs[name]) for name in ENV_OPTIONS]
-    return [*rows, ("render_mode", "unset", '``"rgb_array"`` or ``"human"`` (single env)')]
+    return [*rows, ("render_mode", "unset", field_docs(ShellOptions)["render_mode"])]
 
 
 def options_table(indent: str = "    ") -> str:

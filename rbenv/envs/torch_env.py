@@ -15,15 +15,17 @@ The physics is not restated: the plant, actuators, tasks and integrators of
 :mod:`rbenv.envs.transition` run through the torch namespace (:mod:`rbenv.core.torch_backend`), and
 episode starts come from :mod:`rbenv.satellite.torch_draws`, the counter-based draws on the device.
 
-**Autoreset on the device.** SAME_STEP (default): a sub-env that ends returns its new
-episode's first observation; the last one is in ``info["final_obs"]``, an (N, d) tensor whose
-rows are valid where ``info["_final_obs"]`` is True, and ``info["final_info"]`` holds the
-last step's ``is_success`` alone (masked alike). On a CUDA (any non-CPU) device new
-episodes are drawn for every row and the ended ones selected with ``torch.where``: no index
-list, no host round trip. On a CPU, where a host read costs nothing, only the ended rows are
-drawn (by index), which is cheaper; the numbers are the same. DISABLED: nothing resets by
-itself; ``reset(options={"reset_mask": mask})`` with an (N,) bool tensor. NEXT_STEP is
-refused by name.
+**Autoreset on the device**, the three modes of the NumPy env (:mod:`rbenv.envs.vector`, one
+implementation for both). NEXT_STEP (default, :data:`rbenv.envs.options.AUTORESET_DEFAULT`): a
+sub-env that ended restarts on the following step, whose action it ignores. SAME_STEP: a
+sub-env that ends returns its new episode's first observation; the last one is in
+``info["final_obs"]``, an (N, d) tensor whose rows are valid where ``info["_final_obs"]`` is
+True, and ``info["final_info"]`` holds the last step's ``is_success`` alone (masked alike).
+On a CUDA (any non-CPU) device new episodes are drawn for every row and the ended ones
+selected with ``torch.where``: no index list, no host round trip. On a CPU, where a host read
+costs nothing, only the ended rows are drawn (by index), which is cheaper; the numbers are the
+same. DISABLED: nothing resets by itself; ``reset(options={"reset_mask": mask})`` with an
+(N,) bool tensor.
 
 **Seeding.** ``reset(seed=s)`` seeds sub-env i with s + i, as the NumPy env: on CPU in float64
 every episode equals the NumPy vector env's (and so the single env's with seed s + i) to
@@ -40,8 +42,8 @@ reset and on request, for a device whose host syncs are costly.
 **Not supported yet** (refused by name at construction): the implicit integrators (midpoint,
 splitting), the desaturate task (its wheel-load start is NumPy row operations), the torque
 action mode (its allocators are NumPy/SciPy), domain randomization,
-per-step noise (sensor noise, disturbance noise, mid-episode thruster faults), rendering, the
-numba ``compiled`` kernels and NEXT_STEP autoreset.
+per-step noise (sensor noise, disturbance noise, mid-episode thruster faults), rendering and
+the numba ``compiled`` kernels.
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ from typing import ClassVar
 import gymnasium as gym
 import numpy as np
 import torch
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from rbenv.core import validation
@@ -59,13 +61,11 @@ from rbenv.core.errors import InvalidParameterError
 from rbenv.core.torch_backend import TorchNamespace
 from rbenv.envs import transition
 from rbenv.envs.adapter import (
-    TaskAdapter,
     action_array,
     autoreset_mode_of,
-    seed_list,
-    unknown_options,
 )
-from rbenv.envs.options import AUTORESET_DEFAULT, ENV_OPTIONS
+from rbenv.envs.options import AUTORESET_DEFAULT, take
+from rbenv.envs.vector import Step, VectorContract
 from rbenv.satellite.plant import NO_NOISE
 from rbenv.satellite.state import State
 from rbenv.satellite.torch_draws import TorchDraws
@@ -120,7 +120,7 @@ def _refuse(option: str, value, rule: str):
         f"backend='torch' does not support {option}={value!r} yet: {rule}")
 
 
-def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
+def check_supported(plant, task, render_mode, compiled) -> None:
     """Raise, naming the option and value, for what the torch backend cannot run yet."""
     sc = plant.scene
     if task.name == "desaturate":
@@ -142,8 +142,6 @@ def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
     if plant.sensors is not None:
         _refuse("scene", sc.name, "sensing as flown ([sensors]: gyro attitude, delay) is "
                 "NumPy-only yet; pick a scene without it")
-    if autoreset_mode is AutoresetMode.NEXT_STEP:
-        _refuse("autoreset_mode", "NEXT_STEP", "use SAME_STEP (default) or DISABLED")
     if render_mode is not None:
         _refuse("render_mode", render_mode, "rendering reads the host; use the NumPy env")
     if compiled:
@@ -151,7 +149,7 @@ def check_supported(plant, task, autoreset_mode, render_mode, compiled) -> None:
                 "torch.compile")
 
 
-class TorchVectorEnv(TaskAdapter, VectorEnv):
+class TorchVectorEnv(VectorContract):
     """``num_envs`` satellites stepped as torch tensors on ``device`` (see the module doc).
 
     Options: those of :class:`rbenv.envs.vector_env.AttitudeVectorEnv` (minus the unsupported ones,
@@ -160,31 +158,23 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
     between divergence checks on the host; 0: only at reset and :meth:`check`).
     """
 
-    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT["torch"]}
+    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT}
 
-    def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
-                 substeps=None, action_mode="throttle", reward_weights=None,
-                 max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
-                 randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=None, render_mode=None, compiled=False,
-                 device="cpu", dtype="float64", compile=False, check_every=1, task=None,
-                 **unknown):
-        if unknown:
-            unknown_options(type(self).__name__, unknown,
-                            (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
-                             "device", "dtype", "compile", "check_every", "backend"))
-        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
+    def __init__(self, num_envs: int = 1, scene=None, **options):
+        """Options: :data:`rbenv.envs.options.SHELLS` ``["torch"]`` (see the class doc)."""
+        o = take(type(self).__name__, "torch", {"num_envs": num_envs, "scene": scene, **options})
+        dtype = o["dtype"]
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         if isinstance(dtype, torch.dtype):
             dtype = str(dtype).removeprefix("torch.")
         if dtype not in DTYPES:
             raise InvalidParameterError(f"dtype must be one of {sorted(DTYPES)} (or the torch "
                                         f"dtype), got {dtype!r}")
-        self.device, self.dtype = _device(device), DTYPES[dtype]
+        self.device, self.dtype = _device(o["device"]), DTYPES[dtype]
         self.xp = DeferredTorchNamespace(self.device, self.dtype)
-        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "torch")
-        single_action, single_obs = self._setup(task, options, None, ())
-        check_supported(self.plant, self.task, self.autoreset_mode, render_mode, compiled)
+        self.autoreset_mode = autoreset_mode_of(o["autoreset_mode"])
+        single_action, single_obs = self._setup({**o, "render_mode": None}, ())
+        check_supported(self.plant, self.task, o["render_mode"], o["compiled"])
         # Both spaces in the env's dtype: what it returns, and what it computes actions in.
         self.single_action_space = gym.spaces.Box(-1.0, 1.0, single_action.shape,
                                                   np.dtype(dtype))
@@ -194,19 +184,20 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self._max_steps = self._episode_steps(max_episode_steps)
-        self.check_every = validation.integer("check_every", check_every, low=0)
+        self._max_steps = self._episode_steps(o["max_episode_steps"])
+        self.check_every = validation.integer("check_every", o["check_every"], low=0)
         n, dev = self.num_envs, self.device
         self._seeds = None
         self._episodes = torch.zeros(n, dtype=torch.int64, device=dev)
         self._mask = torch.ones(n, dtype=torch.bool, device=dev)
         self.diverged = torch.zeros(n, dtype=torch.bool, device=dev)
+        self._done = torch.zeros(n, dtype=torch.bool, device=dev)
         self._steps_since_check = 0
         self._st = None
         self._renderer = None
         self._step_fn, self._restart_fn = self._physics, self._restart_all
         self._index_restart = self.device.type == "cpu"
-        if validation.flag("compile", compile):
+        if validation.flag("compile", o["compile"]):
             from rbenv.envs.torch_compile import CompiledStep
 
             self._step_fn = CompiledStep(self._physics)
@@ -297,44 +288,44 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
 
     # ------------------------------------------------------------------- reset
 
-    def reset(self, *, seed=None, options=None):
-        """Reset all sub-envs, or those of ``options["reset_mask"]`` ((N,) bool tensor).
+    # ------------------------------------------------------------------- torch rows
 
-        seed: an int (sub-env i gets s + i), a list of N ints, or None. A sync point: raises
-        for a divergence not yet reported.
-        """
+    def _sync(self) -> None:
+        """A reset is a sync point: it raises for a divergence not yet reported."""
         self.check()
-        options = dict(options or {})
-        mask = self._reset_mask(options.pop("reset_mask", None))
-        seeds = self._seed_tensor(seed)
-        super().reset(seed=None if seeds is None else int(seeds[0]))
-        if seeds is not None:
-            self._seeds = seeds if self._seeds is None else torch.where(mask, seeds,
-                                                                        self._seeds)
-            self._episodes = torch.where(mask, 0, self._episodes)
-        elif self._seeds is None:
-            base = int(self.np_random.integers(2**62))
-            self._seeds = torch.arange(base, base + self.num_envs, dtype=torch.int64,
-                                       device=self.device)
+
+    def _seed_array(self, seeds) -> torch.Tensor:
+        if isinstance(seeds, range):
+            return torch.arange(seeds.start, seeds.stop, dtype=torch.int64, device=self.device)
+        if max(seeds) >= 2**63:
+            raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
+                                        f"{max(seeds)}")
+        return torch.tensor(seeds, dtype=torch.int64, device=self.device)
+
+    @staticmethod
+    def _where(mask, a, b) -> torch.Tensor:
+        return torch.where(mask, a, b)
+
+    @staticmethod
+    def _any(mask) -> bool:
+        return bool(mask.any())  # a host read
+
+    @staticmethod
+    def _rows(mask) -> list[int]:
+        return torch.nonzero(mask).reshape(-1).tolist()
+
+    # ------------------------------------------------------------------- reset
+
+    def _reset_rows(self, mask: torch.Tensor, options: dict) -> tuple:
         start = self._draw_starts(options)
         self._episodes = self._episodes + mask.to(torch.int64)
         self._st = start if self._st is None else self._mux(mask, start, self._st)
         self.diverged = torch.zeros_like(self.diverged)
-        self._done = torch.zeros_like(self._mask)
         obs = self._stack(transition.observe(self.plant, self.task, self._st, None, self.xp))
         zeros = torch.zeros(self.num_envs, dtype=self.dtype, device=self.device)
         info = self._info(self._st, transition.zero_terms(self.task, zeros),
                           torch.zeros_like(self._mask))
         return obs, info
-
-    def _seed_tensor(self, seed):
-        values = seed_list(seed, self.num_envs)
-        if values is None:
-            return None
-        if max(values) >= 2**63:
-            raise InvalidParameterError(f"seed must be < 2**63 on backend='torch', got "
-                                        f"{max(values)}")
-        return torch.tensor(values, dtype=torch.int64, device=self.device)
 
     def _reset_mask(self, mask) -> torch.Tensor:
         if mask is None:
@@ -363,38 +354,35 @@ class TorchVectorEnv(TaskAdapter, VectorEnv):
         return (new, self._stack(out.obs), self._tensor(out.reward), out.terminated,
                 out.truncated, out.terms, out.success, diverged)
 
-    def step(self, actions):
-        """Step all sub-envs. actions: an (N, k) tensor (moved to the env's device)."""
-        st = self._st
-        if st is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        a = self._actions(actions)
-        if self.autoreset_mode is AutoresetMode.DISABLED and self._done.any():
-            raise gym.error.ResetNeeded(
-                "some sub-envs have ended; with autoreset_mode DISABLED reset them with "
-                "reset(options={'reset_mask': mask}) before the next step")
+    def _advance(self, a: torch.Tensor) -> Step:
         new, obs, reward, terminated, truncated, terms, success, diverged = \
-            self._step_fn(st, a.clone())
+            self._step_fn(self._st, a.clone())
         self.diverged = self.diverged | diverged
-        self._last = (new, a)
+        self._last, self._step_diverged = (new, a), diverged
         self._steps_since_check += 1
         if self.check_every and self._steps_since_check >= self.check_every:
             self.check()
-        done = terminated | truncated
-        extra = {}
-        if self.autoreset_mode is AutoresetMode.SAME_STEP:
-            extra = {"final_obs": obs, "_final_obs": done, "_final_info": done,
-                     "final_info": {"is_success": success, "_is_success": done}}
-            new, obs, terms, success = self._restart(done, new, obs, terms, success)
-        else:
-            self._done = done
-        self._st = new
-        info = self._info(new, terms, success)
-        info["diverged"] = diverged
-        info.update(extra)
-        return obs, reward, terminated, truncated, info
+        return Step(new, obs, reward, terminated, truncated, terms, success)
 
-    def _restart(self, done, st, obs, terms, success):
+    def _restart(self, rows: torch.Tensor, s: Step, *, ended_before: bool) -> None:
+        s.st, s.obs, s.terms, s.success = self._restart_rows(rows, s.st, s.obs, s.terms,
+                                                             s.success)
+        if ended_before:  # NEXT_STEP: these rows did not step; no host read
+            s.reward = torch.where(rows, 0.0, s.reward)
+            s.terminated = torch.where(rows, False, s.terminated)
+            s.truncated = torch.where(rows, False, s.truncated)
+
+    @staticmethod
+    def _final(done: torch.Tensor, s: Step) -> dict:
+        return {"final_obs": s.obs, "_final_obs": done, "_final_info": done,
+                "final_info": {"is_success": s.success, "_is_success": done}}
+
+    def _finish(self, s: Step) -> dict:
+        info = self._info(s.st, s.terms, s.success)
+        info["diverged"] = self._step_diverged
+        return info
+
+    def _restart_rows(self, done, st, obs, terms, success):
         """SAME_STEP autoreset of the rows where ``done``: new episodes, their observations,
         and zero terms and success there. On a CPU (``_index_restart``; host reads are free
         there) only the ended rows are drawn, by index; elsewhere every row is drawn and the

@@ -11,7 +11,6 @@ from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from rbenv.core import validation
@@ -19,21 +18,19 @@ from rbenv.core.backend import NUMPY
 from rbenv.core.errors import InvalidParameterError
 from rbenv.envs import transition
 from rbenv.envs.adapter import (
-    TaskAdapter,
     action_array,
     autoreset_mode_of,
     check_backend,
-    seed_list,
     task_of,
-    unknown_options,
 )
-from rbenv.envs.options import AUTORESET_DEFAULT, ENV_OPTIONS
+from rbenv.envs.options import AUTORESET_DEFAULT, take
+from rbenv.envs.vector import Step, VectorContract
 from rbenv.satellite.draws import EpisodeDraws
 from rbenv.satellite.state import State, assign, from_start
 from rbenv.tasks import desaturate, detumble, reorient, track
 
 
-class AttitudeVectorEnv(TaskAdapter, VectorEnv):
+class AttitudeVectorEnv(VectorContract):
     """``num_envs`` copies of a single :class:`rbenv.envs.env.AttitudeEnv` as one NumPy batch.
 
     Made by ``gym.make_vec(ENV_ID, num_envs=N, **kwargs)`` with the single env's kwargs plus
@@ -64,42 +61,40 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
-                                "autoreset_mode": AUTORESET_DEFAULT["numpy"]}
+                                "autoreset_mode": AUTORESET_DEFAULT}
+    SHELLS: ClassVar[dict] = {}
 
-    def __new__(cls, *args, backend="numpy", task=None, **kwargs):
+    @classmethod
+    def _id_doc(cls, spec) -> str:
+        single = f"{spec.class_stem}Env"
+        return f"Vector form of :class:`rbenv.{single}` (see :class:`AttitudeVectorEnv`)."
+
+    def __new__(cls, *args, **options):
         """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.envs.torch_env`,
         needs torch); "numpy" (default) this one."""
-        if check_backend(backend):
+        if check_backend(options.get("backend", "numpy")):
             from rbenv.envs.torch_env import TorchVectorEnv
 
-            return TorchVectorEnv(*args, task=task_of(cls, task), **kwargs)
+            return TorchVectorEnv(*args, **{**options, "task": task_of(cls, options.get("task"))})
         return super().__new__(cls)
 
-    def __init__(self, num_envs: int = 1, scene=None, *, integrator=None, control_dt=None,
-                 substeps=None, action_mode="throttle", reward_weights=None,
-                 max_initial_angle_deg=None, max_initial_rate=None, allocator="pinv",
-                 randomize=None, task_options=None, max_episode_steps=None,
-                 autoreset_mode=None, render_mode=None, compiled=False,
-                 backend="numpy", task=None, **unknown):
-        if unknown:
-            unknown_options(type(self).__name__, unknown,
-                            (*ENV_OPTIONS, "num_envs", "max_episode_steps", "autoreset_mode",
-                             "render_mode", "backend"))
-        options = {name: value for name, value in locals().items() if name in ENV_OPTIONS}
+    def __init__(self, num_envs: int = 1, scene=None, **options):
+        """Options: :data:`rbenv.envs.options.SHELLS` ``["numpy"]`` (see the class doc)."""
+        o = take(type(self).__name__, "numpy", {"num_envs": num_envs, "scene": scene, **options})
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
-            task, options, render_mode, ("rgb_array",))
-        self.autoreset_mode = autoreset_mode_of(autoreset_mode, "numpy")
+            o, ("rgb_array",))
+        self.autoreset_mode = autoreset_mode_of(o["autoreset_mode"])
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self._max_steps = self._episode_steps(max_episode_steps)
+        self._max_steps = self._episode_steps(o["max_episode_steps"])
         self._seeds: np.ndarray | None = None
         self._episodes = np.zeros(self.num_envs, dtype=np.uint64)
         self._st = None
         self._obs = None
-        self._prev_done = np.zeros(self.num_envs, dtype=bool)
+        self._done = np.zeros(self.num_envs, dtype=bool)
         self._mask = np.ones(self.num_envs, dtype=bool)
         self._mask.setflags(write=False)
         self._renderer = None
@@ -109,32 +104,33 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         """The seed of each sub-env's episode starts (as ``SyncVectorEnv``: one per sub-env)."""
         return () if self._seeds is None else tuple(int(s) for s in self._seeds)
 
+    # ------------------------------------------------------------------- NumPy rows
+
+    def _seed_array(self, seeds) -> np.ndarray:
+        return np.array(seeds, dtype=np.uint64)
+
+    @staticmethod
+    def _where(mask, a, b) -> np.ndarray:
+        return np.where(mask, a, b).astype(b.dtype, copy=False)
+
+    @staticmethod
+    def _any(mask) -> bool:
+        return bool(mask.any())
+
+    @staticmethod
+    def _rows(mask) -> list[int]:
+        return np.flatnonzero(mask).tolist()
+
     # ------------------------------------------------------------------- reset
 
-    def reset(self, *, seed=None, options=None):
-        """Reset sub-envs: all, or those of ``options["reset_mask"]`` (an (N,) bool array).
-
-        seed: an int (sub-env i gets s + i), a list of N ints, or None.
-        """
+    def _reset_rows(self, mask: np.ndarray, options: dict) -> tuple:
         n = self.num_envs
-        options = dict(options or {})
-        mask = self._reset_mask(options.pop("reset_mask", None))
-        seeds = seed_list(seed, self.num_envs)
-        super().reset(seed=None if seeds is None else int(seeds[0]))
-        if seeds is not None:
-            self._seeds = np.array(seeds, dtype=np.uint64) if self._seeds is None or mask.all() \
-                else np.where(mask, np.array(seeds, dtype=np.uint64), self._seeds)
-            self._episodes[mask] = 0
-        elif self._seeds is None:
-            base = int(self.np_random.integers(2**62))
-            self._seeds = np.arange(base, base + n, dtype=np.uint64)
         idx = np.flatnonzero(mask)
         start = self._start(idx, options)
         if self._st is None or mask.all():
             self._st = from_start(self._layout, start, single=False)
         else:
             assign(self._st, self._layout, idx, start)
-        self._prev_done[idx] = False
         terms = transition.zero_terms(self.task, np.zeros(n))
         obs = self._observation()
         info = self._info(terms, np.zeros(n, dtype=bool))
@@ -178,45 +174,31 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
 
     # ------------------------------------------------------------------- step
 
-    def step(self, actions):
-        """Step all sub-envs. actions: (N, n) (torque mode (N, 3)). Returns batched results."""
-        st = self._st
-        if st is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        a = self._actions(actions)
-        if self.autoreset_mode is AutoresetMode.DISABLED and self._prev_done.any():
-            raise gym.error.ResetNeeded(
-                f"sub-envs {np.flatnonzero(self._prev_done).tolist()} have ended; with "
-                "autoreset_mode DISABLED reset them with reset(options={'reset_mask': mask}) "
-                "before the next step")
-        st, out = transition.step(self.plant, self.task, st, a,
+    def _advance(self, a: np.ndarray) -> Step:
+        st, out = transition.step(self.plant, self.task, self._st, a,
                                   self.plant.draw_step_noise(self.np_random, self.num_envs),
                                   NUMPY, own_action=True, max_steps=self._max_steps)
         if out.diverged.any():
             transition.raise_diverged(self.plant, st, a)
-        self._st = st
-        terms, reward, success = out.terms, out.reward, out.success
-        terminated, truncated = out.terminated, out.truncated
-        obs, extra = self._stack(out.obs), {}
-        info = self._own_info(out.info)  # the step's info, built once
-        flags = (reward, success, terminated, truncated)
-        mode = self.autoreset_mode
-        if mode is AutoresetMode.NEXT_STEP:
-            if self._prev_done.any():
-                self._restart(np.flatnonzero(self._prev_done), obs, info, terms, flags)
-            self._prev_done = terminated | truncated
-        elif mode is AutoresetMode.DISABLED:
-            self._prev_done = terminated | truncated
-        elif mode is AutoresetMode.SAME_STEP:
-            done = terminated | truncated
-            if done.any():
-                extra = self._final(done, obs, info)
-                self._restart(np.flatnonzero(done), obs, info, terms, (success,))
-        info.update(extra)
-        self._obs = obs
-        return obs, reward, terminated, truncated, info
+        self._st = st  # an autoreset writes its rows in place
+        return Step(st, self._stack(out.obs), out.reward, out.terminated, out.truncated,
+                    out.terms, out.success, self._own_info(out.info))  # the info, built once
 
-    def _restart(self, idx: np.ndarray, obs: np.ndarray, info: dict, terms, flags) -> None:
+    def _restart(self, rows: np.ndarray, s: Step, *, ended_before: bool) -> None:
+        if rows.any():
+            flags = (s.reward, s.success, s.terminated, s.truncated) if ended_before \
+                else (s.success,)
+            self._restart_rows(np.flatnonzero(rows), s.obs, s.info, s.terms, flags)
+
+    def _final(self, done: np.ndarray, s: Step) -> dict:
+        return self._final_values(done, s.obs, s.info) if done.any() else {}
+
+    def _finish(self, s: Step) -> dict:
+        self._obs = s.obs
+        return s.info
+
+    def _restart_rows(self, idx: np.ndarray, obs: np.ndarray, info: dict, terms,
+                      flags) -> None:
         """Autoreset sub-envs ``idx``: new episodes, their observations written into ``obs``
         and their reset info into the rows of ``info``, and their rows of ``terms`` and
         ``flags`` (this step's fresh arrays) zeroed in place."""
@@ -246,7 +228,7 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         return action_array(actions, self.action_space.shape, copy=True,  # clipped in place
                             name="actions")
 
-    def _final(self, done, obs, info) -> dict:
+    def _final_values(self, done, obs, info) -> dict:
         """SAME_STEP: the finished sub-envs' last observation and info, masked by ``done``."""
         final_obs = np.full(self.num_envs, None, dtype=object)
         for i in np.flatnonzero(done):
@@ -269,36 +251,27 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
         noise = self.plant.draw_sensor_noise(self.np_random, self.num_envs)
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
 
-    def _own_info(self, values: dict) -> dict:
-        """A step's info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
+    def _info(self, terms, success) -> dict:
+        """The reset's info: of every sub-env, or in a partial reset (the mask
+        :meth:`_reset_mask` kept) of the reset ones only."""
+        rows = getattr(self, "_info_rows", None)
+        self._info_rows = None
+        return self._own_info(
+            transition.info(self.plant, self.task, self._st, terms, success, NUMPY), rows)
+
+    def _own_info(self, values: dict, rows: np.ndarray | None = None) -> dict:
+        """An info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
         returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
         writes the state in place, and SyncVectorEnv's info never changes), each with its
-        ``_key`` mask."""
-        out, mask = {}, self._mask
+        ``_key`` mask. rows: a partial reset's mask; the other rows hold zeros and ``_key`` is
+        False there, as ``SyncVectorEnv`` builds it from the sub-envs it reset."""
+        out, mask = {}, self._mask if rows is None else rows
         owned = _array_ids(self._st)
         for key, value in values.items():
             if np.ndim(value) == 0:
                 value = np.array(np.broadcast_to(value, mask.shape))
             elif id(value) in owned:
                 value = value.copy()
-            out[key] = value
-            out["_" + key] = mask
-        return out
-
-    def _info(self, terms, success) -> dict:
-        """Info of every sub-env, or, in a partial reset (the mask :meth:`_reset_mask` kept),
-        of the reset ones only: the other rows hold zeros and ``_key`` is False there, as
-        ``SyncVectorEnv`` builds it from the sub-envs it reset."""
-        rows = getattr(self, "_info_rows", None)
-        self._info_rows = None
-        values = transition.info(self.plant, self.task, self._st, terms, success, NUMPY)
-        out, mask = {}, self._mask if rows is None else rows
-        owned = _array_ids(self._st)
-        for key, value in values.items():
-            if np.ndim(value) == 0:
-                value = np.array(np.broadcast_to(value, mask.shape))
-            elif id(value) in owned:  # the state's own array, which a later autoreset
-                value = value.copy()  # overwrites in place (SyncVectorEnv's info never changes)
             out[key] = value if rows is None else np.where(rows, value, np.zeros_like(value))
             out["_" + key] = mask
         return out
@@ -318,56 +291,18 @@ class AttitudeVectorEnv(TaskAdapter, VectorEnv):
             self._renderer = None
 
 
-# One class per shipped id (rbenv.envs.registry registers each as the id's vector entry point).
+# One class per shipped id (rbenv.envs.registry registers each as the id's vector entry point;
+# the base gives it its task entry and documentation).
+class SatelliteReorientVectorEnv(AttitudeVectorEnv, spec=reorient.SPEC): ...
+class SatelliteDetumbleVectorEnv(AttitudeVectorEnv, spec=detumble.SPEC): ...
+class SatelliteTrackVectorEnv(AttitudeVectorEnv, spec=track.SPEC): ...
+class SatelliteDesaturateVectorEnv(AttitudeVectorEnv, spec=desaturate.SPEC): ...
+class SatelliteReorientV1VectorEnv(AttitudeVectorEnv, spec=reorient.SPEC_V1): ...
+class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv, spec=detumble.SPEC_V1): ...
+class SatelliteTrackV1VectorEnv(AttitudeVectorEnv, spec=track.SPEC_V1): ...
 
 
-class SatelliteReorientVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteReorientEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = reorient.SPEC
-
-
-class SatelliteDetumbleVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteDetumbleEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = detumble.SPEC
-
-
-class SatelliteTrackVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteTrackEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = track.SPEC
-
-
-class SatelliteDesaturateVectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteDesaturateEnv` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = desaturate.SPEC
-
-
-class SatelliteReorientV1VectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteReorientV1Env` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = reorient.SPEC_V1
-
-
-class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteDetumbleV1Env` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = detumble.SPEC_V1
-
-
-class SatelliteTrackV1VectorEnv(AttitudeVectorEnv):
-    """Vector form of :class:`rbenv.SatelliteTrackV1Env` (see :class:`AttitudeVectorEnv`)."""
-
-    task_spec = track.SPEC_V1
-
-
-# env id -> its class.
-SHELLS = {cls.task_spec.env_id: cls for cls in (
-    SatelliteReorientVectorEnv, SatelliteDetumbleVectorEnv, SatelliteTrackVectorEnv,
-    SatelliteDesaturateVectorEnv, SatelliteReorientV1VectorEnv, SatelliteDetumbleV1VectorEnv,
-    SatelliteTrackV1VectorEnv)}
+SHELLS = AttitudeVectorEnv.SHELLS  # env id -> its class
 
 
 def _array_ids(st) -> set:

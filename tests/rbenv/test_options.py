@@ -29,11 +29,30 @@ def _keywords(function, skip=()) -> dict:
             if name not in skip}
 
 
-@pytest.mark.parametrize("constructor", [AttitudeEnv.__init__, AttitudeVectorEnv.__init__, build],
-                         ids=["env", "vector_env", "tasks.build"])
-def test_constructors_take_exactly_the_declared_options_with_their_defaults(constructor):
-    extra = ("render_mode", "max_episode_steps", "autoreset_mode", "backend", "task")
-    assert _keywords(constructor, skip=extra) == options.DEFAULTS
+def test_tasks_build_takes_exactly_the_env_options_with_their_defaults():
+    assert _keywords(build) == options.DEFAULTS
+
+
+@pytest.mark.parametrize("shell", sorted(options.SHELLS))
+def test_each_shell_takes_the_options_declared_for_it_and_refuses_the_rest(shell):
+    """One constructor per shell, ``(num_envs, scene, **options)``: the names it takes are
+    ``options.SHELLS[shell]``, declared once; each is accepted at its declared default, and
+    a name of another shell is refused by name."""
+    if shell == "torch":
+        pytest.importorskip("torch", reason="torch is not installed (train extra)")
+        from rbenv.envs.torch_env import TorchVectorEnv as cls
+    else:
+        cls = AttitudeEnv if shell == "single" else AttitudeVectorEnv
+    task = rbenv.envs.registry.get(rbenv.ENV_ID)
+    declared = options.take(cls.__name__, shell, {})
+    given = {**declared, "task": task, "integrator": "rk4"}
+    env = cls(**{k: v for k, v in given.items() if k != "num_envs"}, num_envs=2) \
+        if shell != "single" else cls(**given)
+    assert env.task_spec is task and env.plant.scene.name == "cubesat-12u"
+    others = set().union(*options.SHELLS.values()) - set(options.SHELLS[shell])
+    for name in sorted(others):
+        with pytest.raises(TypeError, match=f"unexpected keyword argument {name!r}"):
+            cls(**{name: None, "task": task})
 
 
 def test_make_plant_takes_the_plant_options_with_the_declared_defaults():
@@ -115,41 +134,57 @@ def test_an_unknown_option_reads_as_pythons_own_error_and_names_the_valid_ones(b
                      zzz=1)
 
 
-def test_the_backend_options_have_the_constructors_defaults():
+def test_the_backend_options_are_the_torch_envs_defaults():
+    """What BackendOptions declares is what a torch env made without options runs with."""
     declared = {f.name: f.default for f in dataclasses.fields(options.BackendOptions)}
-    assert inspect.signature(AttitudeEnv.__new__).parameters["backend"].default == \
-        declared["backend"]
-    assert inspect.signature(AttitudeVectorEnv.__init__).parameters["backend"].default == \
-        declared["backend"]
+    assert declared["backend"] == "numpy"
+    assert type(gym.make_vec(rbenv.ENV_ID, num_envs=2).unwrapped).__name__ == \
+        "SatelliteReorientV1VectorEnv"
     pytest.importorskip("torch", reason="torch is not installed (train extra)")
-    from rbenv.envs.torch_env import TorchVectorEnv
-
-    torch_defaults = _keywords(TorchVectorEnv.__init__)
-    assert {k: torch_defaults[k] for k in options.BACKEND_OPTIONS if k != "backend"} == \
-        {k: v for k, v in declared.items() if k != "backend"}
+    env = gym.make_vec(rbenv.ENV_ID, num_envs=2, backend="torch", integrator="rk4").unwrapped
+    assert (str(env.device), str(env.dtype).removeprefix("torch."), env.check_every) == \
+        (declared["device"], declared["dtype"], declared["check_every"])
+    assert env._step_fn == env._physics  # compile=False: eager
     table = options.options_markdown()
     assert all(f"| `{name}` |" in table for name in options.BACKEND_OPTIONS)
-def test_the_autoreset_default_is_declared_once_and_every_vector_env_follows_it(monkeypatch):
-    """rbenv.envs.options.AUTORESET_DEFAULT is the one place: change it, and the NumPy and torch
-    vector envs made without ``autoreset_mode`` take the new mode and act on it."""
+
+
+def _vector(backend: str, **kwargs):
+    if backend == "torch":
+        pytest.importorskip("torch", reason="torch is not installed (train extra)")
+        kwargs.update(backend="torch", integrator="rk4")
+    return gym.make_vec(rbenv.ENV_ID, num_envs=2, max_episode_steps=1, **kwargs)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "torch"])
+def test_the_autoreset_default_is_declared_once_and_every_vector_env_follows_it(monkeypatch,
+                                                                                backend):
+    """rbenv.envs.options.AUTORESET_DEFAULT is the one place, one mode for every backend:
+    change it there, and a vector env made without ``autoreset_mode`` takes the new mode and
+    acts on it (the modes themselves are written once, in rbenv.envs.vector)."""
     from gymnasium.vector import AutoresetMode
 
-    assert options.AUTORESET_DEFAULT == {"numpy": AutoresetMode.NEXT_STEP,
-                                         "torch": AutoresetMode.SAME_STEP}
-    assert gym.make_vec(rbenv.ENV_ID, num_envs=2).unwrapped.autoreset_mode \
-        is AutoresetMode.NEXT_STEP
-    monkeypatch.setitem(options.AUTORESET_DEFAULT, "numpy", AutoresetMode.SAME_STEP)
-    envs = gym.make_vec(rbenv.ENV_ID, num_envs=2, max_episode_steps=1)
+    assert options.AUTORESET_DEFAULT is AutoresetMode.NEXT_STEP
+    envs = _vector(backend)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
+    envs.reset(seed=0)
+    zeros = envs.action_space.sample() * 0
+    *_, truncated, info = envs.step(zeros)
+    assert truncated.all() and "final_obs" not in info
+    _, reward, _, truncated, _ = envs.step(zeros)  # NEXT_STEP: the restart step, flags False
+    assert not truncated.any() and not reward.any()
+
+    monkeypatch.setattr(options, "AUTORESET_DEFAULT", AutoresetMode.SAME_STEP)
+    envs = _vector(backend)
     assert envs.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
     envs.reset(seed=0)
-    *_, truncated, info = envs.step(envs.action_space.sample())
+    *_, truncated, info = envs.step(zeros)
     assert truncated.all() and info["_final_obs"].all()  # SAME_STEP's final observations
-    torch = pytest.importorskip("torch", reason="torch is not installed (train extra)")
-    monkeypatch.setitem(options.AUTORESET_DEFAULT, "torch", AutoresetMode.DISABLED)
-    tenvs = gym.make_vec(rbenv.ENV_ID, num_envs=2, max_episode_steps=1, backend="torch",
-                         integrator="rk4")
-    assert tenvs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
-    tenvs.reset(seed=0)
-    tenvs.step(torch.zeros(tenvs.action_space.shape, dtype=torch.float64))
-    with pytest.raises(gym.error.ResetNeeded, match="DISABLED"):  # nothing reset by itself
-        tenvs.step(torch.zeros(tenvs.action_space.shape, dtype=torch.float64))
+
+    monkeypatch.setattr(options, "AUTORESET_DEFAULT", AutoresetMode.DISABLED)
+    envs = _vector(backend)
+    assert envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
+    envs.reset(seed=0)
+    envs.step(zeros)
+    with pytest.raises(gym.error.ResetNeeded, match=r"sub-envs \[0, 1\] have ended"):
+        envs.step(zeros)  # nothing reset by itself
