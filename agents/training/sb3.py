@@ -453,10 +453,31 @@ def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle:
     return model, env
 
 
+def linear_schedule(name: str, spec: str):
+    """RL Zoo's ``"lin_X"``: a value falling linearly from X at the start of training to 0 at
+    its end (SB3 calls it with the remaining fraction, 1 → 0)."""
+    try:
+        prefix, value = spec.split("_", 1)
+        start = float(value)
+    except ValueError:
+        prefix, start = "", float("nan")
+    if prefix != "lin" or not 0 < start < float("inf"):
+        raise InvalidParameterError(f"{name} must be a number or 'lin_X' with X > 0 (RL "
+                                    f"Zoo's linear schedule), got {spec!r}")
+
+    def schedule(remaining: float) -> float:
+        return remaining * start
+
+    return schedule
+
+
 def model_kwargs(cfg: TrainConfig, env) -> dict:
     """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
     ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
     hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    for key in ("learning_rate", "clip_range"):
+        if isinstance(hp.get(key), str):
+            hp[key] = linear_schedule(key, hp[key])
     noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
     if noise_type is not None:
         if noise_type != "normal":

@@ -220,3 +220,31 @@ def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
     assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
     assert default_timesteps("ppo", v1, "cubesat-12u") == 1_000_000
     assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
+
+
+def test_a_linear_learning_rate_falls_from_its_value_to_zero_and_resumes_where_it_was(tmp_path):
+    """RL Zoo's "lin_X": X at the first update, X·(remaining fraction) later, 0 at the end;
+    the config keeps the string, so a resumed run rebuilds the same schedule."""
+    from rbenv.agents.training.sb3 import algo_class, model_kwargs
+
+    cfg = small_config(tmp_path / "lin", hyperparams={**SMALL, "learning_rate": "lin_3e-3"})
+    cfg = cfg.resolve()
+    env = make_vec_env(cfg, cfg.n_envs, 0)
+    model = algo_class("ppo")("MlpPolicy", env, device="cpu", **model_kwargs(cfg, env))
+    assert model.lr_schedule(1.0) == pytest.approx(3e-3)
+    assert model.lr_schedule(0.25) == pytest.approx(7.5e-4)
+    assert model.lr_schedule(0.0) == 0.0
+    env.close()
+    out = train(cfg, progress_bar=False, report=False)
+    assert json.loads((out / "config.json").read_text())["hyperparams"]["learning_rate"] \
+        == "lin_3e-3"
+
+
+@pytest.mark.parametrize("spec", ["lin_", "lin_-1e-3", "exp_1e-3", "lin_inf", "3e-3"])
+def test_a_learning_rate_string_that_is_no_linear_schedule_is_refused(spec):
+    from rbenv.agents.training.sb3 import model_kwargs
+    from rbenv.core.errors import InvalidParameterError
+
+    cfg = TrainConfig(hyperparams={"learning_rate": spec}).resolve()
+    with pytest.raises(InvalidParameterError, match=rf"learning_rate .*'lin_X'.*{spec!r}"):
+        model_kwargs(cfg, None)
