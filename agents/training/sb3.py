@@ -455,7 +455,8 @@ def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle:
 
 def linear_schedule(name: str, spec: str):
     """RL Zoo's ``"lin_X"``: a value falling linearly from X at the start of training to 0 at
-    its end (SB3 calls it with the remaining fraction, 1 → 0)."""
+    its end (SB3 calls it with the remaining fraction, 1 → 0; below 0 when the last rollout
+    overshoots the budget, where the rate stays 0 rather than turning negative)."""
     try:
         prefix, value = spec.split("_", 1)
         start = float(value)
@@ -466,7 +467,7 @@ def linear_schedule(name: str, spec: str):
                                     f"Zoo's linear schedule), got {spec!r}")
 
     def schedule(remaining: float) -> float:
-        return remaining * start
+        return max(remaining, 0.0) * start
 
     return schedule
 

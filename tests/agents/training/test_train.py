@@ -234,6 +234,8 @@ def test_a_linear_learning_rate_falls_from_its_value_to_zero_and_resumes_where_i
     assert model.lr_schedule(1.0) == pytest.approx(3e-3)
     assert model.lr_schedule(0.25) == pytest.approx(7.5e-4)
     assert model.lr_schedule(0.0) == 0.0
+    # The last rollout can pass the budget (remaining < 0): no negative, ascending step.
+    assert model.lr_schedule(-0.01) == 0.0
     env.close()
     out = train(cfg, progress_bar=False, report=False)
     assert json.loads((out / "config.json").read_text())["hyperparams"]["learning_rate"] \
