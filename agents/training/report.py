@@ -44,7 +44,10 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
         f"min ({trained.setup}, seed {cfg.seed})"
         + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else "")
         + ("; stopped by its time limit (--max-minutes)" if summary.get("stopped_by_time_limit")
-           else ""),
+           else "")
+        + (f"; stopped when {100 * stop['success_rate']:.0f} % of {stop['episodes']} validation "
+           "episodes succeeded (--stop-success)"
+           if (stop := summary.get("stopped_at_success")) else ""),
         *kept_lines(summary.get("kept")),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "

@@ -250,3 +250,35 @@ def test_a_learning_rate_string_that_is_no_linear_schedule_is_refused(spec):
     cfg = TrainConfig(hyperparams={"learning_rate": spec}).resolve()
     with pytest.raises(InvalidParameterError, match=rf"learning_rate .*'lin_X'.*{spec!r}"):
         model_kwargs(cfg, None)
+
+
+def test_stop_success_ends_training_at_the_first_validation_that_reaches_it(tmp_path):
+    """On a scene whose success needs only a 2 s hold inside 170°, the first periodic
+    evaluation succeeds: training stops there, on the policy it measured, and says so."""
+    from importlib import resources
+
+    text = (resources.files("rbenv") / "scenes" / "cubesat-12u.toml").read_text()
+    easy = tmp_path / "easy.toml"
+    easy.write_text(text.replace("success_angle_deg = 1.0", "success_angle_deg = 170.0")
+                    .replace("success_rate = 0.01 ", "success_rate = 0.17 ")
+                    .replace("max_initial_angle_deg = 180.0", "max_initial_angle_deg = 30.0"))
+    cfg = small_config(tmp_path / "run", timesteps=4096, scene=str(easy), stop_success=0.75,
+                       eval_every=512, checkpoint_every=100_000)
+    out = train(cfg, progress_bar=False, report=True)
+    summary = json.loads((out / "training.json").read_text())
+    stop = summary["stopped_at_success"]
+    assert stop["success_rate"] >= 0.75 and stop["episodes"] == 4
+    assert summary["timesteps"] == stop["timesteps"] == 512  # 8 envs x 64 steps
+    with np.load(out / "eval" / "evaluations.npz") as log:
+        assert list(log["timesteps"]) == [512]
+    # The final policy is the checkpoint of that step: the weights the evaluation measured.
+    assert latest_checkpoint(out / "checkpoints")["timesteps"] == 512
+    assert "validation episodes succeeded (--stop-success)" in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("value", [0, 1.5, True, "1"])
+def test_stop_success_must_be_a_rate(value):
+    from rbenv.core.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match=r"stop_success must be a success rate"):
+        TrainConfig(stop_success=value).resolve()
