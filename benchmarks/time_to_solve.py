@@ -111,6 +111,14 @@ PATHS = {p.name: p for p in [
     *[Path(f"B-linlr{lr}-{k}k", n_envs=256, eval_every=50_000, budget=k * 1000, to_budget=True,
            hyperparams=_ppo(batch_size=4096, n_epochs=3, learning_rate=f"lin_{lr}"))
       for lr in ("3e-3", "4e-3") for k in (600, 800)],
+    # More envs, shorter rollouts, the same 8192 samples per update: cheaper per sample (each
+    # Python step carries more satellites).
+    Path("B-1024x8", n_envs=1024, eval_every=50_000, budget=1_200_000,
+         hyperparams=_ppo(n_steps=8, batch_size=4096, n_epochs=3, learning_rate=2e-3)),
+    *[Path(f"B-1024x8-linlr{lr}-{k}k", n_envs=1024, eval_every=50_000, budget=k * 1000,
+           to_budget=True, hyperparams=_ppo(n_steps=8, batch_size=4096, n_epochs=3,
+                                            learning_rate=f"lin_{lr}"))
+      for lr in ("3e-3",) for k in (800,)],
     # The other libraries with sb3-b4096-e3-lr2e-3's settings, in their own names.
     Path("rsl_rl-b4096-e3-lr2e-3", engine="rsl_rl", n_envs=256, eval_every=50_000,
          hyperparams={"num_steps_per_env": 32, "num_mini_batches": 2,
