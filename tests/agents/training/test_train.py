@@ -218,7 +218,8 @@ def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
 
     v1 = "rbenv/SatelliteReorient-v1"
     assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
-    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_000_000
+    # Elsewhere the suite trains v1's own PPO budget (its fast path's 1.5 M).
+    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_500_000
     assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
 
 
