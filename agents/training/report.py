@@ -40,8 +40,8 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     lines = [
         f"# Training report: {trained.title}",
         "",
-        f"- timesteps: {summary['timesteps']:,}; wall time: {summary['wall_time_s'] / 60:.1f} "
-        f"min ({trained.setup}, seed {cfg.seed})"
+        f"- timesteps: {summary['timesteps']:,}; wall time: {duration(summary['wall_time_s'])} "
+        f"({trained.setup}, seed {cfg.seed})"
         + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else "")
         + ("; stopped by its time limit (--max-minutes)" if summary.get("stopped_by_time_limit")
            else "")
@@ -65,6 +65,11 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+def duration(seconds: float) -> str:
+    """A training time as the report writes it: seconds below two minutes, else minutes."""
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
 def kept_lines(kept: dict | None) -> list[str]:

@@ -274,7 +274,9 @@ def test_stop_success_ends_training_at_the_first_validation_that_reaches_it(tmp_
         assert list(log["timesteps"]) == [512]
     # The final policy is the checkpoint of that step: the weights the evaluation measured.
     assert latest_checkpoint(out / "checkpoints")["timesteps"] == 512
-    assert "validation episodes succeeded (--stop-success)" in (out / "report.md").read_text()
+    report = (out / "report.md").read_text()
+    assert "validation episodes succeeded (--stop-success)" in report
+    assert f"wall time: {summary['wall_time_s']:.0f} s (8 envs" in report  # seconds, not 0.0 min
 
 
 @pytest.mark.parametrize("value", [0, 1.5, True, "1"])
