@@ -27,6 +27,8 @@ CASES = [
         "n_steps": 64, "batch_size": 1024, "n_epochs": 5, "learning_rate": 5e-4,
         "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}}}, 65_536, 0),
     ("ppo-v1-fast-path", "ppo", {}, 65_536, 0),  # Reorient-v1's own PPO (the registry's)
+    # The same updates (8192 samples each) from 1024 envs x 8 steps instead of 256 x 32.
+    ("ppo-v1-1024x8", "ppo", {"n_envs": 1024, "hyperparams": {"n_steps": 8}}, 65_536, 0),
     ("sac-shipped-v1", "sac", {}, 2_048, 10_016),
 ]
 

@@ -224,6 +224,11 @@ class TrainConfig(RunConfig):
     run) and save, evaluate and report the model as at the end of --timesteps; unset: no
     limit. The console says when and why it stopped; --resume with a larger --max-minutes
     trains on."""
+    stop_success: float | None = None
+    """Stop training at the first periodic evaluation (--eval-every, --eval-episodes: the
+    validation episodes, never the report's) whose success rate reaches this fraction, e.g.
+    1.0; the run ends on the policy that evaluation measured, and training.json and the report
+    say when it stopped. Unset: train to --timesteps."""
     save_replay_buffer: bool = False
     """Off-policy (sac, td3, tqc, crossq): keep the replay buffer with each checkpoint
     (replay_buffer_N.npz, the latest only; most of the run folder's size), so that --resume
@@ -231,7 +236,8 @@ class TrainConfig(RunConfig):
     learning_starts from step 0 of the run, so it does not wait again; gradient steps go on at
     once, sampling the transitions collected since the resume."""
 
-    RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "max_minutes")
+    RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "max_minutes",
+                                                    "stop_success")
     # Runs written before --save-replay-buffer kept their buffer: a resume goes on keeping it.
     LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True}
 
@@ -252,6 +258,12 @@ class TrainConfig(RunConfig):
                 or not isinstance(self.max_minutes, numbers.Real) or not self.max_minutes > 0):
             raise InvalidParameterError(f"max_minutes must be a number > 0, got "
                                         f"{self.max_minutes!r}")
+        if self.stop_success is not None and (
+                isinstance(self.stop_success, bool)
+                or not isinstance(self.stop_success, numbers.Real)
+                or not 0 < self.stop_success <= 1):
+            raise InvalidParameterError(f"stop_success must be a success rate in (0, 1], got "
+                                        f"{self.stop_success!r}")
         super().resolve()
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},

@@ -138,13 +138,18 @@ def _already_finished(out: Path, timesteps: int) -> bool:
 # --- the session: clock, schedule, summary ----------------------------------------------------
 
 class WallClock:
-    """Training wall time accumulated over every session of a run (kept in checkpoints)."""
+    """Training wall time accumulated over every session of a run (kept in checkpoints), and
+    this session's process CPU time (the figure that other busy processes do not inflate)."""
 
     def __init__(self, before: float = 0.0):
         self.before, self.start = float(before), time.perf_counter()
+        self.cpu_start = time.process_time()
 
     def session(self) -> float:
         return time.perf_counter() - self.start
+
+    def session_cpu(self) -> float:
+        return time.process_time() - self.cpu_start
 
     def total(self) -> float:
         return self.before + self.session()
@@ -159,7 +164,9 @@ def session_summary(cfg: RunConfig, steps: int, resumed_from: int, clock: WallCl
     """training.json's keys every back end writes."""
     session = clock.session()
     return {"engine": cfg.engine, "timesteps": int(steps), "wall_time_s": clock.total(),
-            "session_wall_time_s": session,
+            "session_wall_time_s": session, "session_cpu_time_s": clock.session_cpu(),
+            # The machine's load while training: read a wall time beside it.
+            "load_average_1min": round(os.getloadavg()[0], 2),
             "session_steps_per_s": (steps - resumed_from) / max(session, 1e-9),
             "resumed_from": resumed_from or None, "threads": cfg.threads}
 

@@ -40,11 +40,14 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     lines = [
         f"# Training report: {trained.title}",
         "",
-        f"- timesteps: {summary['timesteps']:,}; wall time: {summary['wall_time_s'] / 60:.1f} "
-        f"min ({trained.setup}, seed {cfg.seed})"
+        f"- timesteps: {summary['timesteps']:,}; wall time: {duration(summary['wall_time_s'])} "
+        f"({trained.setup}, seed {cfg.seed})"
         + (f"; resumed from {summary['resumed_from']:,}" if summary.get("resumed_from") else "")
         + ("; stopped by its time limit (--max-minutes)" if summary.get("stopped_by_time_limit")
-           else ""),
+           else "")
+        + (f"; stopped when {100 * stop['success_rate']:.0f} % of {stop['episodes']} validation "
+           "episodes succeeded (--stop-success)"
+           if (stop := summary.get("stopped_at_success")) else ""),
         *kept_lines(summary.get("kept")),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
         "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
@@ -62,6 +65,11 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+def duration(seconds: float) -> str:
+    """A training time as the report writes it: seconds below two minutes, else minutes."""
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
 
 def kept_lines(kept: dict | None) -> list[str]:

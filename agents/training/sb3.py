@@ -97,7 +97,8 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     # logged, so a kill between the two never loses an entry of the history.
     evaluations = PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
                                cfg.eval_episodes, done, run_config=asdict(cfg),
-                               best_dir=ckpt_dir if cfg.keep_best else None)
+                               best_dir=ckpt_dir if cfg.keep_best else None,
+                               stop_success=cfg.stop_success)
     callbacks = [evaluations, AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock,
                                                cfg.save_replay_buffer)]
     limit = TimeLimit(clock, 60.0 * cfg.max_minutes) if cfg.max_minutes else None
@@ -118,6 +119,11 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
         save_checkpoint(model, ckpt_dir, steps, clock.total(), cfg.save_replay_buffer)
     if limit is not None and limit.stopped:
         print(limit.explain(steps, cfg, out))
+    if evaluations.stopped is not None:
+        print(f"stopped by --stop-success {cfg.stop_success:g} at {steps:,} of "
+              f"{cfg.timesteps:,} timesteps: {100 * evaluations.stopped['success_rate']:.0f} % "
+              f"of {cfg.eval_episodes} validation episodes; the policy evaluated then is the "
+              "run's final one")
     weights.save_model(model, out / runfolder.FINAL_MODEL)
     atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
     kept = evaluations.keep_best(steps, out) if cfg.keep_best else None
@@ -130,6 +136,8 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     extra = {"stopped_by_time_limit": bool(limit and limit.stopped)} if limit else {}
     if kept is not None:
         extra["kept"] = kept
+    if evaluations.stopped is not None:
+        extra["stopped_at_success"] = evaluations.stopped
     return {**engine.session_summary(cfg, steps, done, clock), "gradient_updates": updates,
             "trained": updates > 0, **extra}
 
@@ -246,6 +254,10 @@ class PeriodicEval(_Every):
     trained again) and rewritten atomically after each evaluation, in the format of SB3's
     ``EvalCallback``.
 
+    With ``stop_success`` (--stop-success), an evaluation whose success rate reaches it ends
+    ``learn()`` at once: the callback runs after the env step and before the rollout's update,
+    so the policy evaluated is the model's final one; :attr:`stopped` records the step.
+
     With ``best_dir`` (--keep-best), the policy of the best evaluation of this session (highest
     success rate, then mean return; the earlier at a tie) is saved there as ``best_policy.pt``,
     ``.json`` and ``best_obs_stats.npz``, pickle-free like a checkpoint, and :meth:`keep_best`
@@ -255,8 +267,10 @@ class PeriodicEval(_Every):
     BEST_MODEL, BEST_STATS = "best_policy.pt", "best_obs_stats.npz"
 
     def __init__(self, eval_env, log: Path, every: int, episodes: int, resumed_at: int,
-                 run_config: dict | None = None, best_dir: Path | None = None):
+                 run_config: dict | None = None, best_dir: Path | None = None,
+                 stop_success: float | None = None):
         super().__init__(every)
+        self.stop_success, self.stopped = stop_success, None
         self.eval_env, self.log, self.episodes = eval_env, Path(log), episodes
         self.run_config = run_config
         self.history = engine.load_eval_history(self.log, resumed_at)
@@ -267,6 +281,10 @@ class PeriodicEval(_Every):
         """The model being trained, acting as a loaded policy would. The eval env normalises
         observations itself, so the policy carries no statistics."""
         return RunPolicy(self.model, None, self.run_config, source="training model")
+
+    def _on_step(self) -> bool:
+        super()._on_step()
+        return self.stopped is None
 
     def _fire(self) -> None:
         sync_envs_normalization(self.training_env, self.eval_env)
@@ -286,6 +304,9 @@ class PeriodicEval(_Every):
         mean_return = float(np.mean(rewards[:self.episodes]))
         self.logger.record("eval/mean_reward", mean_return)
         self.logger.record("eval/success_rate", rate)
+        if self.stop_success is not None and rate >= self.stop_success:
+            self.stopped = {"timesteps": int(self.num_timesteps), "success_rate": rate,
+                            "episodes": self.episodes}
         if self.best_dir is not None and (
                 self.best is None
                 or (rate, mean_return) > (self.best["success_rate"], self.best["mean_return"])):
@@ -453,10 +474,32 @@ def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle:
     return model, env
 
 
+def linear_schedule(name: str, spec: str):
+    """RL Zoo's ``"lin_X"``: a value falling linearly from X at the start of training to 0 at
+    its end (SB3 calls it with the remaining fraction, 1 → 0; below 0 when the last rollout
+    overshoots the budget, where the rate stays 0 rather than turning negative)."""
+    try:
+        prefix, value = spec.split("_", 1)
+        start = float(value)
+    except ValueError:
+        prefix, start = "", float("nan")
+    if prefix != "lin" or not 0 < start < float("inf"):
+        raise InvalidParameterError(f"{name} must be a number or 'lin_X' with X > 0 (RL "
+                                    f"Zoo's linear schedule), got {spec!r}")
+
+    def schedule(remaining: float) -> float:
+        return max(remaining, 0.0) * start
+
+    return schedule
+
+
 def model_kwargs(cfg: TrainConfig, env) -> dict:
     """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
     ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
     hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    for key in ("learning_rate", "clip_range"):
+        if isinstance(hp.get(key), str):
+            hp[key] = linear_schedule(key, hp[key])
     noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
     if noise_type is not None:
         if noise_type != "normal":

@@ -218,5 +218,72 @@ def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
 
     v1 = "rbenv/SatelliteReorient-v1"
     assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
-    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_000_000
+    # Elsewhere the suite trains v1's own PPO budget (its fast path's 1.5 M).
+    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_500_000
     assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
+
+
+def test_a_linear_learning_rate_falls_from_its_value_to_zero_and_resumes_where_it_was(tmp_path):
+    """RL Zoo's "lin_X": X at the first update, X·(remaining fraction) later, 0 at the end;
+    the config keeps the string, so a resumed run rebuilds the same schedule."""
+    from rbenv.agents.training.sb3 import algo_class, model_kwargs
+
+    cfg = small_config(tmp_path / "lin", hyperparams={**SMALL, "learning_rate": "lin_3e-3"})
+    cfg = cfg.resolve()
+    env = make_vec_env(cfg, cfg.n_envs, 0)
+    model = algo_class("ppo")("MlpPolicy", env, device="cpu", **model_kwargs(cfg, env))
+    assert model.lr_schedule(1.0) == pytest.approx(3e-3)
+    assert model.lr_schedule(0.25) == pytest.approx(7.5e-4)
+    assert model.lr_schedule(0.0) == 0.0
+    # The last rollout can pass the budget (remaining < 0): no negative, ascending step.
+    assert model.lr_schedule(-0.01) == 0.0
+    env.close()
+    out = train(cfg, progress_bar=False, report=False)
+    assert json.loads((out / "config.json").read_text())["hyperparams"]["learning_rate"] \
+        == "lin_3e-3"
+
+
+@pytest.mark.parametrize("spec", ["lin_", "lin_-1e-3", "exp_1e-3", "lin_inf", "3e-3"])
+def test_a_learning_rate_string_that_is_no_linear_schedule_is_refused(spec):
+    from rbenv.agents.training.sb3 import model_kwargs
+    from rbenv.core.errors import InvalidParameterError
+
+    cfg = TrainConfig(hyperparams={"learning_rate": spec}).resolve()
+    with pytest.raises(InvalidParameterError, match=rf"learning_rate .*'lin_X'.*{spec!r}"):
+        model_kwargs(cfg, None)
+
+
+def test_stop_success_ends_training_at_the_first_validation_that_reaches_it(tmp_path):
+    """On a scene whose success needs only a 2 s hold inside 170°, the first periodic
+    evaluation succeeds: training stops there, on the policy it measured, and says so."""
+    from importlib import resources
+
+    text = (resources.files("rbenv") / "scenes" / "cubesat-12u.toml").read_text()
+    easy = tmp_path / "easy.toml"
+    easy.write_text(text.replace("success_angle_deg = 1.0", "success_angle_deg = 170.0")
+                    .replace("success_rate = 0.01 ", "success_rate = 0.17 ")
+                    .replace("max_initial_angle_deg = 180.0", "max_initial_angle_deg = 30.0"))
+    cfg = small_config(tmp_path / "run", timesteps=4096, scene=str(easy), stop_success=0.75,
+                       eval_every=512, checkpoint_every=100_000)
+    out = train(cfg, progress_bar=False, report=True)
+    summary = json.loads((out / "training.json").read_text())
+    stop = summary["stopped_at_success"]
+    # The CPU time and the load beside the wall time: what a timing on a busy machine needs.
+    assert 0 < summary["session_cpu_time_s"] and summary["load_average_1min"] >= 0
+    assert stop["success_rate"] >= 0.75 and stop["episodes"] == 4
+    assert summary["timesteps"] == stop["timesteps"] == 512  # 8 envs x 64 steps
+    with np.load(out / "eval" / "evaluations.npz") as log:
+        assert list(log["timesteps"]) == [512]
+    # The final policy is the checkpoint of that step: the weights the evaluation measured.
+    assert latest_checkpoint(out / "checkpoints")["timesteps"] == 512
+    report = (out / "report.md").read_text()
+    assert "validation episodes succeeded (--stop-success)" in report
+    assert f"wall time: {summary['wall_time_s']:.0f} s (8 envs" in report  # seconds, not 0.0 min
+
+
+@pytest.mark.parametrize("value", [0, 1.5, True, "1"])
+def test_stop_success_must_be_a_rate(value):
+    from rbenv.core.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match=r"stop_success must be a success rate"):
+        TrainConfig(stop_success=value).resolve()

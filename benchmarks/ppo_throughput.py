@@ -1,0 +1,63 @@
+"""PPO's cost per sample on Reorient-v1: envs × steps per rollout and torch threads.
+
+Run ``python -m benchmarks.ppo_throughput`` (``--quick``: a smoke form). SB3's PPO with the
+shipped Reorient-v1 settings (batch 4096, 3 epochs, 64×64) learns ``--samples`` env steps
+after a one-rollout warm-up, per case; the figure is samples per second of process CPU time
+(the wall time and the load average are stored beside it: on a shared machine the wall time
+measures the load). Results: ``benchmarks/results/ppo_throughput.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+from benchmarks.common import table, write_json
+
+ENV_ID = "rbenv/SatelliteReorient-v1"
+# (name, envs, steps per rollout, torch threads): every case updates on 8192 samples.
+CASES = [("256x32, 1 thread", 256, 32, 1), ("1024x8, 1 thread", 1024, 8, 1),
+         ("2048x4, 1 thread", 2048, 4, 1), ("256x32, 2 threads", 256, 32, 2)]
+
+
+def measure(n_envs: int, n_steps: int, threads: int, samples: int) -> dict:
+    import torch
+    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(threads)
+    cfg = TrainConfig(env_id=ENV_ID, n_envs=n_envs, hyperparams={"n_steps": n_steps}).resolve()
+    env = VecNormalize(make_vec_env(cfg, n_envs, 0), gamma=cfg.hyperparams["gamma"],
+                       **cfg.normalize)
+    model = algo_class("ppo")("MlpPolicy", env, seed=0, device="cpu", **model_kwargs(cfg, env))
+    model.learn(n_envs * n_steps)  # warm-up: one rollout and its update
+    load0, cpu0, wall0 = os.getloadavg()[0], time.process_time(), time.perf_counter()
+    model.learn(samples, reset_num_timesteps=False)
+    cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+    env.close()
+    return {"n_envs": n_envs, "n_steps": n_steps, "threads": threads, "samples": samples,
+            "cpu_s": cpu, "wall_s": wall, "samples_per_cpu_s": samples / cpu,
+            "load_before": round(load0, 2), "load_after": round(os.getloadavg()[0], 2)}
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--samples", type=int, default=163_840)
+    p.add_argument("--quick", action="store_true", help="a seconds-long smoke run (CI)")
+    args = p.parse_args(argv)
+    samples = 16_384 if args.quick else args.samples
+    cases = CASES[:2] if args.quick else CASES
+    rows = []
+    for name, n_envs, n_steps, threads in cases:
+        rows.append({"case": name, **measure(n_envs, n_steps, threads, samples)})
+        print(rows[-1], flush=True)
+    write_json("ppo_throughput_quick" if args.quick else "ppo_throughput",
+               {"env_id": ENV_ID, "cases": rows})
+    print(table(rows, ["case", "samples_per_cpu_s", "cpu_s", "wall_s", "load_before",
+                       "load_after"]))
+
+
+if __name__ == "__main__":
+    main()
