@@ -43,7 +43,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write, write_json
 
-from rbenv import usage
+from rbenv.satellite import usage
 
 FORMAT = 1
 Algo = Literal["ppo", "sac", "td3", "tqc", "crossq"]  # every algorithm of rbenv train (--algo)
@@ -367,7 +367,7 @@ def model_classes() -> dict:
 
 def jax_model_classes() -> dict:
     """SBX's algorithms by name (``rbenv train --engine sbx``); without SBX, an error naming
-    the sbx extra (:func:`rbenv.usage.require`)."""
+    the sbx extra (:func:`rbenv.satellite.usage.require`)."""
     sbx = usage.require("sbx", "rbenv train --engine sbx")
     return {"sac": sbx.SAC, "td3": sbx.TD3}
 

@@ -21,7 +21,7 @@ from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
 from rbenv.core.errors import InvalidParameterError
 from stable_baselines3.common.vec_env import VecNormalize
 
-from rbenv.usage import MissingExtraError
+from rbenv.satellite.usage import MissingExtraError
 
 pytest.importorskip("sbx", reason="sbx-rl is not installed (the sbx extra)")
 
