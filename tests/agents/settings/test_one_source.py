@@ -131,7 +131,8 @@ def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, alg
     assert zoo["n_timesteps"] == steps == spec.timesteps(algo, "cubesat-12u")
     assert TrainConfig(algo=algo, env_id=env_id).resolve().timesteps == steps
     shared = {k: v for k, v in tuned.ALL[algo].items() if k != "n_timesteps"}
-    assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == shared
+    own = {k: v for k, v in spec.id_settings[algo].items() if k != "n_timesteps"}
+    assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == {**shared, **own}
     assert spec.settings(algo) is not spec.settings(algo)  # a copy: a caller can't edit it
 
 
@@ -147,3 +148,19 @@ def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
 def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
     assert set(settings.get(env_id).id_settings) - {"ppo"} == \
         {"sac", "td3", "tqc", "crossq"}
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_reorient_v1_trains_sac_and_td3_with_many_envs_and_few_large_updates(algo):
+    """Reorient-v1's SAC and TD3 take the many-env recipe (tuned.MANY_ENVS) over the shared
+    settings; v0 keeps the shared ones (32 envs, a quarter update per env step)."""
+    from rbenv.agents.training.config import TrainConfig
+
+    cfg = TrainConfig(algo=algo, env_id="rbenv/SatelliteReorient-v1").resolve()
+    assert cfg.n_envs == tuned.MANY_ENVS["n_envs"] == 256
+    assert cfg.hyperparams["batch_size"] == 1024 and cfg.hyperparams["gradient_steps"] == 16
+    assert cfg.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 16  # updates per env step
+    assert cfg.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
+    old = TrainConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()
+    assert old.n_envs == 32 and old.hyperparams["gradient_steps"] / old.n_envs == 1 / 4
