@@ -181,9 +181,10 @@ def task_entry(env_id: str) -> settings.TrainingSettings:
     return settings.get(env_id)
 
 
-def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
-    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its training
-    entry's (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3") -> dict:
+    """The settings shipped for ``algo`` on ``env_id`` (trained by ``engine``), in RL Zoo's
+    format: its training entry's (rbenv.agents.settings; the shared dicts live in
+    rbenv.agents.settings.tuned).
 
     This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
     rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
@@ -194,7 +195,7 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
     if algo not in entry.hyperparams:
         raise InvalidParameterError(f"the training settings of {env_id!r} have no {algo} "
                                     f"settings; they have {sorted(entry.hyperparams)}")
-    return entry.settings(algo)
+    return entry.settings(algo, engine)
 
 
 def normalize_kwargs(setting) -> dict | None:
@@ -238,7 +239,7 @@ class TrainConfig(RunConfig):
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
-        shipped = shipped_settings(self.algo, self.env_id)
+        shipped = shipped_settings(self.algo, self.env_id, self.engine)
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         if self.n_envs is None:

@@ -131,8 +131,7 @@ def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, alg
     assert zoo["n_timesteps"] == steps == spec.timesteps(algo, "cubesat-12u")
     assert TrainConfig(algo=algo, env_id=env_id).resolve().timesteps == steps
     shared = {k: v for k, v in tuned.ALL[algo].items() if k != "n_timesteps"}
-    own = {k: v for k, v in spec.id_settings[algo].items() if k != "n_timesteps"}
-    assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == {**shared, **own}
+    assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == shared
     assert spec.settings(algo) is not spec.settings(algo)  # a copy: a caller can't edit it
 
 
@@ -151,16 +150,34 @@ def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id
 
 
 @pytest.mark.parametrize("algo", ["sac", "td3"])
-def test_reorient_v1_trains_sac_and_td3_with_many_envs_and_few_large_updates(algo):
-    """Reorient-v1's SAC and TD3 take the many-env recipe (tuned.MANY_ENVS) over the shared
-    settings; v0 keeps the shared ones (32 envs, a quarter update per env step)."""
-    from rbenv.agents.training.config import TrainConfig
+def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
+    """--engine sbx trains Reorient-v1's SAC and TD3 with the many-env recipe (tuned.MANY_ENVS)
+    over the id's settings, and its own budget; the sb3 engine, the RL Zoo's file and v0 keep
+    the shared recipe (32 envs, a quarter update per env step)."""
+    import importlib
 
-    cfg = TrainConfig(algo=algo, env_id="rbenv/SatelliteReorient-v1").resolve()
-    assert cfg.n_envs == tuned.MANY_ENVS["n_envs"] == 256
-    assert cfg.hyperparams["batch_size"] == 1024 and cfg.hyperparams["gradient_steps"] == 16
-    assert cfg.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
-    assert cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 16  # updates per env step
-    assert cfg.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
-    old = TrainConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()
-    assert old.n_envs == 32 and old.hyperparams["gradient_steps"] / old.n_envs == 1 / 4
+    from rbenv.agents.training.config import SBXConfig, TrainConfig
+
+    env_id = "rbenv/SatelliteReorient-v1"
+    fast = SBXConfig(algo=algo, env_id=env_id).resolve()
+    assert fast.n_envs == tuned.MANY_ENVS["n_envs"] == 256
+    assert fast.hyperparams["batch_size"] == 1024 and fast.hyperparams["gradient_steps"] == 16
+    assert fast.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert fast.hyperparams["gradient_steps"] / fast.n_envs == 1 / 16  # updates per env step
+    assert fast.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
+    assert fast.timesteps == settings.get(env_id).engine_settings["sbx", algo]["n_timesteps"]
+    for cfg in (TrainConfig(algo=algo, env_id=env_id).resolve(),
+                SBXConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()):
+        assert cfg.n_envs == 32 and cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 4
+    zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
+    assert zoo["n_envs"] == 32
+
+
+def test_engine_settings_must_name_an_algorithm_with_settings():
+    from rbenv.agents.settings.table import TrainingSettings, register
+    from rbenv.core.errors import InvalidParameterError
+
+    for bad in ({("sbx", "ddpg"): {}}, {"sbx": {}}, {("sbx", "sac"): {"n_timesteps": 0}}):
+        with pytest.raises(InvalidParameterError, match="engine_settings"):
+            register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
+                                      hyperparams=tuned.ALL, engine_settings=bad))

@@ -16,8 +16,6 @@ from rbenv.agents.training.config import ZOO_KEYS, TrainConfig
 from rbenv.agents.training.sb3 import train
 from rbenv.core.errors import InvalidParameterError
 
-import rbenv
-
 pytest.importorskip("sb3_contrib", reason="sb3-contrib is not installed (train extra)")
 
 OFF_POLICY = ("sac", "td3", "tqc", "crossq")
@@ -26,8 +24,8 @@ SHORT = {"learning_starts": 512, "gradient_steps": 1, "batch_size": 64, "buffer_
 
 
 def shipped(algo: str) -> dict:
-    """The zoo file's settings of ``algo`` for the id TrainConfig trains by default."""
-    return importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[rbenv.ENV_ID]
+    return importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[
+        "rbenv/SatelliteReorient-v0"]
 
 
 @pytest.mark.parametrize("algo", OFF_POLICY)
