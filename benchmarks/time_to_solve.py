@@ -118,6 +118,8 @@ PATHS.update({p.name: p for p in [
          eval_every=25_000, hyperparams=_off()),
     Path("sbx-td3-256e-b1024-g16-64", engine="sbx", algo="td3", n_envs=256, budget=800_000,
          eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+    Path("sbx-td3-512e-b1024-g16-64", engine="sbx", algo="td3", n_envs=512, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
     Path("sb3-td3-256e-b1024-g16-64", engine="sb3", algo="td3", n_envs=256, budget=800_000,
          eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
     Path("sb3-sac-256e-b1024-g16-64", engine="sb3", algo="sac", n_envs=256, budget=800_000,
