@@ -1,6 +1,6 @@
 """The ``rbenv`` command: train, evaluate and benchmark (also ``python -m rbenv.agents.cli``).
 
-    rbenv train [--engine sb3|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
+    rbenv train [--engine sb3|sbx|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
                 [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
                 [...]   (one flag per field of rbenv.agents.training.config; see --help)
     rbenv evaluate --policy pd|bangbang|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
@@ -44,6 +44,7 @@ from rbenv.agents.training.config import (
     RLlibOptions,
     RunConfig,
     SB3Options,
+    SBXConfig,
     SessionOptions,
     TorchRLOptions,
     TrainConfig,
@@ -127,7 +128,8 @@ class Parser(argparse.ArgumentParser):
 # The option groups of `rbenv train`: which engine reads which configuration class.
 COMMON = (RunConfig, SessionOptions)
 ENGINE_GROUPS = (
-    ("sb3", "sb3 options (--engine sb3, the default: Stable-Baselines3; the train extra)",
+    ("sb3", "sb3 options (--engine sb3, the default: Stable-Baselines3; the train extra; "
+            "--engine sbx, SAC and TD3 in JAX with SBX, reads the same options; the sbx extra)",
      (TrainConfig, SB3Options)),
     ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)",
      (RLlibConfig, RLlibOptions)),
@@ -137,7 +139,8 @@ ENGINE_GROUPS = (
      (TorchRLOptions,)),
 )
 # The classes whose fields each engine takes from the command line.
-ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "rllib": (RLlibConfig, RLlibOptions),
+ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "sbx": (SBXConfig, SB3Options),
+                 "rllib": (RLlibConfig, RLlibOptions),
                  "torchrl": (TorchRLOptions,)}
 TORCHRL_READS = ("engine", "algo", "env_id", "scene", "seed", "timesteps", "out", "threads",
                  "report_episodes")
@@ -248,7 +251,8 @@ def _check_train(args) -> tuple[type, type]:
             raise usage.InvalidChoiceError(switch, True, (
                 "not an option of --engine torchrl, which writes torchrl.json and has no run "
                 "folder to resume or replace yet"))
-    config = {"sb3": TrainConfig, "rllib": RLlibConfig, "torchrl": RunConfig}[engine]
+    config = {"sb3": TrainConfig, "sbx": SBXConfig, "rllib": RLlibConfig,
+              "torchrl": RunConfig}[engine]
     return config, ENGINE_FIELDS[engine][-1]
 
 
@@ -278,7 +282,10 @@ def _train(args) -> int:
         return 0
     from rbenv.agents.training import sb3  # the train extra (SB3, torch)
 
-    engine_run(cfg, sb3.SB3Session(**flags.given(args, options)), resume=args.resume,
+    if engine == "sbx":  # before anything is written
+        usage.require("sbx", "rbenv train --engine sbx")
+    session = sb3.SBXSession if engine == "sbx" else sb3.SB3Session
+    engine_run(cfg, session(**flags.given(args, options)), resume=args.resume,
                force=args.force, report=not args.no_report)
     return 0
 

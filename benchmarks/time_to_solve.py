@@ -128,6 +128,42 @@ PATHS = {p.name: p for p in [
                       "lr": 2e-3, "hidden": 64}),
 ]}
 
+# The off-policy learners, FastSAC/FastTD3's recipe on a CPU: more envs, fewer and larger
+# gradient steps per env step, smaller networks. hyperparams: over the registry's settings of
+# the algorithm (rbenv.agents.settings.tuned: 32 envs, batch 512, 8 gradient steps per vector
+# step, [256, 256]); engine sbx is SBX (JAX) with SB3's settings names.
+def _off(net=(64, 64), **over) -> dict:
+    return {"policy_kwargs": {"net_arch": list(net)}, **over}
+
+
+PATHS.update({p.name: p for p in [
+    Path("sbx-sac-32e-64", engine="sbx", algo="sac", n_envs=32, budget=300_000,
+         eval_every=25_000, hyperparams=_off()),
+    Path("sb3-sac-32e-64", engine="sb3", algo="sac", n_envs=32, budget=300_000,
+         eval_every=25_000, hyperparams=_off()),
+    Path("sbx-sac-32e-128", engine="sbx", algo="sac", n_envs=32, budget=300_000,
+         eval_every=25_000, hyperparams=_off(net=(128, 128))),
+    Path("sbx-sac-256e-b1024-g16-64", engine="sbx", algo="sac", n_envs=256, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+    Path("sbx-td3-32e-64", engine="sbx", algo="td3", n_envs=32, budget=300_000,
+         eval_every=25_000, hyperparams=_off()),
+    Path("sbx-td3-256e-b1024-g16-64", engine="sbx", algo="td3", n_envs=256, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+    Path("sbx-td3-512e-b1024-g16-64", engine="sbx", algo="td3", n_envs=512, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+    Path("sb3-td3-256e-b1024-g16-64", engine="sb3", algo="td3", n_envs=256, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+    Path("sb3-sac-256e-b1024-g16-64", engine="sb3", algo="sac", n_envs=256, budget=800_000,
+         eval_every=50_000, hyperparams=_off(batch_size=1024, gradient_steps=16)),
+]})
+
+
+def _quick_off_policy(path: Path) -> Path:
+    """The seconds-long form of an off-policy path: 2048 samples of 64 envs, gradient steps
+    from 1024 on, two evaluations."""
+    return dataclasses.replace(path, budget=2_048, eval_every=1_024, n_envs=64, hyperparams={
+        **path.hyperparams, "learning_starts": 1_024, "batch_size": 64, "gradient_steps": 2})
+
 
 def _load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
@@ -141,11 +177,12 @@ def sb3_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
     from rbenv.agents.policies.evaluate import evaluate
     from rbenv.agents.policies.sb3 import RunPolicy
     from rbenv.agents.training.config import TrainConfig
-    from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
+    from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs, set_threads
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecNormalize
 
     torch.set_num_threads(path.threads)
+    set_threads(path.threads)  # and XLA's (sbx)
     cfg = TrainConfig(env_id=ENV_ID, algo=path.algo, seed=seed, n_envs=path.n_envs,
                       hyperparams=dict(path.hyperparams), threads=path.threads,
                       timesteps=path.budget).resolve()
@@ -190,8 +227,8 @@ def sb3_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
     env = VecNormalize(make_vec_env(cfg, cfg.n_envs, seed),
                        gamma=cfg.hyperparams.get("gamma", 0.99),
                        **(cfg.normalize or {"norm_obs": False, "norm_reward": False}))
-    model = algo_class(cfg.algo)("MlpPolicy", env, seed=seed, device="cpu",
-                                 **model_kwargs(cfg, env))
+    model = algo_class(cfg.algo, path.engine)("MlpPolicy", env, seed=seed, device="cpu",
+                                              **model_kwargs(cfg, env))
     cb = Clocked()
     model.learn(cfg.timesteps, callback=cb)
     if not cb.curve or cb.curve[-1]["samples"] != model.num_timesteps:
@@ -358,7 +395,7 @@ def _summary(path: Path, seed: int, curve: list[dict], load0: list[float]) -> di
             "load_before": load0, "load_after": _load()}
 
 
-RUNNERS = {"sb3": sb3_run, "torchrl": torchrl_run, "rsl_rl": rsl_rl_run}
+RUNNERS = {"sb3": sb3_run, "torchrl": torchrl_run, "rsl_rl": rsl_rl_run, "sbx": sb3_run}
 
 
 def run(names: list[str], seeds: list[int], episodes: int = 500, out: str = "time_to_solve",
@@ -370,7 +407,9 @@ def run(names: list[str], seeds: list[int], episodes: int = 500, out: str = "tim
             if not (r["path"] in names and r["seed"] in seeds)]
     for name in names:
         path = PATHS[name]
-        if quick:  # 64 envs x 16 steps per rollout, 8 rollouts
+        if quick and path.algo != "ppo":
+            path = _quick_off_policy(path)
+        elif quick:  # 64 envs x 16 steps per rollout, 8 rollouts
             path = dataclasses.replace(path, budget=8_192, eval_every=4_096, n_envs=64,
                                        hyperparams={**path.hyperparams, "n_steps": 16,
                                                     "batch_size": 512})

@@ -44,12 +44,14 @@ CHECKPOINTS = "checkpoints"
 LATEST = "latest.json"
 FINAL_MODEL, FINAL_STATS, SUMMARY = "policy.pt", "obs_stats.npz", "training.json"
 FINAL_CONFIG = "policy.json"
+FINAL_JAX_STATE = "policy.jax.npz"  # an SBX run's training state (weights.save_jax_state)
 # The pickle-based names of run folders written before issue 19 (need trust_pickle).
 LEGACY_MODEL, LEGACY_STATS = "model.zip", "vecnormalize.pkl"
 EVAL_LOG = Path("eval") / "evaluations.npz"
 # Everything `rbenv train` writes into a run folder; `--force` removes exactly these.
-RUN_FILES = (CONFIG, FINAL_MODEL, FINAL_CONFIG, FINAL_STATS, LEGACY_MODEL, LEGACY_STATS, SUMMARY,
-             "report.md", "evaluation.json", "episode.png", "training_curve.png")
+RUN_FILES = (CONFIG, FINAL_MODEL, FINAL_CONFIG, FINAL_JAX_STATE, FINAL_STATS, LEGACY_MODEL,
+             LEGACY_STATS, SUMMARY, "report.md", "evaluation.json", "episode.png",
+             "training_curve.png")
 POLICY_DIR = "policy"  # an RLlib run's final RLModule folder
 RUN_DIRS = (CHECKPOINTS, "eval", POLICY_DIR)
 _MODEL_RE = re.compile(r"policy_(\d+)\.pt")

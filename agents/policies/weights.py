@@ -14,6 +14,14 @@ Loading a file never runs code from it. A model is written as
 Observation-normalisation statistics (SB3's ``VecNormalize``) are an ``.npz`` of arrays read
 with ``allow_pickle=False``, and an off-policy replay buffer is an ``.npz`` of its arrays.
 
+An SBX model (SAC or TD3 in JAX, ``rbenv train --engine sbx``) is written in the same two files
+and loads as the same SB3 policy: its flax weights are copied into SB3's torch modules of the
+same architecture (a flax ``Dense`` kernel is the transpose of a torch ``Linear`` weight), so
+evaluation, reports and export read it unchanged; ``<name>.json`` says ``"engine": "sbx"``.
+Its complete training state (weights, target networks, Adam moments, SAC's entropy
+coefficient), which a resume restores, is a third file, ``<name>.jax.npz``: every array of the
+flax train states, named by its path in the state tree.
+
 What a resume restores from these files: the weights, the optimizers' state (Adam moments and
 step counts), SAC's entropy coefficient and its optimizer, the observation and return
 statistics, the replay buffer, ``num_timesteps``, the gradient-update and episode counters.
@@ -34,6 +42,8 @@ from typing import Literal, get_args
 import gymnasium as gym
 import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write, write_json
+
+from rbenv.satellite import usage
 
 FORMAT = 1
 Algo = Literal["ppo", "sac", "td3", "tqc", "crossq"]  # every algorithm of rbenv train (--algo)
@@ -84,8 +94,12 @@ def algo_name(model) -> str:
 
 def model_config(model) -> dict:
     """The JSON that, with the weights, rebuilds ``model``'s policy (see the module doc)."""
+    kwargs = dict(model.policy_kwargs or {})
+    if is_jax_model(model) and kwargs.get("use_sde") is False:
+        del kwargs["use_sde"]  # SBX's SAC adds it; SB3's TD3 policy, which loads it, has none
     config = {"format": FORMAT, "algo": algo_name(model), "policy": POLICY,
-              "policy_kwargs": dict(model.policy_kwargs or {}),
+              **({"engine": "sbx"} if is_jax_model(model) else {}),
+              "policy_kwargs": kwargs,
               "observation_space": space_to_json(model.observation_space),
               "action_space": space_to_json(model.action_space),
               "num_timesteps": int(model.num_timesteps),
@@ -101,8 +115,13 @@ def model_config(model) -> dict:
 
 
 def model_tensors(model) -> dict:
-    """The state dicts and torch variables of ``model``: tensors and plain containers only."""
+    """The state dicts and torch variables of ``model``: tensors and plain containers only
+    (an SBX model: the SB3 policy's state dict holding its weights, :func:`sb3_policy_state`)."""
     from stable_baselines3.common.save_util import recursive_getattr  # the train extra
+
+    if is_jax_model(model):
+        return {"format": FORMAT, "params": {"policy": sb3_policy_state(model)},
+                "variables": {}}
 
     variables = {name: recursive_getattr(model, name).detach().cpu()
                  for name in model._get_torch_save_params()[1]}
@@ -160,7 +179,8 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
                 seed: int | None = None, verbose: int = 0):
     """A new SB3 model from ``config`` (:func:`model_config`): for training on ``env`` with
     ``hyperparams``, or, with no env, for inference with the saved spaces."""
-    cls = model_classes()[config["algo"]]
+    jax = config.get("engine") == "sbx" and env is not None  # trained on: SBX; else SB3's
+    cls = (jax_model_classes() if jax else model_classes())[config["algo"]]
     kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
     kwargs["policy_kwargs"] = config["policy_kwargs"]
     if env is not None:
@@ -184,12 +204,16 @@ def restore(model, config: dict, tensors: dict, path: Path, *, full: bool = True
     from stable_baselines3.common.save_util import recursive_setattr  # the train extra
 
     try:
-        if full:
+        if full and is_jax_model(model):
+            restore_jax_state(model, jax_state_path(path))
+        elif full:
             model.set_parameters(tensors["params"], exact_match=True, device="cpu")
             for name, value in (tensors.get("variables") or {}).items():
                 recursive_setattr(model, f"{name}.data", value.data)
         else:
             model.policy.load_state_dict(tensors["params"]["policy"])
+    except ModelFileError:
+        raise
     except Exception as e:  # missing keys or shapes that do not fit the config
         raise ModelFileError(f"model weights {str(path)!r} do not fit their configuration: "
                              f"{type(e).__name__}: {e}") from None
@@ -318,9 +342,12 @@ def load_replay_buffer(model, path: Path) -> int:
 
 
 def save_model(model, path: Path) -> None:
-    """Write ``<name>.pt`` and ``<name>.json`` for ``model``, each atomically (json last)."""
+    """Write ``<name>.pt`` and ``<name>.json`` for ``model`` (an SBX model: also
+    ``<name>.jax.npz``), each atomically (json last)."""
     config = model_config(model)
     atomic_write(Path(path), lambda p: save_tensors(model_tensors(model), p))
+    if is_jax_model(model):
+        atomic_write(jax_state_path(path), lambda p: save_jax_state(model, p))
     write_json(config_path(path), config)
 
 
@@ -334,3 +361,141 @@ def model_classes() -> dict:
     except ImportError:
         return classes
     return {**classes, "tqc": TQC, "crossq": CrossQ}
+
+
+# --- SBX (JAX) models -------------------------------------------------------------------------
+
+def jax_model_classes() -> dict:
+    """SBX's algorithms by name (``rbenv train --engine sbx``); without SBX, an error naming
+    the sbx extra (:func:`rbenv.satellite.usage.require`)."""
+    sbx = usage.require("sbx", "rbenv train --engine sbx")
+    return {"sac": sbx.SAC, "td3": sbx.TD3}
+
+
+def is_jax_model(model) -> bool:
+    """An SBX model: its policy holds flax train states (``qf_state``), not torch modules."""
+    return hasattr(getattr(model, "policy", None), "qf_state")
+
+
+def jax_state_path(weights: Path) -> Path:
+    """The training state beside ``<name>.pt``: ``<name>.jax.npz``."""
+    return Path(weights).with_suffix(".jax.npz")
+
+
+def _jax_states(model) -> dict:
+    """The flax train states of an SBX model by name (SAC's entropy coefficient among them)."""
+    states = {"actor_state": model.policy.actor_state, "qf_state": model.policy.qf_state}
+    if getattr(model, "ent_coef_state", None) is not None:
+        states["ent_coef_state"] = model.ent_coef_state
+    return states
+
+
+def _leaves(states: dict) -> dict:
+    """Every array of ``states`` by its path (``qf_state.params['params']...``)."""
+    import jax
+
+    out = {}
+    for name, state in states.items():
+        for path, leaf in jax.tree_util.tree_flatten_with_path(state)[0]:
+            out[name + jax.tree_util.keystr(path)] = np.asarray(leaf)
+    return out
+
+
+def save_jax_state(model, path: Path) -> None:
+    """Every array of an SBX model's train states as an ``.npz`` (no pickle)."""
+    with open(path, "wb") as f:
+        np.savez(f, **_leaves(_jax_states(model)))
+
+
+def restore_jax_state(model, path: Path) -> None:
+    """Load ``path`` (:func:`save_jax_state`) into an SBX model built with the same settings:
+    every array must be there with the shape and dtype the model has; else an error naming
+    the file and the array."""
+    import jax
+
+    path = Path(path)
+    if not path.is_file():
+        raise ModelFileError(f"SBX training state {str(path)!r} does not exist")
+    try:
+        with open_npz(path) as data:
+            saved = {k: data[k] for k in data.files}
+    except Exception as e:  # torn or foreign
+        raise ModelFileError(f"SBX training state {str(path)!r} is corrupt: "
+                             f"{type(e).__name__}: {e}") from None
+    states = _jax_states(model)
+    for name, state in states.items():
+        paths, treedef = jax.tree_util.tree_flatten_with_path(state)
+        leaves = []
+        for key, leaf in paths:
+            key = name + jax.tree_util.keystr(key)
+            value = saved.get(key)
+            # The kind, not the width: a new state's step counter is a Python int.
+            if value is None or value.shape != np.shape(leaf) \
+                    or value.dtype.kind != np.asarray(leaf).dtype.kind:
+                raise ModelFileError(
+                    f"SBX training state {str(path)!r} does not fit the model: {key} is "
+                    f"{'missing' if value is None else f'{value.dtype}{list(value.shape)}'}, "
+                    f"the model's {np.asarray(leaf).dtype}{list(np.shape(leaf))}")
+            leaves.append(jax.numpy.asarray(value))
+        states[name] = jax.tree_util.tree_unflatten(treedef, leaves)
+    model.policy.actor_state, model.policy.qf_state = states["actor_state"], states["qf_state"]
+    if "ent_coef_state" in states:
+        model.ent_coef_state = states["ent_coef_state"]
+
+
+def _dense_layers(params) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(kernel, bias) of each flax ``Dense`` layer in ``params``, in the order they apply: the
+    first level down whose keys are ``Dense_0``, ``Dense_1``, ... (an ensemble of critics keeps
+    its layers one level further down, stacked on a leading axis)."""
+    while not any(k.startswith("Dense_") for k in params):
+        if len(params) != 1:
+            raise ModelFileError(f"cannot find the Dense layers among {sorted(params)}")
+        params = next(iter(params.values()))
+    names = sorted(params, key=lambda k: int(k.split("_")[1]))
+    return [(np.asarray(params[k]["kernel"]), np.asarray(params[k]["bias"])) for k in names]
+
+
+def _copy_linear(modules, layers) -> None:
+    """Copy flax (kernel, bias) pairs into torch ``Linear`` modules, in order."""
+    import torch
+
+    if len(modules) != len(layers):
+        raise ModelFileError(f"{len(layers)} Dense layers do not fit {len(modules)} Linear ones")
+    with torch.no_grad():
+        for module, (kernel, bias) in zip(modules, layers, strict=True):
+            if module.weight.shape != kernel.T.shape:
+                raise ModelFileError(f"a Dense kernel of shape {kernel.shape} does not fit a "
+                                     f"Linear weight of shape {tuple(module.weight.shape)}")
+            module.weight.copy_(torch.from_numpy(np.array(kernel.T)))  # a writable copy
+            module.bias.copy_(torch.from_numpy(np.array(bias)))
+
+
+def _linears(module) -> list:
+    import torch
+
+    return [m for m in module.modules() if isinstance(m, torch.nn.Linear)]
+
+
+def sb3_policy_state(model) -> dict:
+    """The state dict of the SB3 policy (SAC's or TD3's, same spaces and ``net_arch``) that
+    acts as the SBX ``model`` does: its actor, critics and target networks, copied."""
+    config = model_config(model)
+    extra = set(config["policy_kwargs"]) - {"net_arch"}
+    if extra:
+        raise ModelFileError(f"an SBX policy converts to SB3's only with net_arch as its "
+                             f"policy_kwargs, got also {sorted(extra)}")
+    sb3 = build_model({**config, "engine": "sb3"}).policy
+    jax_policy = model.policy
+    if config["algo"] == "sac":  # hidden layers, then the mean's and the log-std's heads
+        _copy_linear([*_linears(sb3.actor.latent_pi), sb3.actor.mu, sb3.actor.log_std],
+                     _dense_layers(jax_policy.actor_state.params))
+    else:  # td3: a tanh network and its target
+        _copy_linear(_linears(sb3.actor), _dense_layers(jax_policy.actor_state.params))
+        _copy_linear(_linears(sb3.actor_target),
+                     _dense_layers(jax_policy.actor_state.target_params))
+    for critic, params in ((sb3.critic, jax_policy.qf_state.params),
+                           (sb3.critic_target, jax_policy.qf_state.target_params)):
+        stacked = _dense_layers(params)
+        for k, q_net in enumerate(critic.q_networks):
+            _copy_linear(_linears(q_net), [(w[k], b[k]) for w, b in stacked])
+    return sb3.state_dict()

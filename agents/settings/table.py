@@ -34,6 +34,8 @@ class TrainingSettings:
     scene_budgets: (algorithm, scene) → timesteps, where a scene needs more.
     scene_env_kwargs: (algorithm, scene) → env options that training adds on that scene (a
     reward weight the scene needs); the env's own defaults stay as they are.
+    engine_settings: (engine, algorithm) → settings over the id's when ``rbenv train`` runs
+    that engine (``--engine sbx``'s many-env recipe, which SB3's learner did not learn with).
     """
 
     env_id: str
@@ -43,11 +45,14 @@ class TrainingSettings:
     id_settings: Mapping[str, dict] = field(default_factory=dict)
     scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
     scene_env_kwargs: Mapping[tuple, dict] = field(default_factory=dict)
+    engine_settings: Mapping[tuple, dict] = field(default_factory=dict)
 
-    def settings(self, algo: str) -> dict:
+    def settings(self, algo: str, engine: str = "sb3") -> dict:
         """``algo``'s settings on this id, RL Zoo's format: the shared ``hyperparams[algo]``
-        with ``id_settings[algo]`` over them (a deep copy)."""
-        return copy.deepcopy({**self.hyperparams[algo], **self.id_settings.get(algo, {})})
+        with ``id_settings[algo]`` over them, and ``engine_settings[engine, algo]`` over those
+        (a deep copy)."""
+        return copy.deepcopy({**self.hyperparams[algo], **self.id_settings.get(algo, {}),
+                              **self.engine_settings.get((engine, algo), {})})
 
     def timesteps(self, algo: str, scene: str | None = None) -> int:
         """The suite's training budget of ``algo`` (on ``scene``, where it needs more): the
@@ -93,6 +98,19 @@ def _check(entry: TrainingSettings) -> None:
             raise InvalidParameterError(
                 f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
                 f"options, got {key!r}: {kwargs!r}")
+    for key, over in entry.engine_settings.items():
+        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
+                and key[1] in entry.hyperparams):
+            raise InvalidParameterError(
+                f"{where}: engine_settings must map (engine, algorithm) to a dict of settings, "
+                f"for an algorithm with hyperparams, got {key!r}: {over!r}")
+        if "n_timesteps" in over:
+            budgets_over = over["n_timesteps"]
+            if isinstance(budgets_over, bool) or not isinstance(budgets_over, int) \
+                    or budgets_over <= 0:
+                raise InvalidParameterError(
+                    f"{where}: engine_settings[{key!r}]['n_timesteps'] must be a positive int "
+                    f"of timesteps, got {budgets_over!r}")
     budgets = {f"budget[{a!r}]": n for a, n in entry.budget.items()}
     budgets.update({f"scene_budgets[{key!r}]": n for key, n in entry.scene_budgets.items()})
     algos = dict.fromkeys([*entry.hyperparams, *entry.id_settings, *entry.budget,

@@ -38,6 +38,15 @@ TQC = recipe(n_timesteps=200_000)
 # 1024 x 1024, which ran at 43 env-steps/s here.
 CROSSQ = recipe(tau=None, policy_kwargs={"net_arch": [256, 256]})
 
+# The off-policy learners' many-env recipe on a CPU (FastTD3/FastSAC's: many envs, few and
+# large updates), over RECIPE: 256 native sub-envs, 16 gradient steps of batch 1024 per vector
+# step (1/16 update per env step against RECIPE's 1/4; a quarter of the updates per sample,
+# each of twice the batch), [64, 64] networks (an update of batch 1024 costs about 4 ms of
+# CPU in SBX, against about 33 ms at [256, 256]). Reorient-v1's SAC and TD3 use it
+# (rbenv.agents.settings.shipped; docs/performance.md has the measurements).
+MANY_ENVS = {"n_envs": 256, "batch_size": 1024, "gradient_steps": 16,
+             "policy_kwargs": {"net_arch": [64, 64]}}
+
 # PPO's training on the wheel scenes (the training entries' scene_env_kwargs). With the default
 # failure weight (25) PPO learns to spin the bus past the rate limit within ~7 steps and end
 # the episode: the weak wheels (3.2 mN·m on cubesat-6u-rw) need 40–80 s for a manoeuvre whose

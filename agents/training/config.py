@@ -25,7 +25,7 @@ from rbenv.envs.registry import check_env_options
 C = TypeVar("C", bound="RunConfig")
 
 
-Engine = Literal["sb3", "rllib", "torchrl"]
+Engine = Literal["sb3", "sbx", "rllib", "torchrl"]
 
 
 @dataclass
@@ -41,9 +41,10 @@ class RunConfig:
     LEGACY_DEFAULTS: ClassVar[dict] = {}
 
     engine: Engine = "sb3"
-    """The training back end: sb3 (Stable-Baselines3), rllib (PPO on Ray RLlib; the ray
-    extra), or torchrl (TorchRL's PPO on the torch env, env and learner on --device; the
-    ecosystem extra; writes torchrl.json, no run-folder engine yet)."""
+    """The training back end: sb3 (Stable-Baselines3), sbx (SAC and TD3 in JAX with SBX, the
+    same run folders as sb3; the sbx extra), rllib (PPO on Ray RLlib; the ray extra), or
+    torchrl (TorchRL's PPO on the torch env, env and learner on --device; the ecosystem extra;
+    writes torchrl.json, no run-folder engine yet)."""
     algo: Algo = "ppo"
     """The algorithm. Its settings (hyperparameters, envs, budget, env options) come from the
     task's training settings (rbenv.agents.settings), which rl_zoo3 reads too."""
@@ -180,9 +181,10 @@ def task_entry(env_id: str) -> settings.TrainingSettings:
     return settings.get(env_id)
 
 
-def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
-    """The settings shipped for ``algo`` on ``env_id``, in RL Zoo's format: its training
-    entry's (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3") -> dict:
+    """The settings shipped for ``algo`` on ``env_id`` (trained by ``engine``), in RL Zoo's
+    format: its training entry's (rbenv.agents.settings; the shared dicts live in
+    rbenv.agents.settings.tuned).
 
     This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
     rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
@@ -193,7 +195,7 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID) -> dict:
     if algo not in entry.hyperparams:
         raise InvalidParameterError(f"the training settings of {env_id!r} have no {algo} "
                                     f"settings; they have {sorted(entry.hyperparams)}")
-    return entry.settings(algo)
+    return entry.settings(algo, engine)
 
 
 def normalize_kwargs(setting) -> dict | None:
@@ -243,7 +245,7 @@ class TrainConfig(RunConfig):
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
-        shipped = shipped_settings(self.algo, self.env_id)
+        shipped = shipped_settings(self.algo, self.env_id, self.engine)
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         if self.n_envs is None:
@@ -278,6 +280,23 @@ class TrainConfig(RunConfig):
                 f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
                 "--hyperparams '{\"learning_starts\": N}'")
         return self
+
+
+SBX_ALGOS = ("sac", "td3")
+
+
+@dataclass
+class SBXConfig(TrainConfig):
+    """A run of the SBX back end (SAC or TD3 in JAX): TrainConfig's fields, and its run folder
+    is an sb3 run's (the policy files load as SB3 policies); saved as ``config.json``."""
+
+    engine: Engine = "sbx"
+
+    def resolve(self) -> SBXConfig:
+        if self.algo not in SBX_ALGOS:
+            raise InvalidParameterError(f"algo must be one of {', '.join(SBX_ALGOS)} for "
+                                        f"--engine sbx, got {self.algo!r}")
+        return super().resolve()
 
 
 @dataclass(frozen=True)

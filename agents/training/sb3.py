@@ -1,6 +1,7 @@
 """The Stable-Baselines3 back end of the training engine: PPO, SAC, TD3, TQC or CrossQ on the
 native vector env (``rbenv train``). Settings come from the task registry (``rbenv/hyperparams``,
-RL Zoo's format; :class:`rbenv.agents.training.config.TrainConfig`).
+RL Zoo's format; :class:`rbenv.agents.training.config.TrainConfig`). With ``--engine sbx``
+(:class:`SBXSession`) the same training runs SBX's SAC or TD3, in JAX (the sbx extra).
 
 The run folder, its lock, resume, summary and report are the engine's
 (:mod:`rbenv.agents.training.engine`); this module builds the model, trains it with SB3's
@@ -14,7 +15,9 @@ is also the fastest for these small MLPs) and the CPU kind.
 from __future__ import annotations
 
 import copy
+import os
 import shutil
+import sys
 import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -71,6 +74,17 @@ class SB3Session(SB3Options):
 
     def load_hint(self, out: Path) -> str:
         return runfolder.LOAD_HINT.replace("PATH", repr(str(out)))
+
+
+@dataclass(frozen=True)
+class SBXSession(SB3Session):
+    """The SBX back end (``--engine sbx``, :class:`rbenv.agents.training.config.SBXConfig`):
+    this module's training with SBX's SAC or TD3 (JAX) in place of SB3's. SBX keeps SB3's
+    interface (``learn``, callbacks, VecNormalize, the replay buffer) and compiles each batch
+    of gradient steps into one XLA call; its policies are saved as SB3 policies
+    (:mod:`rbenv.agents.policies.weights`)."""
+
+    packages: ClassVar[tuple[str, ...]] = ("sbx", "jax", "stable_baselines3", "torch")
 
 
 def train(cfg: TrainConfig, *, resume: bool = False, force: bool = False,
@@ -157,19 +171,24 @@ def _start(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> tu
         print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 timesteps")
     env = VecNormalize(base, gamma=cfg.hyperparams.get("gamma", 0.99),
                        **(cfg.normalize or {"norm_obs": False, "norm_reward": False}))
-    model = algo_class(cfg.algo)("MlpPolicy", env, seed=cfg.seed, device="cpu",
-                                 verbose=session.verbose, **model_kwargs(cfg, env))
+    model = algo_class(cfg.algo, cfg.engine)("MlpPolicy", env, seed=cfg.seed, device="cpu",
+                                             verbose=session.verbose, **model_kwargs(cfg, env))
     return model, env, 0, engine.WallClock()
 
 
 def set_threads(n: int) -> None:
-    """torch intra-op threads for training (1 is fastest for small MLPs on a busy machine)."""
+    """torch intra-op threads for training (1 is fastest for small MLPs on a busy machine);
+    with 1, XLA's CPU code (SBX) too, if JAX is not imported yet (it reads the flags once)."""
     torch.set_num_threads(int(n))
+    flags = os.environ.get("XLA_FLAGS", "")
+    if int(n) == 1 and "jax" not in sys.modules and "intra_op_parallelism" not in flags:
+        os.environ["XLA_FLAGS"] = (f"{flags} --xla_cpu_multi_thread_eigen=false "
+                                   "intra_op_parallelism_threads=1").strip()
 
 
-def algo_class(name: str):
-    """The SB3 (or sb3-contrib) class of an algorithm name."""
-    classes = weights.model_classes()
+def algo_class(name: str, engine: str = "sb3"):
+    """The SB3 (or sb3-contrib) class of an algorithm name; SBX's with engine ``sbx``."""
+    classes = weights.jax_model_classes() if engine == "sbx" else weights.model_classes()
     if name not in classes:
         raise InvalidParameterError(f"algo {name!r} needs sb3-contrib (the train extra); "
                                     f"installed: {sorted(classes)}")
@@ -333,9 +352,12 @@ class PeriodicEval(_Every):
         # Copied even when the best is at the last step: an evaluation that the callback ran at
         # that step saw the weights from before the update that followed it.
         config = weights.config_path(Path(self.BEST_MODEL)).name
-        for src, dst in ((self.BEST_MODEL, runfolder.FINAL_MODEL),
-                         (config, runfolder.FINAL_CONFIG),
-                         (self.BEST_STATS, runfolder.FINAL_STATS)):
+        pairs = [(self.BEST_MODEL, runfolder.FINAL_MODEL), (config, runfolder.FINAL_CONFIG),
+                 (self.BEST_STATS, runfolder.FINAL_STATS)]
+        jax_state = weights.jax_state_path(Path(self.BEST_MODEL)).name
+        if (self.best_dir / jax_state).is_file():  # an SBX model's training state
+            pairs.append((jax_state, runfolder.FINAL_JAX_STATE))
+        for src, dst in pairs:
             atomic_write(out / dst,
                          lambda p, src=src: shutil.copyfile(self.best_dir / src, p))
         return {**self.best, "episodes": self.episodes, "last": last}

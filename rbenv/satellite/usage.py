@@ -30,6 +30,9 @@ EXTRAS = {
     "tensordict": "ecosystem",
     "rl_zoo3": "ecosystem",
     "numba": "fast",
+    "sbx": "sbx",
+    "jax": "sbx",
+    "flax": "sbx",
     "ray": "ray",
     "mujoco": "bench",
 }

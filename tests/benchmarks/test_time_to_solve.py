@@ -50,3 +50,15 @@ def test_paths_name_known_engines_and_settings():
         assert path.budget is None or path.budget >= path.eval_every > 0
     # The shipped path takes the registry's settings unchanged.
     assert time_to_solve.PATHS["sb3-shipped"].hyperparams == {}
+
+
+@pytest.mark.slow  # a few seconds on an idle machine, plus JAX's compilation
+def test_quick_off_policy_run_through_sbx(results):
+    pytest.importorskip("sbx", reason="sbx-rl is not installed (the sbx extra)")
+    name = "sbx-td3-256e-b1024-g16-64"
+    time_to_solve.main(["--quick", "--paths", name])
+    (run,) = json.loads((results / "time_to_solve_quick.json").read_text())["runs"]
+    assert run["path"] == name
+    assert [p["samples"] for p in run["curve"]] == [1024, 2048]
+    assert 0 < run["curve"][0]["cpu_s"] < run["curve"][1]["cpu_s"]
+    assert not run["solved"] and run["best_success"] < 0.99

@@ -147,3 +147,37 @@ def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
 def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
     assert set(settings.get(env_id).id_settings) - {"ppo"} == \
         {"sac", "td3", "tqc", "crossq"}
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
+    """--engine sbx trains Reorient-v1's SAC and TD3 with the many-env recipe (tuned.MANY_ENVS)
+    over the id's settings, and its own budget; the sb3 engine, the RL Zoo's file and v0 keep
+    the shared recipe (32 envs, a quarter update per env step)."""
+    import importlib
+
+    from rbenv.agents.training.config import SBXConfig, TrainConfig
+
+    env_id = "rbenv/SatelliteReorient-v1"
+    fast = SBXConfig(algo=algo, env_id=env_id).resolve()
+    assert fast.n_envs == tuned.MANY_ENVS["n_envs"] == 256
+    assert fast.hyperparams["batch_size"] == 1024 and fast.hyperparams["gradient_steps"] == 16
+    assert fast.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert fast.hyperparams["gradient_steps"] / fast.n_envs == 1 / 16  # updates per env step
+    assert fast.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
+    assert fast.timesteps == settings.get(env_id).engine_settings["sbx", algo]["n_timesteps"]
+    for cfg in (TrainConfig(algo=algo, env_id=env_id).resolve(),
+                SBXConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()):
+        assert cfg.n_envs == 32 and cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 4
+    zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
+    assert zoo["n_envs"] == 32
+
+
+def test_engine_settings_must_name_an_algorithm_with_settings():
+    from rbenv.agents.settings.table import TrainingSettings, register
+    from rbenv.core.errors import InvalidParameterError
+
+    for bad in ({("sbx", "ddpg"): {}}, {"sbx": {}}, {("sbx", "sac"): {"n_timesteps": 0}}):
+        with pytest.raises(InvalidParameterError, match="engine_settings"):
+            register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
+                                      hyperparams=tuned.ALL, engine_settings=bad))
