@@ -25,6 +25,7 @@ from rbenv.core.vec import cross
 from rbenv.envs import registry
 from rbenv.satellite.actuators import Magnetorquers
 from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
+from rbenv.satellite.actuators.wheels import ACCELERATION_MODES
 from rbenv.satellite.allocation import axis_authority, make_allocator
 from rbenv.satellite.plant import Plant
 from rbenv.tasks import Task
@@ -102,7 +103,7 @@ class _TorqueController:
         plant = self.plant
         if plant.action_mode == "torque":
             return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
-        if plant.action_mode == "acceleration":  # α = u/J_eff of the motor torques u = −G⁺τ
+        if plant.action_mode in ACCELERATION_MODES:  # α = u/J_eff of the motor torques u = −G⁺τ
             wheels = plant.wheels
             alpha = -(torque_B @ wheels.pinv.T) / np.asarray(wheels.eff_inertia)
             a = alpha / wheels.wheels.max_acceleration
@@ -530,7 +531,7 @@ class InnoCubePD:
 
     def __post_init__(self):
         plant, wheels = self.plant, self.plant.wheels
-        if wheels is None or plant.action_mode not in ("acceleration", "throttle") \
+        if wheels is None or plant.action_mode not in (*ACCELERATION_MODES, "throttle") \
                 or not wheels.wheels.max_acceleration:
             raise NotApplicable(
                 f"innocube-pd commands wheel accelerations: it needs [wheels] with a command "
@@ -549,7 +550,8 @@ class InnoCubePD:
         # Action per RPM/s: of the clamp (acceleration mode), or the motor torque J_eff·α as a
         # fraction of u_max (throttle mode).
         sign = -np.diag(axes)
-        per = _RPM_S / wheels.wheels.max_acceleration if plant.action_mode == "acceleration" \
+        per = _RPM_S / wheels.wheels.max_acceleration \
+            if plant.action_mode in ACCELERATION_MODES \
             else _RPM_S * np.asarray(wheels.eff_inertia) / wheels.wheels.max_torque
         object.__setattr__(self, "scale", sign * per)
         object.__setattr__(self, "wheel_slice",

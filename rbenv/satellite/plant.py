@@ -65,7 +65,7 @@ PLANT_FIELDS = {"q": "c4", "omega_B": "c3", "x": "c3", "v": "c3", "bias": "c3", 
                 "model": "obj", "field_B_T": "c3",  # field_B_T: Earth's field now, T (orbit)
                 **sensing.FIELDS}  # sensing as flown (rbenv.satellite.sensing), None when off
 _ZERO = (0.0, 0.0, 0.0)
-PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration")  # acceleration: wheels only
+PLANT_ACTION_MODES = (*ACTION_MODES, "acceleration", "acceleration_lifted")  # wheels only
 _BIAS_SLOTS = 6  # slots 0-5 of stream "plant": the disturbance bias (three normals)
 
 
