@@ -88,6 +88,34 @@ def test_lifted_commands_pass_every_drawn_deadband():
         gym.make(V1, scene=_scene(), action_mode="acceleration_lifted")
 
 
+def test_lifted_mode_observes_the_last_command_and_plain_mode_does_not():
+    scene = _scene({"deadband_rpm_s": [2.0, 4.0]})
+    env = gym.make(V1, scene=scene, action_mode="acceleration_lifted").unwrapped
+    assert env.observation_structure["wheel_command"] == 1
+    obs, _ = env.reset(seed=0)
+    assert obs[-1] == 0.0
+    seen = [env.step(np.array([a], np.float32))[0][-1] for a in (0.015, -0.5, 0.005, 2.0)]
+    np.testing.assert_allclose(seen, [0.04, -0.5, 0.0, 1.0], rtol=1e-6)  # lifted, clamped
+    plain = gym.make(V1, scene=scene, action_mode="acceleration").unwrapped
+    assert "wheel_command" not in plain.observation_structure
+    assert plain.observation_space.shape[0] == env.observation_space.shape[0] - 1
+
+
+def test_slew_law_holds_where_the_flight_pd_stalls():
+    from rbenv.agents.policies.evaluate import evaluate
+
+    # Wheels as flown, attitude sensed exactly: the true final error is the law's own.
+    scene = rbenv.scene_variant("innocube-3u", {"sensors": None}, name="exact-sensing")
+    kw = {"episodes": 4, "env_id": V1, "record": 0, "scene": scene,
+          "env_kwargs": {"action_mode": "acceleration_lifted"}}
+    slew = evaluate("innocube-slew", **kw).final_error_deg
+    lifted_pd = evaluate("innocube-pd", **kw).final_error_deg
+    pd = evaluate("innocube-pd", **{**kw, "env_kwargs": {"action_mode": "acceleration"}}
+                  ).final_error_deg
+    assert np.all(slew < 0.1) and np.median(pd) > 1.0, (slew, pd)
+    assert np.median(lifted_pd) < 0.5  # the lift alone takes the PD below its stall
+
+
 def test_startup_delay_holds_the_wheel_still_after_the_first_command():
     scene = _scene({"startup_delay_s": 3.0})
     out, _ = _speeds(scene, [0.0] * 2 + [0.5] * 6)

@@ -28,7 +28,10 @@ and ``acceleration_lifted``, the same with the deadband's inverse, command shapi
 computer can do: with α_up the deadband's upper bound (the scene's ``deadband``, or the high
 end of its range), a requested ``|α| < α_up/4`` is zero and any other is lifted to at least
 α_up, ``α ← sign(α)·max(|α|, α_up)``, so that every command the policy sends moves the wheel
-and a small one moves it by the finest step it can (:func:`lift_over_deadband`).
+and a small one moves it by the finest step it can (:func:`lift_over_deadband`). As a flight
+computer knows what it commanded, this mode also observes ``wheel_command``: the command of
+the last step after the lift, α/α_max per wheel (0 at the start), since with a one-step
+sensor delay the measured rates do not show it yet.
 
 Wheels as flown (opt-in, each a ``[wheels]`` key; off by default, and then no step changes):
 every command is first read as the wheel acceleration it asks for, ``α = u/J_eff`` (rad/s²);
@@ -264,6 +267,7 @@ class Wheels:
         for arr in (low, high):
             arr.setflags(write=False)
         pinv = np.linalg.pinv(g.T)  # (n, 3): u = −pinv τ gives the body torque τ (−G u = τ)
+        lifted = self.action_mode == "acceleration_lifted"
         inv_bus = np.linalg.inv(self.bus_inertia - ws.spin_inertia_B)  # I_RW⁻¹
         # Authority per axis: the largest body torque along it with every |u_i| <= u_max.
         col = np.abs(pinv)
@@ -281,10 +285,13 @@ class Wheels:
                   # command above the deadband, −1 before it.
                   # wheel_flown (wheels as flown): this episode's (deadband rad/s², realized
                   # gain, start-up delay s).
+                  # wheel_command (acceleration_lifted only): the last step's command after
+                  # the lift, α/α_max per wheel.
                   "state_fields": {"wheel_speed": "cn", "wheel_torque": "cn",
                                    "wheel_momentum": "cn", "wheel_energy_J": "f",
                                    **({"wheel_clock_s": "f", "wheel_flown": "c3"}
-                                      if ws.as_flown else {})},
+                                      if ws.as_flown else {}),
+                                   **({"wheel_command": "cn"} if lifted else {})},
                   # Per-wheel constants as Python floats (components multiply them).
                   "axes": tuple(tuple(float(c) for c in g_i) for g_i in g),
                   "inertia": tuple(float(j) for j in ws.inertia),
@@ -302,7 +309,8 @@ class Wheels:
                   "pinv_rows": tuple(tuple(float(c) for c in row) for row in pinv),
                   "authority": None if authority is None else tuple(authority.tolist()),
                   "standby": float(ws.n * ws.standby_power),
-                  "observation_structure": {"wheel_speed": ws.n},
+                  "observation_structure": {"wheel_speed": ws.n,
+                                            **({"wheel_command": ws.n} if lifted else {})},
                   "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0)}
         values["inv_max_power"] = 1.0 / values["max_power"]
         for name, value in values.items():
@@ -346,6 +354,9 @@ class Wheels:
         ws = self.wheels
         speed, w = st.wheel_speed, st.omega_B
         where, clip, maximum = xp.where, xp.clip, xp.maximum
+        if self.action_mode == "acceleration_lifted":  # what the flight computer commanded
+            st.wheel_command = tuple([c * (1.0 / (ws.max_acceleration * self.eff_inertia[i]))
+                                      for i, c in enumerate(u)])
         if ws.as_flown:
             u = self._as_flown(st, u, xp)
         u = tuple([clip(c, -self.max_torque[i], self.max_torque[i]) for i, c in enumerate(u)]) \
@@ -418,6 +429,8 @@ class Wheels:
         speeds = tuple(speed[0].tolist()) if draws.xp is FLOAT else tuple(speed.T)
         out = {"wheel_speed": speeds, "wheel_torque": zeros, "wheel_momentum": zeros,
                "wheel_energy_J": zero}
+        if self.action_mode == "acceleration_lifted":
+            out["wheel_command"] = zeros
         if ws.as_flown:
             out["wheel_clock_s"] = zero - 1.0
             u = draws.uniform("wheels", 3, offset=ws.n if ws.random_speed else 0)
@@ -427,12 +440,15 @@ class Wheels:
 
     def observe(self, st, xp, sensed=None) -> tuple:
         """Ω_i / Ω_max,i, clipped to [-1, 1], one component per wheel (Ω quantized to the
-        speed sensor's resolution, where the scene gives one)."""
+        speed sensor's resolution, where the scene gives one); then, in action mode
+        ``acceleration_lifted``, the last step's command α/α_max per wheel."""
         clip, inv = xp.clip, self.inv_max_speed
         speed, quantum = st.wheel_speed, self.wheels.speed_quantum
         if quantum:
             speed = tuple([xp.round(s * (1.0 / quantum)) * quantum for s in speed])
-        return tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(speed)])
+        out = tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(speed)])
+        return out + tuple(st.wheel_command) if self.action_mode == "acceleration_lifted" \
+            else out
 
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
