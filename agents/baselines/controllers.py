@@ -593,14 +593,14 @@ class InnoCubeSlew(InnoCubePD):
 
     It is what the deadband allows a scripted law: flown with ``action_mode=
     "acceleration_lifted"`` every small correction becomes the finest pulse that moves the
-    wheel (:func:`rbenv.actuators.wheels.lift_over_deadband`); with plain ``"acceleration"``
-    it stalls in the deadband like the flight PD. In that mode the observation also carries
-    the last step's command (``wheel_command``), which a one-step sensor delay (the scene's
-    ``[sensors] delay_steps = 1``) hides from the measured rates: the law then first predicts
-    the state that command is making (a Smith
-    predictor: ω += g·α_prev·J_eff/I, the attitude turned by the mean rate over one step, g
-    the realized gain's mid-range), which keeps the hold from pulsing twice for one error.
-    The magnetorquers get zero. A reference for the learned policy, and its teacher
+    wheel (:func:`rbenv.satellite.actuators.wheels.lift_over_deadband`); with plain
+    ``"acceleration"`` it stalls in the deadband like the flight PD. In that mode the
+    observation also carries the last step's command (``wheel_command``), which a one-step
+    sensor delay (the scene's ``[sensors] delay_steps = 1``) hides from the measured rates:
+    the law then first predicts the state that command is making (a Smith predictor:
+    ω += g·α_prev·J_eff/I, the attitude turned by the mean rate over one step, g the realized
+    gain's mid-range), which keeps the hold from pulsing twice for one error. The
+    magnetorquers get zero. A reference for the learned policy, and its teacher
     (docs/innocube/learned-policy.md).
     """
 
