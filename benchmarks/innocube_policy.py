@@ -1,7 +1,7 @@
 """A policy on innocube-3u with everything the data showed switched on, from random slews.
 
     python -m benchmarks.innocube_policy --policy innocube-pd [--policy docs/innocube/policy]
-        [--episodes 500] [--seed 0] [--scene innocube-3u] [--env-kwargs JSON]
+        [--episodes 500] [--seed 0] [--scene innocube-3u] [--env-kwargs JSON] [--plot PNG]
 
 Each episode starts like the flight's slews: an attitude error of 100-180° about a random axis,
 a body rate of 2-6 °/s in a random direction, wheel speeds uniform within ±500 rpm (the PD
@@ -17,7 +17,8 @@ mode it was trained in); a scripted policy in ``SatelliteReorient-v1`` with
 ``'{"action_mode": "acceleration_lifted"}'``). Targets (issue 30, learned policy): median
 settle ≤ 60 s, mean steady ≤ 0.1°, ≥ 99 % settled.
 
-Writes ``innocube_policy.json`` (one entry per policy).
+Writes ``innocube_policy.json`` (one entry per policy); ``--plot`` draws the sensed error of
+the first eight episodes against time, one panel per policy.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import json
 import math
 import os
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -76,8 +78,6 @@ def run(policy_name: str, episodes: int, seed: int, scene: str,
         env_kwargs: dict | None = None) -> dict:
     """All episodes side by side in one native vector env (autoreset off: an episode that
     succeeds keeps flying to the scene's end)."""
-    from pathlib import Path
-
     from gymnasium.vector import AutoresetMode
     from rbenv.agents.policies.evaluate import make_policy, scripted
     from rbenv.agents.policies.load import load_policy
@@ -127,7 +127,31 @@ def run(policy_name: str, episodes: int, seed: int, scene: str,
                     "true_steady_deg": float(true[i, last].mean())})
     return {"policy": policy_name, "scene": scene, "env_id": env_id,
             "action_mode": kwargs.get("action_mode"), "episodes": episodes, "seed": seed,
-            "summary": summarize(per), "episodes_detail": per}
+            "summary": summarize(per), "episodes_detail": per,
+            "trace": {"time_s": t[:PLOTTED], "sensed_deg": sensed[:PLOTTED]}}
+
+
+PLOTTED = 8  # episodes drawn by --plot
+
+
+def plot(results: list[dict], path: str) -> None:
+    """Sensed error (log scale) against time, the first episodes of each policy."""
+    plt = common.pyplot()
+    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.2), squeeze=False,
+                             sharey=True)
+    for ax, r in zip(axes[0], results, strict=True):
+        trace = r["trace"]
+        for t, e in zip(trace["time_s"], trace["sensed_deg"], strict=True):
+            ax.semilogy(t, np.maximum(e, 1e-3), lw=0.9)
+        ax.axhline(1.0, color="gray", ls=":", lw=0.8)
+        ax.axhline(0.1, color="gray", ls="--", lw=0.8)
+        s = r["summary"]
+        ax.set_title(f"{Path(r['policy']).name}: settled {s['settled_fraction']:.0%}, "
+                     f"{s['steady_deg_mean']:.3f}°", fontsize=8)
+        ax.set_xlabel("time (s)")
+    axes[0, 0].set_ylabel("sensed attitude error (deg)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 def summarize(per: list[dict]) -> dict:
@@ -155,6 +179,7 @@ def main(argv=()) -> dict:
     p.add_argument("--env-kwargs", type=json.loads, default={},
                    help="JSON of gym.make options over each policy's own")
     p.add_argument("--out", default="innocube_policy", help="JSON name under results")
+    p.add_argument("--plot", help="PNG of the first episodes' sensed error")
     args = p.parse_args(argv)
     results = [run(name, args.episodes, args.seed, args.scene, args.env_kwargs)
                for name in args.policy]
@@ -166,6 +191,10 @@ def main(argv=()) -> dict:
         f"--policy {n}" for n in args.policy) + f" --episodes {args.episodes} --seed "
         f"{args.seed} --scene {args.scene}") + (
         f" --env-kwargs '{json.dumps(args.env_kwargs)}'" if args.env_kwargs else "")
+    if args.plot:
+        plot(results, args.plot)
+    for r in results:
+        r.pop("trace")
     common.write_json(args.out, {"command": command, "load_average": os.getloadavg(),
                                  "results": results})
     return {r["policy"]: r["summary"] for r in results}
