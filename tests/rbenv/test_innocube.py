@@ -101,6 +101,20 @@ def test_lifted_mode_observes_the_last_command_and_plain_mode_does_not():
     assert plain.observation_space.shape[0] == env.observation_space.shape[0] - 1
 
 
+def test_both_checkers_pass_in_the_lifted_mode():
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker",
+                              reason="stable-baselines3 is not installed (train extra)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        check_env(gym.make(V1, scene="innocube-3u", action_mode="acceleration_lifted").unwrapped)
+        sb3.check_env(gym.make(V1, scene="innocube-3u",
+                               action_mode="acceleration_lifted").unwrapped)
+
+
 def test_slew_law_holds_where_the_flight_pd_stalls():
     from rbenv.agents.policies.evaluate import evaluate
 
