@@ -587,8 +587,9 @@ class InnoCubePD:
 class InnoCubeSlew(InnoCubePD):
     """A near-time-optimal slew and a pulsed hold for InnoCube's wheels as flown, per axis in
     wheel acceleration: the rate each axis could still brake from at ``brake_fraction`` of
-    its weakest authority, ``ω_ref = −sign(θ)·min(√(2·f·a·|θ|), k_θ·|θ|, ω_max)`` (θ the
-    error's axis-angle vector in body axes, a = J_eff·α_clamp·g_min/I per axis), tracked by
+    its weakest authority, ``ω_ref = −sign(θ)·min(√(2·f·a·|θ|), k_θ·|θ|)`` (θ the error's
+    axis-angle vector in body axes, a = J_eff·α_clamp·g_min/I per axis), scaled down as a
+    whole to |ω_ref| ≤ ω_max (a margin to the rate limit through a flip at 180°), tracked by
     ``α_cmd = k_ω·(ω_ref − ω)·I/J_eff``, clamped to the flight software's ±100 RPM/s.
 
     It is what the deadband allows a scripted law: flown with ``action_mode=
@@ -607,7 +608,7 @@ class InnoCubeSlew(InnoCubePD):
     brake_fraction: float = 0.6  # of the weakest authority used to brake (margin for the gain)
     position_gain: float = 0.3  # k_θ, 1/s: the reference rate's slope near the target
     rate_gain: float = 0.8  # k_ω, 1/s: fraction of the rate error corrected per second
-    max_rate: float = 0.25  # rad/s: the reference rate's bound (the rate limit is 0.35)
+    max_rate: float = 0.2  # rad/s: bound on |ω_ref| (the rate limit is 0.35)
     authority: np.ndarray = field(init=False, repr=False)  # (3,) rad/s² per axis, weakest
     per_rate: np.ndarray = field(init=False, repr=False)  # (3,) RPM/s per rad/s² of the bus
     command_slice: slice | None = field(init=False, repr=False)  # observed last command
@@ -651,9 +652,10 @@ class InnoCubeSlew(InnoCubePD):
         angle = 2.0 * np.arctan2(norm, np.abs(q_err[:, :1]))
         theta = qv * (angle / np.maximum(norm, 1e-300))
         mag = np.abs(theta)
-        ref = -np.sign(theta) * np.minimum(np.minimum(
-            np.sqrt(2.0 * self.brake_fraction * self.authority * mag),
-            self.position_gain * mag), self.max_rate)
+        ref = -np.sign(theta) * np.minimum(
+            np.sqrt(2.0 * self.brake_fraction * self.authority * mag), self.position_gain * mag)
+        ref *= self.max_rate / np.maximum(np.linalg.norm(ref, axis=1, keepdims=True),
+                                          self.max_rate)
         cmd = self.rate_gain * (ref - omega_B) * self.per_rate
         return np.clip(cmd, -self.clamp_rpm_s, self.clamp_rpm_s)
 
