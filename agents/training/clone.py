@@ -37,7 +37,7 @@ from rbenv.core.errors import InvalidParameterError
 CLONE_RECORD = "clone.json"
 
 
-def rollouts(model, env, expert, steps: int, noise: float, seed: int) -> dict:
+def rollouts(env, expert, steps: int, noise: float, seed: int) -> dict:
     """``steps`` steps of every training env flown by ``expert`` (actions + noise):
     ``{"obs": raw observations (T, N, d), "action": the expert's (T, N, a), "reward":
     normalised rewards (T, N), "done": (T, N)}``; ``env`` (VecNormalize, training on)
@@ -121,7 +121,7 @@ def clone(out, expert: str, *, rollouts_per_env: int = 4, epochs: int = 40,
     started = time.perf_counter()
     steps = rollouts_per_env * probe.unwrapped.plant.scene.episode_steps
     probe.close()
-    data = rollouts(model, env, teacher, steps, noise, seed)
+    data = rollouts(env, teacher, steps, noise, seed)
     ret = discounted_returns(data["reward"], data["done"], model.gamma)
     obs = env.normalize_obs(data["obs"].reshape(-1, data["obs"].shape[-1]))
     action = np.clip(data["action"].reshape(-1, data["action"].shape[-1]), -1.0, 1.0)
