@@ -5,6 +5,7 @@ import json
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from rbenv.agents.cli import main as cli_main
 from rbenv.agents.policies.evaluate import make_policy
 from rbenv.agents.policies.load import load_policy
@@ -21,6 +22,7 @@ def test_discounted_returns_stop_at_episode_ends():
     np.testing.assert_allclose(discounted_returns(reward, done, g), expected, rtol=1e-15)
 
 
+@pytest.mark.slow  # trains a tiny run, then clones into it
 def test_a_cloned_run_acts_like_its_expert(tmp_path):
     out = tmp_path / "run"
     kwargs = {"action_mode": "acceleration_lifted"}
