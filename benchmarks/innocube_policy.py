@@ -1,7 +1,7 @@
 """A policy on innocube-3u with everything the data showed switched on, from random slews.
 
     python -m benchmarks.innocube_policy --policy innocube-pd [--policy docs/innocube/policy]
-        [--episodes 500] [--seed 0] [--scene innocube-3u]
+        [--episodes 500] [--seed 0] [--scene innocube-3u] [--env-kwargs JSON] [--plot PNG]
 
 Each episode starts like the flight's slews: an attitude error of 100-180° about a random axis,
 a body rate of 2-6 °/s in a random direction, wheel speeds uniform within ±500 rpm (the PD
@@ -11,17 +11,23 @@ the rate limit, counts as 180° from then on). Per episode, as ``rbenv replay`` 
 the telemetry: ``settle_1deg_s``, the first time after which the error stays below 1° to the
 end (None: never), and ``steady_deg``, its mean over the last 20 s; both for the error the
 satellite believes (the gyro-integrated attitude, what telemetry logs: ``sensed``) and the
-true one. Targets (issue 30, learned policy): median settle ≤ 60 s, mean steady ≤ 0.1°, ≥ 99 %
-settled.
+true one. A run folder flies in its own env id and options (its ``config.json``: the action
+mode it was trained in); a scripted policy in ``SatelliteReorient-v1`` with
+``action_mode="acceleration"``, the flight's; ``--env-kwargs`` overrides both (e.g.
+``'{"action_mode": "acceleration_lifted"}'``). Targets (issue 30, learned policy): median
+settle ≤ 60 s, mean steady ≤ 0.1°, ≥ 99 % settled.
 
-Writes ``innocube_policy.json`` (one entry per policy).
+Writes ``innocube_policy.json`` (one entry per policy); ``--plot`` draws the sensed error of
+the first eight episodes against time, one panel per policy.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -68,21 +74,29 @@ def settle_time(t: np.ndarray, err: np.ndarray, limit: float = 1.0):
     return None if above[-1] == len(err) - 1 else float(t[above[-1] + 1])
 
 
-def run(policy_name: str, episodes: int, seed: int, scene: str) -> dict:
+def run(policy_name: str, episodes: int, seed: int, scene: str,
+        env_kwargs: dict | None = None) -> dict:
     """All episodes side by side in one native vector env (autoreset off: an episode that
     succeeds keeps flying to the scene's end)."""
     from gymnasium.vector import AutoresetMode
-    from rbenv.agents.policies.evaluate import make_policy
+    from rbenv.agents.policies.evaluate import make_policy, scripted
+    from rbenv.agents.policies.load import load_policy
 
     import rbenv
 
     # The whole episode is flown: a success hold as long as the episode never completes.
     flown = rbenv.scene_variant(scene, {"episode": {"hold_time": rbenv.load_scene(
         scene).episode.duration}})
-    env = gym.make_vec(ENV_ID, num_envs=episodes, vectorization_mode="vector_entry_point",
-                       scene=flown, action_mode="acceleration",
-                       autoreset_mode=AutoresetMode.DISABLED)
-    policy = make_policy(policy_name, env)
+    env_id, kwargs, policy = ENV_ID, {"action_mode": "acceleration"}, None
+    if policy_name not in scripted() and Path(policy_name).exists():
+        policy = load_policy(policy_name)
+        env_id = policy.env_id
+        kwargs.update(policy.env_kwargs)
+    kwargs.update(env_kwargs or {})
+    kwargs["scene"] = flown
+    env = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
+                       autoreset_mode=AutoresetMode.DISABLED, **kwargs)
+    policy = policy or make_policy(policy_name, env)
     starts = random_starts(episodes, seed)
     options = {key: np.array([o[key] for o in starts]) for key in starts[0]}
     obs, _ = env.reset(seed=seed, options=options)
@@ -111,8 +125,33 @@ def run(policy_name: str, episodes: int, seed: int, scene: str) -> dict:
                     "steady_deg": float(sensed[i, last].mean()),
                     "true_settle_1deg_s": settle_time(t[i], true[i]),
                     "true_steady_deg": float(true[i, last].mean())})
-    return {"policy": policy_name, "scene": scene, "episodes": episodes, "seed": seed,
-            "summary": summarize(per), "episodes_detail": per}
+    return {"policy": policy_name, "scene": scene, "env_id": env_id,
+            "action_mode": kwargs.get("action_mode"), "episodes": episodes, "seed": seed,
+            "summary": summarize(per), "episodes_detail": per,
+            "trace": {"time_s": t[:PLOTTED], "sensed_deg": sensed[:PLOTTED]}}
+
+
+PLOTTED = 8  # episodes drawn by --plot
+
+
+def plot(results: list[dict], path: str) -> None:
+    """Sensed error (log scale) against time, the first episodes of each policy."""
+    plt = common.pyplot()
+    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.2), squeeze=False,
+                             sharey=True)
+    for ax, r in zip(axes[0], results, strict=True):
+        trace = r["trace"]
+        for t, e in zip(trace["time_s"], trace["sensed_deg"], strict=True):
+            ax.semilogy(t, np.maximum(e, 1e-3), lw=0.9)
+        ax.axhline(1.0, color="gray", ls=":", lw=0.8)
+        ax.axhline(0.1, color="gray", ls="--", lw=0.8)
+        s = r["summary"]
+        ax.set_title(f"{Path(r['policy']).name}: settled {s['settled_fraction']:.0%}, "
+                     f"{s['steady_deg_mean']:.3f}°", fontsize=8)
+        ax.set_xlabel("time (s)")
+    axes[0, 0].set_ylabel("sensed attitude error (deg)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 def summarize(per: list[dict]) -> dict:
@@ -137,16 +176,25 @@ def main(argv=()) -> dict:
     p.add_argument("--episodes", type=int, default=500)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scene", default="innocube-3u")
+    p.add_argument("--env-kwargs", type=json.loads, default={},
+                   help="JSON of gym.make options over each policy's own")
     p.add_argument("--out", default="innocube_policy", help="JSON name under results")
+    p.add_argument("--plot", help="PNG of the first episodes' sensed error")
     args = p.parse_args(argv)
-    results = [run(name, args.episodes, args.seed, args.scene) for name in args.policy]
+    results = [run(name, args.episodes, args.seed, args.scene, args.env_kwargs)
+               for name in args.policy]
     rows = [{"policy": r["policy"], **{k: (round(v, 4) if isinstance(v, float) else v)
                                        for k, v in r["summary"].items()}} for r in results]
     print(common.table(rows, ["policy", "settled_fraction", "settle_1deg_s_median",
                               "steady_deg_mean", "true_steady_deg_mean"]))
     command = ("python -m benchmarks.innocube_policy " + " ".join(
         f"--policy {n}" for n in args.policy) + f" --episodes {args.episodes} --seed "
-        f"{args.seed} --scene {args.scene}")
+        f"{args.seed} --scene {args.scene}") + (
+        f" --env-kwargs '{json.dumps(args.env_kwargs)}'" if args.env_kwargs else "")
+    if args.plot:
+        plot(results, args.plot)
+    for r in results:
+        r.pop("trace")
     common.write_json(args.out, {"command": command, "load_average": os.getloadavg(),
                                  "results": results})
     return {r["policy"]: r["summary"] for r in results}

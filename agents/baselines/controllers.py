@@ -25,6 +25,7 @@ from rbenv.core.vec import cross
 from rbenv.envs import registry
 from rbenv.satellite.actuators import Magnetorquers
 from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
+from rbenv.satellite.actuators.wheels import ACCELERATION_MODES
 from rbenv.satellite.allocation import axis_authority, make_allocator
 from rbenv.satellite.plant import Plant
 from rbenv.tasks import Task
@@ -102,7 +103,7 @@ class _TorqueController:
         plant = self.plant
         if plant.action_mode == "torque":
             return np.clip(torque_B / plant.torque_authority, -1.0, 1.0).astype(np.float32)
-        if plant.action_mode == "acceleration":  # α = u/J_eff of the motor torques u = −G⁺τ
+        if plant.action_mode in ACCELERATION_MODES:  # α = u/J_eff of the motor torques u = −G⁺τ
             wheels = plant.actuator("wheels")
             alpha = -(torque_B @ wheels.pinv.T) / np.asarray(wheels.eff_inertia)
             a = alpha / wheels.wheels.max_acceleration
@@ -530,7 +531,7 @@ class InnoCubePD:
 
     def __post_init__(self):
         plant, wheels = self.plant, self.plant.actuator("wheels")
-        if wheels is None or plant.action_mode not in ("acceleration", "throttle") \
+        if wheels is None or plant.action_mode not in (*ACCELERATION_MODES, "throttle") \
                 or not wheels.wheels.max_acceleration:
             raise NotApplicable(
                 f"innocube-pd commands wheel accelerations: it needs [wheels] with a command "
@@ -549,7 +550,8 @@ class InnoCubePD:
         # Action per RPM/s: of the clamp (acceleration mode), or the motor torque J_eff·α as a
         # fraction of u_max (throttle mode).
         sign = -np.diag(axes)
-        per = _RPM_S / wheels.wheels.max_acceleration if plant.action_mode == "acceleration" \
+        per = _RPM_S / wheels.wheels.max_acceleration \
+            if plant.action_mode in ACCELERATION_MODES \
             else _RPM_S * np.asarray(wheels.eff_inertia) / wheels.wheels.max_torque
         object.__setattr__(self, "scale", sign * per)
         object.__setattr__(self, "wheel_slice",
@@ -579,6 +581,93 @@ class InnoCubePD:
         out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)
         out[:, self.wheel_slice] = np.clip(cmd * self.scale, -1.0, 1.0)
         return (out[0], None) if single else (out, None)
+
+
+@dataclass(frozen=True, eq=False)
+class InnoCubeSlew(InnoCubePD):
+    """A near-time-optimal slew and a pulsed hold for InnoCube's wheels as flown, per axis in
+    wheel acceleration: the rate each axis could still brake from at ``brake_fraction`` of
+    its weakest authority, ``ω_ref = −sign(θ)·min(√(2·f·a·|θ|), k_θ·|θ|)`` (θ the error's
+    axis-angle vector in body axes, a = J_eff·α_clamp·g_min/I per axis), scaled down as a
+    whole to |ω_ref| ≤ ω_max (a margin to the rate limit through a flip at 180°), tracked by
+    ``α_cmd = k_ω·(ω_ref − ω)·I/J_eff``, clamped to the flight software's ±100 RPM/s.
+
+    It is what the deadband allows a scripted law: flown with ``action_mode=
+    "acceleration_lifted"`` every small correction becomes the finest pulse that moves the
+    wheel (:func:`rbenv.satellite.actuators.wheels.lift_over_deadband`); with plain
+    ``"acceleration"`` it stalls in the deadband like the flight PD. In that mode the
+    observation also carries the last step's command (``wheel_command``), which a one-step
+    sensor delay (the scene's ``[sensors] delay_steps = 1``) hides from the measured rates:
+    the law then first predicts the state that command is making (a Smith predictor:
+    ω += g·α_prev·J_eff/I, the attitude turned by the mean rate over one step, g the realized
+    gain's mid-range), which keeps the hold from pulsing twice for one error. The
+    magnetorquers get zero. A reference for the learned policy, and its teacher
+    (docs/innocube/learned-policy.md).
+    """
+
+    brake_fraction: float = 0.6  # of the weakest authority used to brake (margin for the gain)
+    position_gain: float = 0.3  # k_θ, 1/s: the reference rate's slope near the target
+    rate_gain: float = 0.8  # k_ω, 1/s: fraction of the rate error corrected per second
+    max_rate: float = 0.2  # rad/s: bound on |ω_ref| (the rate limit is 0.35)
+    authority: np.ndarray = field(init=False, repr=False)  # (3,) rad/s² per axis, weakest
+    per_rate: np.ndarray = field(init=False, repr=False)  # (3,) RPM/s per rad/s² of the bus
+    command_slice: slice | None = field(init=False, repr=False)  # observed last command
+    predict_gain: float = field(init=False, repr=False)  # realized gain, mid-range
+
+    def __post_init__(self):
+        super().__post_init__()
+        wheels = self.plant.actuator("wheels")
+        inertia = np.diag(self.plant.scene.body.inertia)
+        eff = np.asarray(wheels.eff_inertia)[np.argmax(np.abs(wheels.wheels.axes_B), axis=0)]
+        gain = wheels.wheels.flown_ranges[1][0]  # the realized gain's low end
+        object.__setattr__(self, "authority", eff * wheels.wheels.max_acceleration * gain
+                           / inertia)
+        object.__setattr__(self, "per_rate", inertia / eff / _RPM_S)
+        delayed = self.plant.scene.sensors.delay_steps == 1  # else the rates show the command
+        object.__setattr__(self, "command_slice", _full_slices(self.plant, self.task).get(
+            "wheel_command") if delayed else None)
+        object.__setattr__(self, "predict_gain", float(np.mean(wheels.wheels.flown_ranges[1])))
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3-style ``(actions, None)`` for observations (size,) or (N, size)."""
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        obs = obs.reshape(-1, obs.shape[-1])
+        decoded = self.task.decode(obs[:, :self.task.observation_size()])
+        q, w = decoded["q_err"], decoded["omega_B"]
+        if self.command_slice is not None:  # the state the last command is making
+            last = obs[:, self.command_slice] / self.scale  # RPM/s about each axis
+            dw = self.predict_gain * last / self.per_rate
+            q = _turned(q, (w + 0.5 * dw) * self.plant.control_dt)
+            w = w + dw
+        cmd = self.command_rpm_s(q, w)
+        out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)
+        out[:, self.wheel_slice] = np.clip(cmd * self.scale, -1.0, 1.0)
+        return (out[0], None) if single else (out, None)
+
+    def command_rpm_s(self, q_err: np.ndarray, omega_B: np.ndarray) -> np.ndarray:
+        """(N, 3) commanded wheel accelerations, RPM/s, from δq (N, 4) and ω (N, 3) rad/s."""
+        qv = q_err[:, 1:] * np.where(q_err[:, :1] < 0.0, -1.0, 1.0)
+        norm = np.linalg.norm(qv, axis=1, keepdims=True)
+        angle = 2.0 * np.arctan2(norm, np.abs(q_err[:, :1]))
+        theta = qv * (angle / np.maximum(norm, 1e-300))
+        mag = np.abs(theta)
+        ref = -np.sign(theta) * np.minimum(
+            np.sqrt(2.0 * self.brake_fraction * self.authority * mag), self.position_gain * mag)
+        ref *= self.max_rate / np.maximum(np.linalg.norm(ref, axis=1, keepdims=True),
+                                          self.max_rate)
+        cmd = self.rate_gain * (ref - omega_B) * self.per_rate
+        return np.clip(cmd, -self.clamp_rpm_s, self.clamp_rpm_s)
+
+
+def _turned(q: np.ndarray, angle_B: np.ndarray) -> np.ndarray:
+    """(N, 4) unit quaternions ``q ⊗ exp(angle_B/2)``: q turned by the small body-axis
+    rotation vector ``angle_B`` (N, 3), rad (first order in the angle, normalised)."""
+    v = 0.5 * angle_B
+    w0, qv = q[:, :1], q[:, 1:]
+    out = np.concatenate([w0 - np.sum(qv * v, axis=1, keepdims=True),
+                          w0 * v + qv + np.cross(qv, v)], axis=1)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
 def resolve_baseline(ref):

@@ -91,7 +91,8 @@ def replay(root, scene, policy, *, env_id: str | None = None, env_kwargs: dict |
     kwargs = dict(DEFAULT_ENV_KWARGS)
     if isinstance(policy, str) and policy not in scripted() and Path(policy).exists():
         policy = load_policy(policy, trust_pickle=trust_pickle)
-        kwargs.update(policy.env_kwargs)
+        # The run's env options (its action mode) fly it; the scene is the one replayed in.
+        kwargs.update({k: v for k, v in policy.env_kwargs.items() if k != "scene"})
         env_id = env_id or policy.env_id
     kwargs.update(env_kwargs or {})
     env_id = env_id or DEFAULT_ENV_ID

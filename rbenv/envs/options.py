@@ -40,8 +40,10 @@ class EnvOptions:
     substeps: int | None = None
     """Integrator steps per control step; unset: the scene's."""
     action_mode: str = "throttle"
-    """``"throttle"``, ``"on_off"``, ``"torque"`` or ``"acceleration"`` (wheels: the wheel
-    acceleration as a fraction of the scene's command clamp)."""
+    """``"throttle"``, ``"on_off"``, ``"torque"``, ``"acceleration"`` (wheels: the wheel
+    acceleration as a fraction of the scene's command clamp) or ``"acceleration_lifted"`` (the
+    same, lifted over the wheels' deadband: below a quarter of its upper bound zero, else at
+    least it)."""
     reward_weights: dict | None = None
     """A dict overriding the task's reward weights (each task's docstring lists them)."""
     max_initial_angle_deg: float | None = None

@@ -95,11 +95,14 @@ TABLES: tuple[Table, ...] = (
             "0.0"),
         Key("max_acceleration", "rad/s²", "as flown: the flight software's clamp on a commanded "
                                           "wheel acceleration (needed by action_mode "
-                                          '"acceleration")', "(none)"),
+                                          '"acceleration" and "acceleration_lifted")',
+            "(none)"),
         Key("max_acceleration_rpm_s", "RPM/s", "the same clamp in RPM/s (give one of the two)",
             "(none)"),
         Key("deadband", "rad/s²", "as flown: a commanded acceleration below it does nothing; a "
-                                  "number, or [low, high] drawn per episode", "0.0"),
+                                  "number, or [low, high] drawn per episode (action_mode "
+                                  '"acceleration_lifted" lifts commands over its upper '
+                                  "bound)", "0.0"),
         Key("deadband_rpm_s", "RPM/s", "the same deadband in RPM/s (give one of the two)",
             "(none)"),
         Key("realized_gain", "", "as flown: realized / commanded acceleration above the "

@@ -256,7 +256,10 @@ OPTIONS_TABLE
     fires at full throttle. ``torque``: ``Box(-1, 1, (3,))``, a body torque as a fraction of
     the per-axis authority, turned into throttles by the allocator. ``acceleration`` (wheels):
     one entry per wheel, the wheel acceleration as a fraction of the scene's command clamp
-    (``innocube-3u``). Values outside [-1, 1] are clipped; NaN raises ``ValueError``.
+    (``innocube-3u``); ``acceleration_lifted``: the same, lifted over the wheels' deadband (a
+    request below a quarter of its upper bound is none, any other at least that bound), and
+    the observation adds ``wheel_command``, the last step's command after the lift. Values
+    outside [-1, 1] are clipped; NaN raises ``ValueError``.
 
     **Observation** ``Box(-1, 1, (7,), float32)``, ``observation_structure``
     ``{"q_err": 4, "omega_B": 3}``: the canonical error quaternion ``q_target* ⊗ q`` (w ≥ 0;

@@ -11,9 +11,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from rbenv.agents.baselines.controllers import InnoCubePD, NotApplicable
+from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
+from rbenv.satellite.actuators.wheels import lift_over_deadband
 from rbenv.satellite.scene import Scene
 
 RPM = math.pi / 30.0
@@ -33,9 +35,9 @@ def _scene(wheels=None, **tables) -> Scene:
     return Scene.from_dict(data)
 
 
-def _speeds(scene, actions, **reset):
+def _speeds(scene, actions, mode="acceleration", **reset):
     """Wheel speed (rad/s) and body rate z (rad/s) after each step of ``actions``."""
-    env = gym.make(V1, scene=scene, action_mode="acceleration").unwrapped
+    env = gym.make(V1, scene=scene, action_mode=mode).unwrapped
     env.reset(seed=0, options={"q": [1.0, 0, 0, 0], "q_target": [1.0, 0, 0, 0], **reset})
     out = []
     for a in actions:
@@ -59,6 +61,73 @@ def test_deadband_and_realized_gain():
     out, _ = _speeds(scene, [0.029] * 3 + [0.5] * 2)  # 2.9 RPM/s: nothing; 50: 40 realized
     np.testing.assert_array_equal(out[:3, 0], 0.0)
     np.testing.assert_allclose(out[3:, 0], np.array([40.0, 80.0]) * RPM, rtol=1e-12)
+
+
+def test_lift_over_deadband_is_its_closed_form():
+    up = 4.0 * RPM
+    alpha = np.array([-2.0, -0.5, -0.99, -1.0, -1.01, -3.0, 0.0, 0.99, 1.0, 3.9, 4.0, 4.5, 50.0])
+    lifted = lift_over_deadband(alpha * RPM, up) / RPM
+    expected = np.array([-4.0, 0.0, 0.0, -4.0, -4.0, -4.0, 0.0, 0.0, 4.0, 4.0, 4.0, 4.5, 50.0])
+    np.testing.assert_allclose(lifted, expected, rtol=1e-12)
+    for a in alpha:  # the float path of one satellite agrees with the array path
+        assert lift_over_deadband(float(a) * RPM, up, FLOAT) == pytest.approx(
+            lift_over_deadband(a * RPM, up), rel=1e-15, abs=0.0)
+
+
+def test_lifted_commands_pass_every_drawn_deadband():
+    # The flight's range, 2-4 RPM/s, gain 0.8: 1.5 RPM/s asked (0.015 of the clamp) is lifted
+    # to 4, which passes any deadband of the range and realizes 3.2 RPM/s; 0.5 asked is none.
+    scene = _scene({"deadband_rpm_s": [2.0, 4.0], "realized_gain": 0.8})
+    out, _ = _speeds(scene, [0.005] * 2 + [0.015] * 3 + [-0.5], mode="acceleration_lifted")
+    np.testing.assert_array_equal(out[:2, 0], 0.0)
+    expected = np.array([3.2, 6.4, 9.6, 9.6 - 40.0]) * RPM
+    np.testing.assert_allclose(out[2:, 0], expected, rtol=1e-12)
+    plain, _ = _speeds(scene, [0.015] * 3, mode="acceleration")  # the same request, not lifted
+    np.testing.assert_array_equal(plain[:, 0], 0.0)
+    with pytest.raises(InvalidParameterError, match=r"acceleration_lifted.*deadband"):
+        gym.make(V1, scene=_scene(), action_mode="acceleration_lifted")
+
+
+def test_lifted_mode_observes_the_last_command_and_plain_mode_does_not():
+    scene = _scene({"deadband_rpm_s": [2.0, 4.0]})
+    env = gym.make(V1, scene=scene, action_mode="acceleration_lifted").unwrapped
+    assert env.observation_structure["wheel_command"] == 1
+    obs, _ = env.reset(seed=0)
+    assert obs[-1] == 0.0
+    seen = [env.step(np.array([a], np.float32))[0][-1] for a in (0.015, -0.5, 0.005, 2.0)]
+    np.testing.assert_allclose(seen, [0.04, -0.5, 0.0, 1.0], rtol=1e-6)  # lifted, clamped
+    plain = gym.make(V1, scene=scene, action_mode="acceleration").unwrapped
+    assert "wheel_command" not in plain.observation_structure
+    assert plain.observation_space.shape[0] == env.observation_space.shape[0] - 1
+
+
+def test_both_checkers_pass_in_the_lifted_mode():
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker",
+                              reason="stable-baselines3 is not installed (train extra)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        check_env(gym.make(V1, scene="innocube-3u", action_mode="acceleration_lifted").unwrapped)
+        sb3.check_env(gym.make(V1, scene="innocube-3u",
+                               action_mode="acceleration_lifted").unwrapped)
+
+
+def test_slew_law_holds_where_the_flight_pd_stalls():
+    from rbenv.agents.policies.evaluate import evaluate
+
+    # Wheels as flown, attitude sensed exactly: the true final error is the law's own.
+    scene = rbenv.scene_variant("innocube-3u", {"sensors": None}, name="exact-sensing")
+    kw = {"episodes": 4, "env_id": V1, "record": 0, "scene": scene,
+          "env_kwargs": {"action_mode": "acceleration_lifted"}}
+    slew = evaluate("innocube-slew", **kw).final_error_deg
+    lifted_pd = evaluate("innocube-pd", **kw).final_error_deg
+    pd = evaluate("innocube-pd", **{**kw, "env_kwargs": {"action_mode": "acceleration"}}
+                  ).final_error_deg
+    assert np.all(slew < 0.1) and np.median(pd) > 1.0, (slew, pd)
+    assert np.median(lifted_pd) < 0.5  # the lift alone takes the PD below its stall
 
 
 def test_startup_delay_holds_the_wheel_still_after_the_first_command():

@@ -51,7 +51,7 @@ ACTUATORS = {"wheels": Entry(wheels.parse_wheels, wheels.make_wheels),
 # The env's actuation options. action_mode: every mode some actuator reads (an actuator
 # without a use for a mode keeps its own, one entry per element: magnetorquers always);
 # allocator: how the thrusters turn a torque into throttles.
-ACTION_MODES = ("throttle", "on_off", "torque", "acceleration")
+ACTION_MODES = ("throttle", "on_off", "torque", "acceleration", "acceleration_lifted")
 DEFAULT_ACTION_MODE = "throttle"
 ALLOCATORS = thrusters.ALLOCATORS
 
