@@ -42,8 +42,8 @@ CROSSQ = recipe(tau=None, policy_kwargs={"net_arch": [256, 256]})
 # large updates), over RECIPE: 256 native sub-envs, 16 gradient steps of batch 1024 per vector
 # step (1/16 update per env step against RECIPE's 1/4; a quarter of the updates per sample,
 # each of twice the batch), [64, 64] networks (an update of batch 1024 costs about 4 ms of
-# CPU in SBX, against about 33 ms at [256, 256]). Reorient-v1's SAC and TD3 use it
-# (rbenv.agents.settings.shipped; docs/performance.md has the measurements).
+# CPU in SBX, against about 33 ms at [256, 256]). Reorient-v1's SAC and TD3 use it with
+# rbenv train --engine sbx (shipped.REORIENT_V1_SBX; docs/performance.md has the measurements).
 MANY_ENVS = {"n_envs": 256, "batch_size": 1024, "gradient_steps": 16,
              "policy_kwargs": {"net_arch": [64, 64]}}
 
