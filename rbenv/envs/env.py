@@ -43,7 +43,7 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         return super().__new__(cls)
 
     def __init__(self, scene=None, **options):
-        """Options: :data:`rbenv.envs.options.SHELLS` ``["single"]`` (see the Arguments table)."""
+        """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["single"]`` (the Arguments table)."""
         o = take(type(self).__name__, "single", {"scene": scene, **options})
         self.action_space, self.observation_space = self._setup(o, RENDER_MODES)
         self.metadata = {**type(self).metadata, "render_fps": 1.0 / self.plant.control_dt}

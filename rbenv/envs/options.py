@@ -2,7 +2,7 @@
 ``gym.make_vec`` keyword argument, with its default and its docstring.
 
 The shells' own options are declared beside it (:class:`ShellOptions`, :class:`VectorOptions`,
-:class:`BackendOptions`: numpy or torch, and the torch env's own), and :data:`SHELLS` names
+:class:`BackendOptions`: numpy or torch, and the torch env's own), and :data:`OPTIONS_OF` names
 the options each shell takes. Each shell has one constructor, ``(num_envs, scene,
 **options)``, that hands its keywords to :func:`take`: the declared defaults filled in, an
 unknown name refused as Python refuses it. Everything else derives from the declarations or
@@ -114,7 +114,7 @@ VECTOR_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(Vecto
 
 # The options each shell takes, by its backend (rbenv.envs.env, vector_env, torch_env). The
 # NumPy shells take ``backend`` alone of the backend options (to hand "torch" over).
-SHELLS: dict[str, tuple[str, ...]] = {
+OPTIONS_OF: dict[str, tuple[str, ...]] = {
     "single": (*ENV_OPTIONS, *SHELL_OPTIONS, "backend"),
     "numpy": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, "backend"),
     "torch": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, *BACKEND_OPTIONS),
@@ -132,10 +132,10 @@ _ALL_DEFAULTS: dict = {f.name: f.default for cls in (EnvOptions, ShellOptions, V
 
 def take(owner: str, shell: str, given: dict) -> dict:
     """The keyword arguments ``given`` to the constructor of ``owner`` (a class name), a shell
-    of :data:`SHELLS`, completed with the declared defaults: name -> value for every option
+    of :data:`OPTIONS_OF`, completed with the declared defaults: name -> value for every option
     that shell takes. An unknown name raises Python's own TypeError (see
     :func:`unknown_options`)."""
-    names = SHELLS[shell]
+    names = OPTIONS_OF[shell]
     unknown = set(given).difference(names)
     if unknown:
         unknown_options(owner, unknown, names)

@@ -161,7 +161,7 @@ class TorchVectorEnv(VectorContract):
     metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT}
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
-        """Options: :data:`rbenv.envs.options.SHELLS` ``["torch"]`` (see the class doc)."""
+        """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["torch"]`` (see the class doc)."""
         o = take(type(self).__name__, "torch", {"num_envs": num_envs, "scene": scene, **options})
         dtype = o["dtype"]
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)

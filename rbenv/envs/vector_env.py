@@ -79,7 +79,7 @@ class AttitudeVectorEnv(VectorContract):
         return super().__new__(cls)
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
-        """Options: :data:`rbenv.envs.options.SHELLS` ``["numpy"]`` (see the class doc)."""
+        """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["numpy"]`` (see the class doc)."""
         o = take(type(self).__name__, "numpy", {"num_envs": num_envs, "scene": scene, **options})
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(

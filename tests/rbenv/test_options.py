@@ -33,10 +33,10 @@ def test_tasks_build_takes_exactly_the_env_options_with_their_defaults():
     assert _keywords(build) == options.DEFAULTS
 
 
-@pytest.mark.parametrize("shell", sorted(options.SHELLS))
+@pytest.mark.parametrize("shell", sorted(options.OPTIONS_OF))
 def test_each_shell_takes_the_options_declared_for_it_and_refuses_the_rest(shell):
     """One constructor per shell, ``(num_envs, scene, **options)``: the names it takes are
-    ``options.SHELLS[shell]``, declared once; each is accepted at its declared default, and
+    ``options.OPTIONS_OF[shell]``, declared once; each is accepted at its declared default, and
     a name of another shell is refused by name."""
     if shell == "torch":
         pytest.importorskip("torch", reason="torch is not installed (train extra)")
@@ -49,7 +49,7 @@ def test_each_shell_takes_the_options_declared_for_it_and_refuses_the_rest(shell
     env = cls(**{k: v for k, v in given.items() if k != "num_envs"}, num_envs=2) \
         if shell != "single" else cls(**given)
     assert env.task_spec is task and env.plant.scene.name == "cubesat-12u"
-    others = set().union(*options.SHELLS.values()) - set(options.SHELLS[shell])
+    others = set().union(*options.OPTIONS_OF.values()) - set(options.OPTIONS_OF[shell])
     for name in sorted(others):
         with pytest.raises(TypeError, match=f"unexpected keyword argument {name!r}"):
             cls(**{name: None, "task": task})
