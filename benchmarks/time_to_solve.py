@@ -536,7 +536,10 @@ def run(names: list[str], seeds: list[int], episodes: int = 500, out: str = "tim
         path = PATHS[name]
         if quick and path.algo != "ppo":
             path = _quick_off_policy(path)
-        elif quick:  # 64 envs x 16 steps per rollout, 8 rollouts
+        elif quick and path.engine == "skrl":  # 64 envs x 16 steps per rollout, 8 rollouts
+            path = dataclasses.replace(path, budget=8_192, eval_every=4_096, n_envs=64,
+                                       hyperparams={**path.hyperparams, "rollouts": 16})
+        elif quick:
             path = dataclasses.replace(path, budget=8_192, eval_every=4_096, n_envs=64,
                                        hyperparams={**path.hyperparams, "n_steps": 16,
                                                     "batch_size": 512})
