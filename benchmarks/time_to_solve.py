@@ -35,8 +35,9 @@ TARGET = 0.99
 
 @dataclasses.dataclass(frozen=True)
 class Path:
-    """One learner and its settings. engine: sb3 or torchrl. hyperparams: over the registry's
-    PPO (sb3) or fields of TorchRLConfig (torchrl). budget: env steps at most."""
+    """One learner and its settings. engine: sb3, sbx, torchrl, rsl_rl or skrl. hyperparams:
+    over the registry's settings (sb3, sbx), fields of TorchRLConfig (torchrl) or the
+    library's own config names (rsl_rl, skrl). budget: env steps at most."""
 
     name: str
     engine: str = "sb3"
@@ -123,6 +124,9 @@ PATHS = {p.name: p for p in [
     Path("rsl_rl-b4096-e3-lr2e-3", engine="rsl_rl", n_envs=256, eval_every=50_000,
          hyperparams={"num_steps_per_env": 32, "num_mini_batches": 2,
                       "num_learning_epochs": 3, "learning_rate": 2e-3}),
+    Path("skrl-b4096-e3-lr2e-3", engine="skrl", n_envs=256, eval_every=50_000,
+         hyperparams={"rollouts": 32, "mini_batches": 2, "learning_epochs": 3,
+                      "learning_rate": 2e-3}),
     Path("torchrl-b4096-e3-lr2e-3", engine="torchrl", eval_every=50_000,
          hyperparams={"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
                       "lr": 2e-3, "hidden": 64}),
@@ -351,6 +355,128 @@ def rsl_rl_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
     return _summary(path, seed, curve, load0)
 
 
+# --- skrl ---------------------------------------------------------------------------------------
+
+# SB3's PPO defaults in skrl's names (the paths' hyperparams override them): VecNormalize's
+# observation scaling as a running scaler; SB3 scales rewards, skrl the value targets.
+SKRL_PPO = {"discount_factor": 0.99, "gae_lambda": 0.95, "ratio_clip": 0.2, "value_clip": 0.0,
+            "grad_norm_clip": 0.5, "value_loss_scale": 0.5, "entropy_loss_scale": 0.0,
+            "time_limit_bootstrap": True}
+
+
+def _skrl_models(obs_space, act_space, hidden: list[int], log_std_init: float):
+    """A Gaussian policy (state-independent log std) and a value net, tanh MLPs as SB3's."""
+    import torch
+    from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
+
+    def mlp(n_in: int, n_out: int) -> torch.nn.Sequential:
+        layers, width = [], n_in
+        for h in hidden:
+            layers += [torch.nn.Linear(width, h), torch.nn.Tanh()]
+            width = h
+        return torch.nn.Sequential(*layers, torch.nn.Linear(width, n_out))
+
+    class Policy(GaussianMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space,
+                           device="cpu")
+            GaussianMixin.__init__(self, clip_log_std=False)
+            self.net = mlp(self.num_observations, self.num_actions)
+            self.log_std = torch.nn.Parameter(torch.full((self.num_actions,), log_std_init))
+
+        def compute(self, inputs, role=""):
+            return self.net(inputs["observations"]), {"log_std": self.log_std}
+
+    class Value(DeterministicMixin, Model):
+        def __init__(self):
+            Model.__init__(self, observation_space=obs_space, action_space=act_space,
+                           device="cpu")
+            DeterministicMixin.__init__(self)
+            self.net = mlp(self.num_observations, 1)
+
+        def compute(self, inputs, role=""):
+            return self.net(inputs["observations"]), {}
+
+    return {"policy": Policy(), "value": Value()}
+
+
+def skrl_run(path: Path, seed: int, episodes: int = 500, log=print) -> dict:
+    """Train ``path`` with skrl's PPO on the torch env (float32, CPU), through skrl's own
+    trainer loop (act, step, record_transition, post_interaction) with the clock stopped for
+    each held-out evaluation. SAME_STEP autoreset: a truncated sub-env's transition is recorded
+    with its final observation (``info["final_obs"]``), so the time-limit bootstrap is right."""
+    import gymnasium as gym
+    import torch
+
+    try:
+        from skrl.agents.torch.base import ExperimentCfg
+        from skrl.agents.torch.ppo import PPO
+        from skrl.memories.torch import RandomMemory
+        from skrl.resources.preprocessors.torch import RunningStandardScaler
+        from skrl.utils import set_seed
+    except ImportError:
+        raise SystemExit(f"path {path.name!r} needs skrl, in no extra of rbenv: pip install "
+                         "skrl (2.1.1 was measured)") from None
+    torch.set_num_threads(path.threads)
+    set_seed(seed)
+    hp = dict(path.hyperparams)
+    hidden, log_std_init = hp.pop("hidden", [64, 64]), hp.pop("log_std_init", -1.0)
+    load0 = _load()
+    env = gym.make_vec(ENV_ID, num_envs=path.n_envs, backend="torch", device="cpu",
+                       dtype="float32", autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
+    obs_space, act_space = env.single_observation_space, env.single_action_space
+    low, high = (torch.as_tensor(b) for b in (act_space.low, act_space.high))
+    rollouts = hp["rollouts"]
+    agent = PPO(models=_skrl_models(obs_space, act_space, hidden, log_std_init),
+                memory=RandomMemory(memory_size=rollouts, num_envs=path.n_envs, device="cpu"),
+                observation_space=obs_space, action_space=act_space, device="cpu",
+                cfg={**SKRL_PPO, **hp,  # no TensorBoard files, no checkpoints
+                     "experiment": ExperimentCfg(write_interval=0, checkpoint_interval=0),
+                     "observation_preprocessor": RunningStandardScaler,
+                     "observation_preprocessor_kwargs": {"size": obs_space, "device": "cpu"},
+                     "value_preprocessor": RunningStandardScaler,
+                     "value_preprocessor_kwargs": {"size": 1, "device": "cpu"}})
+    agent.init()
+    agent.enable_training_mode(True)
+
+    def act(obs, agent=agent):
+        inputs = {"observations": agent._observation_preprocessor(obs), "states": None}
+        mean, out = agent.policy.compute(inputs, role="policy")
+        return mean, out["log_std"].exp().expand_as(mean)
+
+    obs, _ = env.reset(seed=seed)
+    col = lambda x: x.reshape(-1, 1)  # noqa: E731 (skrl's (N, 1) rewards and flags)
+    curve, train_s, cpu_s, samples, step = [], 0.0, 0.0, 0, 0
+    steps = path.budget // path.n_envs
+    while step < steps:
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(max(1, path.eval_every // path.n_envs)):
+            agent.pre_interaction(timestep=step, timesteps=steps)
+            with torch.no_grad():
+                actions, _ = agent.act(obs, None, timestep=step, timesteps=steps)
+                nxt, reward, term, trunc, info = env.step(torch.clamp(actions, low, high))
+                recorded = torch.where(info["_final_obs"][:, None], info["final_obs"], nxt)
+                agent.record_transition(
+                    observations=obs, states=None, actions=actions, rewards=col(reward),
+                    next_observations=recorded, next_states=None, terminated=col(term),
+                    truncated=col(trunc), infos={}, timestep=step, timesteps=steps)
+            agent.post_interaction(timestep=step, timesteps=steps)
+            obs, step = nxt, step + 1
+        train_s += time.perf_counter() - t0
+        cpu_s += time.process_time() - c0
+        samples = step * path.n_envs
+        agent.enable_training_mode(False)
+        rate = torch_success_rate(act, episodes)
+        agent.enable_training_mode(True)
+        curve.append({"samples": samples, "train_s": train_s, "cpu_s": cpu_s, "success": rate})
+        log(f"  {path.name} seed {seed}: {samples} samples, {train_s:.1f} s ({cpu_s:.1f} s "
+            f"CPU), held out {100 * rate:.1f} %")
+        if rate >= TARGET:
+            break
+    env.close()
+    return _summary(path, seed, curve, load0)
+
+
 def _groups(obs):
     """The observation TensorDict rsl_rl's models read (one group, "policy")."""
     from tensordict import TensorDict
@@ -395,7 +521,8 @@ def _summary(path: Path, seed: int, curve: list[dict], load0: list[float]) -> di
             "load_before": load0, "load_after": _load()}
 
 
-RUNNERS = {"sb3": sb3_run, "torchrl": torchrl_run, "rsl_rl": rsl_rl_run, "sbx": sb3_run}
+RUNNERS = {"sb3": sb3_run, "torchrl": torchrl_run, "rsl_rl": rsl_rl_run, "sbx": sb3_run,
+           "skrl": skrl_run}
 
 
 def run(names: list[str], seeds: list[int], episodes: int = 500, out: str = "time_to_solve",
@@ -409,7 +536,10 @@ def run(names: list[str], seeds: list[int], episodes: int = 500, out: str = "tim
         path = PATHS[name]
         if quick and path.algo != "ppo":
             path = _quick_off_policy(path)
-        elif quick:  # 64 envs x 16 steps per rollout, 8 rollouts
+        elif quick and path.engine == "skrl":  # 64 envs x 16 steps per rollout, 8 rollouts
+            path = dataclasses.replace(path, budget=8_192, eval_every=4_096, n_envs=64,
+                                       hyperparams={**path.hyperparams, "rollouts": 16})
+        elif quick:
             path = dataclasses.replace(path, budget=8_192, eval_every=4_096, n_envs=64,
                                        hyperparams={**path.hyperparams, "n_steps": 16,
                                                     "batch_size": 512})

@@ -62,3 +62,17 @@ def test_quick_off_policy_run_through_sbx(results):
     assert [p["samples"] for p in run["curve"]] == [1024, 2048]
     assert 0 < run["curve"][0]["cpu_s"] < run["curve"][1]["cpu_s"]
     assert not run["solved"] and run["best_success"] < 0.99
+
+
+@pytest.mark.slow  # a few seconds on an idle machine
+def test_quick_run_through_skrl(results):
+    pytest.importorskip("skrl", reason="skrl is not installed (in no extra)")
+    name = "skrl-b4096-e3-lr2e-3"
+    time_to_solve.main(["--quick", "--paths", name])
+    (run,) = json.loads((results / "time_to_solve_quick.json").read_text())["runs"]
+    assert run["path"] == name
+    # 64 envs x 16-step rollouts, an evaluation every 4096 samples: whole rollouts of skrl's
+    # loop, the CPU clock counting training only.
+    assert [p["samples"] for p in run["curve"]] == [4096, 8192]
+    assert 0 < run["curve"][0]["cpu_s"] < run["curve"][1]["cpu_s"]
+    assert not run["solved"] and run["best_success"] < 0.99
