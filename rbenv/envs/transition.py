@@ -76,7 +76,7 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
     obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
-        not plant.observed and plant.sensors is None else \
+        not plant.observers and plant.sensors is None else \
         observe(plant, task, new, noise.sensor, xp)
     reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
     terminated = failure | (success & task.success_terminates)
@@ -104,7 +104,7 @@ def observe(plant: Plant, task, st, sensor_noise, xp) -> tuple:
     else:
         q, w = plant.measure(st, sensor_noise)
         obs = task.observe(st, q, w, xp)
-    return obs + plant.observe(st, xp, sensor_noise) if plant.observed else obs
+    return obs + plant.observe(st, xp, sensor_noise) if plant.observers else obs
 
 
 def info(plant: Plant, task, st, terms, success, xp) -> dict:
