@@ -107,6 +107,7 @@ from rbenv.core import inertia as inertia_lib
 from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
 from rbenv.satellite.actuators import ACTUATORS
+from rbenv.satellite.actuators.tables import bounded_array
 from rbenv.satellite.orbit import Orbit
 from rbenv.satellite.randomization import Randomization
 from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
@@ -151,16 +152,6 @@ def _number(path: str, value, *, low=None, high=None, low_open=False, integer=Fa
 
 def _choice(path: str, value, options) -> str:
     return check.choice(path, value, options)
-
-
-def _array(path: str, value, shape, *, bound=None) -> np.ndarray:
-    """A read-only finite float array of ``shape``; entries within ±``bound`` if given."""
-    arr = check.array(path, value, shape, readonly=True)
-    if bound is not None and arr.size and np.abs(arr).max() > bound:
-        raise InvalidParameterError(
-            f"{path} entries must lie within ±{bound:g}, got {describe(arr)}"
-        )
-    return arr
 
 
 def _flag(path: str, value) -> bool:
@@ -209,7 +200,7 @@ class Disturbance:
 
     def __post_init__(self):
         _choice("disturbance.model", self.model, ("none", "constant", "random"))
-        torque = _array("disturbance.torque", self.torque, (3,), bound=_TORQUE)
+        torque = bounded_array("disturbance.torque", self.torque, (3,), bound=_TORQUE)
         bias = _number("disturbance.bias_sigma", self.bias_sigma, low=0.0, high=_TORQUE)
         noise = _number("disturbance.noise_sigma", self.noise_sigma, low=0.0, high=_TORQUE)
         _unused(self.model, "constant", "disturbance.torque", np.any(torque != 0.0))
@@ -689,14 +680,14 @@ def mass_properties(body: dict) -> tuple[float, np.ndarray, np.ndarray]:
     _check_keys("body", body, {"mass", "inertia", "com"})
     mass = _number("body.mass", body.get("mass"), **_MASS)
     raw = check.finite_array("body.inertia", body["inertia"])
-    inertia = np.diag(raw) if raw.shape == (3,) else _array("body.inertia", raw, (3, 3))
+    inertia = np.diag(raw) if raw.shape == (3,) else bounded_array("body.inertia", raw, (3, 3))
     moments = np.linalg.eigvalsh(inertia_lib.validate(inertia, name="body.inertia"))
     if moments[0] < _MOMENT[0] or moments[-1] > _MOMENT[1]:
         raise InvalidParameterError(
             f"body.inertia principal moments must lie in [{_MOMENT[0]:g}, {_MOMENT[1]:g}] kg·m², "
             f"got {describe(moments)}"
         )
-    com = _array("body.com", body.get("com", [0.0, 0.0, 0.0]), (3,), bound=_COORD)
+    com = bounded_array("body.com", body.get("com", [0.0, 0.0, 0.0]), (3,), bound=_COORD)
     return mass, np.array(com), np.array(inertia, dtype=float)
 
 
@@ -712,7 +703,7 @@ def _part_inertia(path: str, part: dict, allow_point: bool) -> tuple[float, np.n
     if shape == "point":
         return mass, np.zeros((3, 3))
     if shape == "box":
-        size = _array(f"{path}.size", part.get("size"), (3,), bound=_LENGTH["high"])
+        size = bounded_array(f"{path}.size", part.get("size"), (3,), bound=_LENGTH["high"])
         if (size <= 0).any():
             raise InvalidParameterError(f"{path}.size must be > 0 m, got {describe(size)}")
         return mass, (inertia_lib.hollow_box if hollow else inertia_lib.solid_box)(mass, size)
@@ -733,7 +724,8 @@ def _compose(parts) -> tuple[float, np.ndarray, np.ndarray]:
             raise InvalidParameterError(f"{path} must be a table, got {part!r}")
         m, inertia = _part_inertia(path, part, allow_point=True)
         masses.append(m)
-        positions.append(_array(f"{path}.position", part.get("position"), (3,), bound=_COORD))
+        positions.append(bounded_array(f"{path}.position", part.get("position"), (3,),
+                                       bound=_COORD))
         inertias.append(inertia)
     total = float(sum(masses))
     com = sum(m * p for m, p in zip(masses, positions, strict=True)) / total

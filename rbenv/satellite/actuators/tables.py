@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from rbenv.core import validation
-from rbenv.core.errors import InvalidParameterError
+from rbenv.core.errors import InvalidParameterError, describe
 from rbenv.core.vec import safe_to_square, unit_rows
 
 __all__ = ["axes", "axis_rows", "keys", "per_element", "safe_to_square"]
@@ -52,3 +52,13 @@ def per_element(name: str, table: dict, key: str, n: int, default, low, high) ->
     for i, v in enumerate(arr):
         validation.number(f"{name}.{key}[{i}]", float(v), low=low, high=high)
     return np.array(arr, dtype=float)
+
+
+def bounded_array(path: str, value, shape, *, bound=None) -> np.ndarray:
+    """A read-only finite float array of ``shape``; entries within ±``bound`` if given."""
+    arr = validation.array(path, value, shape, readonly=True)
+    if bound is not None and arr.size and np.abs(arr).max() > bound:
+        raise InvalidParameterError(
+            f"{path} entries must lie within ±{bound:g}, got {describe(arr)}"
+        )
+    return arr

@@ -78,12 +78,12 @@ def parse_thrusters(table: dict, com_B: np.ndarray) -> ThrusterTable:
         raise InvalidParameterError(
             f"thrusters.positions lists {n} thrusters; the limit is {MAX_THRUSTERS}"
         )
-    pos = _array("thrusters.positions", pos, (n, 3), bound=_COORD)
-    dirs = tables.safe_to_square(_array("thrusters.directions", table.get("directions"),
-                                        (n, 3)))
+    pos = tables.bounded_array("thrusters.positions", pos, (n, 3), bound=_COORD)
+    dirs = tables.safe_to_square(
+        tables.bounded_array("thrusters.directions", table.get("directions"), (n, 3)))
     fmax = validation.finite_array("thrusters.max_force", table.get("max_force"))
-    fmax = _array("thrusters.max_force", np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax,
-                  (n,), bound=1e4)
+    fmax = np.broadcast_to(fmax, (n,)) if fmax.ndim == 0 else fmax
+    fmax = tables.bounded_array("thrusters.max_force", fmax, (n,), bound=1e4)
     if (fmax <= 0).any():
         i = int(np.argmax(fmax <= 0))
         raise InvalidParameterError(f"thrusters.max_force[{i}] must be > 0 N, got {fmax[i]!r}")
@@ -96,16 +96,6 @@ def parse_thrusters(table: dict, com_B: np.ndarray) -> ThrusterTable:
     layout = ThrusterLayout(positions_B=pos, directions_B=dirs, max_force=fmax, com_B=com_B)
     validate_torque_matrix(layout.torque_matrix_B, name="thrusters")
     return ThrusterTable(layout, isp)
-
-
-def _array(path: str, value, shape, *, bound=None) -> np.ndarray:
-    """A read-only finite float array of ``shape``; entries within ±``bound`` if given."""
-    arr = validation.array(path, value, shape, readonly=True)
-    if bound is not None and arr.size and np.abs(arr).max() > bound:
-        raise InvalidParameterError(
-            f"{path} entries must lie within ±{bound:g}, got {describe(arr)}"
-        )
-    return arr
 
 
 @dataclass(frozen=True, eq=False)
