@@ -12,7 +12,7 @@ from rbenv.satellite import usage
 
 ROOT = Path(__file__).resolve().parents[2]
 # A module whose distribution is named otherwise, or that comes with another one.
-DISTRIBUTION = {"pygame": "pygame-ce", "tensordict": "torchrl"}
+DISTRIBUTION = {"pygame": "pygame-ce", "tensordict": "torchrl", "sbx": "sbx-rl"}
 
 
 def _extras() -> dict[str, set[str]]:
