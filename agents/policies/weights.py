@@ -94,7 +94,9 @@ def algo_name(model) -> str:
 
 def model_config(model) -> dict:
     """The JSON that, with the weights, rebuilds ``model``'s policy (see the module doc)."""
-    kwargs = dict(model.policy_kwargs or {})
+    from rbenv.agents.policies import activations  # torch: the model has imported it
+
+    kwargs = activations.to_names(model.policy_kwargs)
     if is_jax_model(model) and kwargs.get("use_sde") is False:
         del kwargs["use_sde"]  # SBX's SAC adds it; SB3's TD3 policy, which loads it, has none
     config = {"format": FORMAT, "algo": algo_name(model), "policy": POLICY,
@@ -182,7 +184,9 @@ def build_model(config: dict, env=None, hyperparams: dict | None = None,
     jax = config.get("engine") == "sbx" and env is not None  # trained on: SBX; else SB3's
     cls = (jax_model_classes() if jax else model_classes())[config["algo"]]
     kwargs = {k: v for k, v in (hyperparams or {}).items() if k != "policy_kwargs"}
-    kwargs["policy_kwargs"] = config["policy_kwargs"]
+    from rbenv.agents.policies import activations  # the train extra: torch
+
+    kwargs["policy_kwargs"] = activations.to_classes(config["policy_kwargs"])
     if env is not None:
         return cls(POLICY, env, seed=seed, device="cpu", verbose=verbose, **kwargs)
     # For inference the policy alone is built (as SB3's _setup_model builds it): no buffers.

@@ -11,3 +11,20 @@ env package); these modules are a view of them, kept at this path so that the zo
 above keeps working. They sit above ``agents`` in the layers (pyproject's import-linter
 contracts): nothing in rbenv imports them.
 """
+
+from __future__ import annotations
+
+from rbenv.agents.settings import zoo_hyperparams
+
+
+def zoo_table(algo: str) -> dict:
+    """The zoo's table for ``algo``: :func:`rbenv.agents.settings.zoo_hyperparams`, with an
+    activation written by name in ``policy_kwargs`` made the class the zoo hands to SB3
+    (:func:`rbenv.agents.policies.activations.to_classes`; torch is imported only then)."""
+    table = zoo_hyperparams(algo)
+    for entry in table.values():
+        if "activation_fn" in entry.get("policy_kwargs", {}):
+            from rbenv.agents.policies.activations import to_classes
+
+            entry["policy_kwargs"] = to_classes(entry["policy_kwargs"])
+    return table

@@ -10,6 +10,6 @@ The v1 ids carry their own measured budgets (``n_timesteps``, in their task entr
 
 from __future__ import annotations
 
-from rbenv.agents.settings import zoo_hyperparams
+from rbenv.hyperparams import zoo_table
 
-hyperparams = zoo_hyperparams("crossq")
+hyperparams = zoo_table("crossq")

@@ -8,6 +8,6 @@ but it learns the same task at the same budget.
 
 from __future__ import annotations
 
-from rbenv.agents.settings import zoo_hyperparams
+from rbenv.hyperparams import zoo_table
 
-hyperparams = zoo_hyperparams("ppo")
+hyperparams = zoo_table("ppo")

@@ -11,6 +11,6 @@ shared, untuned per id.
 
 from __future__ import annotations
 
-from rbenv.agents.settings import zoo_hyperparams
+from rbenv.hyperparams import zoo_table
 
-hyperparams = zoo_hyperparams("td3")
+hyperparams = zoo_table("td3")

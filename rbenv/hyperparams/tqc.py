@@ -12,6 +12,6 @@ shared, untuned per id.
 
 from __future__ import annotations
 
-from rbenv.agents.settings import zoo_hyperparams
+from rbenv.hyperparams import zoo_table
 
-hyperparams = zoo_hyperparams("tqc")
+hyperparams = zoo_table("tqc")

@@ -48,12 +48,16 @@ def test_zoo_settings_are_rbenv_trains_defaults(algo):
     """One set of settings: the zoo file says what ``rbenv train --algo ALGO`` does."""
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")
+    from rbenv.agents.policies.activations import to_classes
     from rbenv.agents.training.config import ZOO_KEYS, TrainConfig, normalize_kwargs
 
     table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
     for env_id, entry in table.items():
         cfg = TrainConfig(algo=algo, env_id=env_id).resolve()
-        assert cfg.hyperparams == {k: v for k, v in entry.items() if k not in ZOO_KEYS}
+        # rbenv train names an activation (config.json is JSON); the zoo gets its class.
+        built = {**cfg.hyperparams, **({"policy_kwargs": to_classes(
+            cfg.hyperparams["policy_kwargs"])} if "policy_kwargs" in cfg.hyperparams else {})}
+        assert built == {k: v for k, v in entry.items() if k not in ZOO_KEYS}
         assert cfg.n_envs == entry["n_envs"]
         assert cfg.timesteps == entry["n_timesteps"]
         assert cfg.env_kwargs == entry.get("env_kwargs", {})
