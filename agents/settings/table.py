@@ -17,6 +17,8 @@ from rbenv.core.errors import InvalidParameterError
 
 __all__ = ["TrainingSettings", "entries", "get", "register", "unregister", "zoo_hyperparams"]
 
+# The rbenv train fields a training entry may default per algorithm (run_defaults).
+RUN_DEFAULT_KEYS = ("stop_success", "eval_every", "eval_episodes", "keep_best")
 _REF = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
 
 
@@ -36,6 +38,12 @@ class TrainingSettings:
     reward weight the scene needs); the env's own defaults stay as they are.
     engine_settings: (engine, algorithm) → settings over the id's when ``rbenv train`` runs
     that engine (``--engine sbx``'s many-env recipe, which SB3's learner did not learn with).
+    scene_settings: (algorithm, scene) → settings over the id's on that scene (the id's own
+    are measured on the default scene; a scene keeps the values measured on it).
+    run_defaults: algorithm → ``rbenv train``'s defaults for how a run of this id is watched
+    and ended, where the flags are not given (:data:`RUN_DEFAULT_KEYS`: stop at a validation
+    success rate, evaluate every so many steps on so many episodes, keep the best policy).
+    They are not model settings: RL Zoo never sees them.
     """
 
     env_id: str
@@ -46,12 +54,15 @@ class TrainingSettings:
     scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
     scene_env_kwargs: Mapping[tuple, dict] = field(default_factory=dict)
     engine_settings: Mapping[tuple, dict] = field(default_factory=dict)
+    scene_settings: Mapping[tuple, dict] = field(default_factory=dict)
+    run_defaults: Mapping[str, dict] = field(default_factory=dict)
 
-    def settings(self, algo: str, engine: str = "sb3") -> dict:
+    def settings(self, algo: str, engine: str = "sb3", scene: str | None = None) -> dict:
         """``algo``'s settings on this id, RL Zoo's format: the shared ``hyperparams[algo]``
-        with ``id_settings[algo]`` over them, and ``engine_settings[engine, algo]`` over those
-        (a deep copy)."""
+        with ``id_settings[algo]`` over them, ``scene_settings[algo, scene]`` over those, and
+        ``engine_settings[engine, algo]`` over all (a deep copy)."""
         return copy.deepcopy({**self.hyperparams[algo], **self.id_settings.get(algo, {}),
+                              **self.scene_settings.get((algo, scene), {}),
                               **self.engine_settings.get((engine, algo), {})})
 
     def timesteps(self, algo: str, scene: str | None = None) -> int:
@@ -59,7 +70,7 @@ class TrainingSettings:
         scene's, else ``budget``'s, else the settings' ``n_timesteps``."""
         if (algo, scene) in self.scene_budgets:
             return self.scene_budgets[algo, scene]
-        return self.budget.get(algo) or self.settings(algo)["n_timesteps"]
+        return self.budget.get(algo) or self.settings(algo, scene=scene)["n_timesteps"]
 
     def training_env_kwargs(self, algo: str, scene: str | None = None) -> dict:
         """Env options that training ``algo`` on ``scene`` adds (a deep copy; {}: none)."""
@@ -98,6 +109,18 @@ def _check(entry: TrainingSettings) -> None:
             raise InvalidParameterError(
                 f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
                 f"options, got {key!r}: {kwargs!r}")
+    for algo, defaults in entry.run_defaults.items():
+        if not (algo in entry.hyperparams and isinstance(defaults, Mapping)
+                and set(defaults) <= set(RUN_DEFAULT_KEYS)):
+            raise InvalidParameterError(
+                f"{where}: run_defaults must map an algorithm with hyperparams to a dict of "
+                f"{', '.join(RUN_DEFAULT_KEYS)}, got {algo!r}: {defaults!r}")
+    for key, over in entry.scene_settings.items():
+        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
+                and key[0] in entry.hyperparams):
+            raise InvalidParameterError(
+                f"{where}: scene_settings must map (algorithm, scene) to a dict of settings, "
+                f"for an algorithm with hyperparams, got {key!r}: {over!r}")
     for key, over in entry.engine_settings.items():
         if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
                 and key[1] in entry.hyperparams):

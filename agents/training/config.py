@@ -23,6 +23,8 @@ import rbenv
 from rbenv.envs.registry import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
+# The periodic evaluation where neither the caller nor the task's run defaults set it.
+GENERIC_EVAL_EVERY, GENERIC_EVAL_EPISODES = 200_000, 100
 
 
 Engine = Literal["sb3", "sbx", "rllib", "torchrl"]
@@ -68,10 +70,12 @@ class RunConfig:
     128}'."""
     checkpoint_every: int = 200_000
     """Timesteps between checkpoints."""
-    eval_every: int = 200_000
-    """Timesteps between the periodic evaluations of the training curve."""
-    eval_episodes: int = 100
-    """Episodes of each periodic evaluation (at most 50 run side by side)."""
+    eval_every: int | None = None
+    """Timesteps between the periodic evaluations of the training curve; unset: the task's
+    run default for the algorithm (rbenv.agents.settings), else 200000."""
+    eval_episodes: int | None = None
+    """Episodes of each periodic evaluation (at most 50 run side by side); unset: the task's
+    run default for the algorithm, else 100."""
     report_episodes: int = 500
     """Episodes of the final report's evaluation, the same for the policy and the baselines."""
     report_seed: int = 1_000_000
@@ -106,6 +110,9 @@ class RunConfig:
         task_entry(self.env_id)  # a named error for an id it does not hold
         if self.threads is None:
             self.threads = 1
+        self.eval_every = GENERIC_EVAL_EVERY if self.eval_every is None else self.eval_every
+        self.eval_episodes = GENERIC_EVAL_EPISODES if self.eval_episodes is None \
+            else self.eval_episodes
         self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
                            "report_episodes", "threads"))
         self.check_dicts(("env_kwargs", "hyperparams"))
@@ -181,10 +188,11 @@ def task_entry(env_id: str) -> settings.TrainingSettings:
     return settings.get(env_id)
 
 
-def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3") -> dict:
-    """The settings shipped for ``algo`` on ``env_id`` (trained by ``engine``), in RL Zoo's
-    format: its training entry's (rbenv.agents.settings; the shared dicts live in
-    rbenv.agents.settings.tuned).
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3",
+                     scene: str | None = None) -> dict:
+    """The settings shipped for ``algo`` on ``env_id`` (trained by ``engine``, on ``scene``;
+    None: the default scene's), in RL Zoo's format: its training entry's
+    (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
 
     This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
     rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
@@ -195,7 +203,7 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3")
     if algo not in entry.hyperparams:
         raise InvalidParameterError(f"the training settings of {env_id!r} have no {algo} "
                                     f"settings; they have {sorted(entry.hyperparams)}")
-    return entry.settings(algo, engine)
+    return entry.settings(algo, engine, scene)
 
 
 def normalize_kwargs(setting) -> dict | None:
@@ -219,8 +227,9 @@ class TrainConfig(RunConfig):
     keep_best: bool | None = None
     """End on the best validated policy: the run's policy.pt becomes the weights of the periodic
     evaluation (--eval-every, plus one at the last step) with the highest success rate (then
-    mean return); training.json names the step kept. Unset: on for sac, td3, tqc and crossq,
-    whose policy can collapse late in training; off for ppo."""
+    mean return); training.json names the step kept. Unset: the task's run default for the
+    algorithm, else on for sac, td3, tqc and crossq, whose policy can collapse late in
+    training, and off for ppo."""
     max_minutes: float | None = None
     """Stop training after this many minutes of training wall time (over all sessions of the
     run) and save, evaluate and report the model as at the end of --timesteps; unset: no
@@ -230,7 +239,8 @@ class TrainConfig(RunConfig):
     """Stop training at the first periodic evaluation (--eval-every, --eval-episodes: the
     validation episodes, never the report's) whose success rate reaches this fraction, e.g.
     1.0; the run ends on the policy that evaluation measured, and training.json and the report
-    say when it stopped. Unset: train to --timesteps."""
+    say when it stopped. 0: never, train to --timesteps. Unset: the task's run default for the
+    algorithm (Reorient-v1's PPO: 1.0), else never."""
     save_replay_buffer: bool = False
     """Off-policy (sac, td3, tqc, crossq): keep the replay buffer with each checkpoint
     (replay_buffer_N.npz, the latest only; most of the run folder's size), so that --resume
@@ -245,7 +255,12 @@ class TrainConfig(RunConfig):
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
-        shipped = shipped_settings(self.algo, self.env_id, self.engine)
+        shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
+        for name, value in task_entry(self.env_id).run_defaults.get(self.algo, {}).items():
+            if getattr(self, name) is None:
+                setattr(self, name, value)
+        if self.stop_success is None:
+            self.stop_success = 0.0
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         if self.n_envs is None:
@@ -263,9 +278,9 @@ class TrainConfig(RunConfig):
         if self.stop_success is not None and (
                 isinstance(self.stop_success, bool)
                 or not isinstance(self.stop_success, numbers.Real)
-                or not 0 < self.stop_success <= 1):
-            raise InvalidParameterError(f"stop_success must be a success rate in (0, 1], got "
-                                        f"{self.stop_success!r}")
+                or not 0 <= self.stop_success <= 1):
+            raise InvalidParameterError(f"stop_success must be a success rate in [0, 1] (0: "
+                                        f"never stop early), got {self.stop_success!r}")
         super().resolve()
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},

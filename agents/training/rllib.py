@@ -75,7 +75,7 @@ class RLlibConfig(RunConfig):
 
     def resolve(self) -> RLlibConfig:
         # A named error for an id it does not hold; its PPO settings are the defaults.
-        shipped = task_entry(self.env_id).settings("ppo")
+        shipped = task_entry(self.env_id).settings("ppo", scene=self.scene)
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         if self.log_std_init is None:

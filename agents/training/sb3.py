@@ -27,7 +27,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
-from rbenv.agents.policies import runfolder, weights
+from rbenv.agents.policies import activations, runfolder, weights
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write
 from rbenv.agents.policies.sb3 import (
     RunPolicy,
@@ -112,7 +112,7 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
     evaluations = PeriodicEval(eval_env, out / runfolder.EVAL_LOG, cfg.eval_every,
                                cfg.eval_episodes, done, run_config=asdict(cfg),
                                best_dir=ckpt_dir if cfg.keep_best else None,
-                               stop_success=cfg.stop_success)
+                               stop_success=cfg.stop_success or None)  # 0: never
     callbacks = [evaluations, AtomicCheckpoint(ckpt_dir, cfg.checkpoint_every, clock,
                                                cfg.save_replay_buffer)]
     limit = TimeLimit(clock, 60.0 * cfg.max_minutes) if cfg.max_minutes else None
@@ -137,7 +137,7 @@ def fit(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> dict:
         print(f"stopped by --stop-success {cfg.stop_success:g} at {steps:,} of "
               f"{cfg.timesteps:,} timesteps: {100 * evaluations.stopped['success_rate']:.0f} % "
               f"of {cfg.eval_episodes} validation episodes; the policy evaluated then is the "
-              "run's final one")
+              "run's final one (--stop-success 0 trains on to the end)")
     weights.save_model(model, out / runfolder.FINAL_MODEL)
     atomic_write(out / runfolder.FINAL_STATS, lambda p: weights.save_stats(env, p))
     kept = evaluations.keep_best(steps, out) if cfg.keep_best else None
@@ -517,8 +517,16 @@ def linear_schedule(name: str, spec: str):
 
 def model_kwargs(cfg: TrainConfig, env) -> dict:
     """The model's keyword arguments from ``cfg.hyperparams``: the zoo's ``noise_type`` and
-    ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it); the rest pass through."""
+    ``noise_std`` become an ``action_noise`` (as rl_zoo3 builds it), an activation's name in
+    ``policy_kwargs`` its class (:mod:`rbenv.agents.policies.activations`); the rest pass
+    through."""
     hp = copy.deepcopy(cfg.hyperparams)  # SB3 writes into policy_kwargs
+    if "policy_kwargs" in hp:
+        if cfg.engine == "sbx" and "activation_fn" in hp["policy_kwargs"]:
+            raise InvalidParameterError(
+                "policy_kwargs activation_fn is not supported by --engine sbx (its networks "
+                f"use ReLU), got {hp['policy_kwargs']['activation_fn']!r}")
+        hp["policy_kwargs"] = activations.to_classes(hp["policy_kwargs"])
     for key in ("learning_rate", "clip_range"):
         if isinstance(hp.get(key), str):
             hp[key] = linear_schedule(key, hp[key])

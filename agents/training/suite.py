@@ -125,6 +125,7 @@ def train_config(cell: Cell, run: Path, threads: int):
                        timesteps=cell.timesteps, out=str(run), threads=threads,
                        eval_every=every, checkpoint_every=every,
                        eval_episodes=CURVE_EPISODES, keep_best=False,  # select_checkpoint
+                       stop_success=0.0,  # a cell trains its whole budget
                        # a cell given a larger budget resumes as if never stopped
                        save_replay_buffer=True)
 

@@ -99,13 +99,33 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     env_id = "rbenv/SatelliteReorient-v1"
     own = settings.get(env_id).id_settings["ppo"]
     zoo = importlib.import_module("rbenv.hyperparams.ppo").hyperparams[env_id]
-    assert zoo == shipped_settings("ppo", env_id) == {**tuned.PPO, **own}
+    assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own}
+    # The zoo gets the same dict, with the activation's name made the class SB3 builds.
+    from rbenv.agents.policies.activations import Tanh
+
+    assert own["policy_kwargs"]["activation_fn"] == "tanh"
+    assert zoo == {**tuned.PPO, **own,
+                   "policy_kwargs": {**own["policy_kwargs"], "activation_fn": Tanh}}
     cfg = TrainConfig(env_id=env_id).resolve()
     assert (cfg.n_envs, cfg.timesteps) == (own["n_envs"], own["n_timesteps"])
     assert cfg.hyperparams["batch_size"] == own["batch_size"]
     assert cfg.hyperparams["policy_kwargs"] == own["policy_kwargs"]
     assert cfg.hyperparams["gae_lambda"] == tuned.PPO["gae_lambda"]
     assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
+    # How a run of it is watched and ended: the id's run defaults, where no flag is given.
+    assert (cfg.stop_success, cfg.eval_every, cfg.eval_episodes, cfg.keep_best) == \
+        (1.0, 50_000, 200, False)
+    given = TrainConfig(env_id=env_id, stop_success=0.0, eval_every=10_000,
+                        keep_best=True).resolve()
+    assert (given.stop_success, given.eval_every, given.eval_episodes, given.keep_best) == \
+        (0.0, 10_000, 200, True)
+    v0 = TrainConfig(env_id="rbenv/SatelliteReorient-v0").resolve()
+    assert (v0.stop_success, v0.eval_every, v0.eval_episodes, v0.keep_best) == \
+        (0.0, 200_000, 100, False)
+    # The other scenes keep the settings measured on them.
+    boom = TrainConfig(env_id=env_id, scene="boom-sat").resolve()
+    assert boom.hyperparams["gamma"] == 0.99 and boom.timesteps == 1_500_000
+    assert boom.hyperparams["policy_kwargs"] == {"net_arch": [64, 64], "log_std_init": -1.0}
     # Whole rollouts split into whole minibatches.
     assert (own["n_envs"] * own["n_steps"]) % own["batch_size"] == 0
 

@@ -218,8 +218,10 @@ def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
 
     v1 = "rbenv/SatelliteReorient-v1"
     assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
-    # Elsewhere the suite trains v1's own PPO budget (its fast path's 1.5 M).
-    assert default_timesteps("ppo", v1, "cubesat-12u") == 1_500_000
+    # On the default scene the suite trains v1's own PPO budget; on the other scenes, the
+    # budget measured there.
+    assert default_timesteps("ppo", v1, "cubesat-12u") == 600_000
+    assert default_timesteps("ppo", v1, "cubesat-12u-rw") == 1_500_000
     assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
 
 
@@ -281,7 +283,7 @@ def test_stop_success_ends_training_at_the_first_validation_that_reaches_it(tmp_
     assert f"wall time: {summary['wall_time_s']:.0f} s (8 envs" in report  # seconds, not 0.0 min
 
 
-@pytest.mark.parametrize("value", [0, 1.5, True, "1"])
+@pytest.mark.parametrize("value", [-0.1, 1.5, True, "1"])
 def test_stop_success_must_be_a_rate(value):
     from rbenv.core.errors import InvalidParameterError
 
