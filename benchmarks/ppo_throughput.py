@@ -22,12 +22,17 @@ import time
 from benchmarks.common import table, write_json
 
 ENV_ID = "rbenv/SatelliteReorient-v1"
-# (name, envs, steps per rollout, torch threads, torch.compile): every case updates on 8192
-# samples.
-CASES = [("256x32, 1 thread", 256, 32, 1, False), ("1024x8, 1 thread", 1024, 8, 1, False),
-         ("2048x4, 1 thread", 2048, 4, 1, False), ("256x32, 2 threads", 256, 32, 2, False),
-         ("256x32, 1 thread, torch.compile", 256, 32, 1, True),
-         ("1024x8, 1 thread, torch.compile", 1024, 8, 1, True)]
+# (name, envs, steps per rollout, torch threads, torch.compile, torch's own tanh): every case
+# updates on 8192 samples. The shipped settings' "tanh" is rbenv's (NumPy's on the CPU,
+# rbenv.agents.policies.activations); the "torch.tanh" cases build SB3's default torch.nn.Tanh.
+CASES = [("256x32, 1 thread", 256, 32, 1, False, False),
+         ("256x32, 1 thread, torch.tanh", 256, 32, 1, False, True),
+         ("1024x8, 1 thread", 1024, 8, 1, False, False),
+         ("2048x4, 1 thread", 2048, 4, 1, False, False),
+         ("2048x4, 1 thread, torch.tanh", 2048, 4, 1, False, True),
+         ("256x32, 2 threads", 256, 32, 2, False, False),
+         ("256x32, 1 thread, torch.compile", 256, 32, 1, True, False),
+         ("1024x8, 1 thread, torch.compile", 1024, 8, 1, True, False)]
 
 
 def compile_policy(policy) -> None:
@@ -39,7 +44,7 @@ def compile_policy(policy) -> None:
 
 
 def measure(n_envs: int, n_steps: int, threads: int, samples: int,
-            compiled: bool = False) -> dict:
+            compiled: bool = False, torch_tanh: bool = False) -> dict:
     import torch
     from rbenv.agents.training.config import TrainConfig
     from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
@@ -47,6 +52,8 @@ def measure(n_envs: int, n_steps: int, threads: int, samples: int,
 
     torch.set_num_threads(threads)
     cfg = TrainConfig(env_id=ENV_ID, n_envs=n_envs, hyperparams={"n_steps": n_steps}).resolve()
+    if torch_tanh:
+        cfg.hyperparams["policy_kwargs"]["activation_fn"] = torch.nn.Tanh
     env = VecNormalize(make_vec_env(cfg, n_envs, 0), gamma=cfg.hyperparams["gamma"],
                        **cfg.normalize)
     model = algo_class("ppo")("MlpPolicy", env, seed=0, device="cpu", **model_kwargs(cfg, env))
@@ -61,6 +68,8 @@ def measure(n_envs: int, n_steps: int, threads: int, samples: int,
     cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
     env.close()
     return {"n_envs": n_envs, "n_steps": n_steps, "threads": threads, "compiled": compiled,
+            "activation": "torch.tanh" if torch_tanh else
+            str(cfg.hyperparams["policy_kwargs"].get("activation_fn", "torch.tanh")),
             "samples": samples, "warmup_cpu_s": warmup_cpu,
             "warmup_wall_s": warmup_wall, "cpu_s": cpu, "wall_s": wall,
             "samples_per_cpu_s": samples / cpu,
@@ -79,8 +88,9 @@ def main(argv=None) -> None:
     cases = CASES[:2] if args.quick else [c for c in CASES
                                           if args.cases is None or c[0] in args.cases]
     rows = []
-    for name, n_envs, n_steps, threads, compiled in cases:
-        rows.append({"case": name, **measure(n_envs, n_steps, threads, samples, compiled)})
+    for name, n_envs, n_steps, threads, compiled, torch_tanh in cases:
+        rows.append({"case": name, **measure(n_envs, n_steps, threads, samples, compiled,
+                                             torch_tanh)})
         print(rows[-1], flush=True)
     write_json("ppo_throughput_quick" if args.quick else args.out,
                {"env_id": ENV_ID, "cases": rows})

@@ -93,7 +93,8 @@ PATHS = {p.name: p for p in [
          hyperparams=_ppo(n_steps=16, batch_size=4096, n_epochs=3, learning_rate=2e-3,
                           net=[32, 32])),
     # Sample efficiency around the shipped path (B = sb3-b4096-e3-lr2e-3), one change each.
-    *[Path(f"B-{tag}", n_envs=256, eval_every=50_000, budget=1_200_000,
+    *[Path(f"B-{tag}", n_envs=2048 if tag == "2048x4" else 256, eval_every=50_000,
+           budget=1_200_000,
            hyperparams=_ppo(**{"batch_size": 4096, "n_epochs": 3, "learning_rate": 2e-3,
                               **over}))
       for tag, over in {
@@ -107,6 +108,20 @@ PATHS = {p.name: p for p in [
           "e5": {"n_epochs": 5},
           "clip0.3": {"clip_range": 0.3},
           "net128": {"policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}},
+          # Third sweep (2026-12-03, fourth session): seeds 1 and 2 first, the slow ones.
+          "std-0.5": {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5}},
+          "std0": {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": 0.0}},
+          "lam0.98": {"gae_lambda": 0.98},
+          "vf1": {"vf_coef": 1.0},
+          "b8192-lr3e-3": {"batch_size": 8192, "learning_rate": 3e-3},
+          "gn2": {"max_grad_norm": 2.0},
+          "noortho": {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0,
+                                        "ortho_init": False}},
+          "relu": {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0,
+                                     "activation_fn": "relu"}},
+          "2048x4": {"n_steps": 4},
+          "g0.98-std-0.5": {"gamma": 0.98, "policy_kwargs": {"net_arch": [64, 64],
+                                                             "log_std_init": -0.5}},
       }.items()],
     # A linear learning rate that reaches 0 at the budget: the final policy is the one shipped.
     *[Path(f"B-linlr{lr}-{k}k", n_envs=256, eval_every=50_000, budget=k * 1000, to_budget=True,
