@@ -115,18 +115,11 @@ def _check(entry: TrainingSettings) -> None:
             raise InvalidParameterError(
                 f"{where}: run_defaults must map an algorithm with hyperparams to a dict of "
                 f"{', '.join(RUN_DEFAULT_KEYS)}, got {algo!r}: {defaults!r}")
-    for key, over in entry.scene_settings.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
-                and key[0] in entry.hyperparams):
-            raise InvalidParameterError(
-                f"{where}: scene_settings must map (algorithm, scene) to a dict of settings, "
-                f"for an algorithm with hyperparams, got {key!r}: {over!r}")
+    _check_pairs(where, "scene_settings", entry.scene_settings, ("algorithm", "scene"),
+                 entry.hyperparams)
+    _check_pairs(where, "engine_settings", entry.engine_settings, ("engine", "algorithm"),
+                 entry.hyperparams)
     for key, over in entry.engine_settings.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
-                and key[1] in entry.hyperparams):
-            raise InvalidParameterError(
-                f"{where}: engine_settings must map (engine, algorithm) to a dict of settings, "
-                f"for an algorithm with hyperparams, got {key!r}: {over!r}")
         if "n_timesteps" in over:
             budgets_over = over["n_timesteps"]
             if isinstance(budgets_over, bool) or not isinstance(budgets_over, int) \
@@ -154,6 +147,18 @@ def _check(entry: TrainingSettings) -> None:
         if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
             raise InvalidParameterError(
                 f"{where}: {name} must be a positive int of timesteps, got {steps!r}")
+
+
+def _check_pairs(where: str, name: str, table: Mapping, words: tuple, hyperparams) -> None:
+    """Each key of ``table`` a pair (``words``) whose "algorithm" has hyperparams, each value
+    a dict of settings; else a named error."""
+    at = words.index("algorithm")
+    for key, over in table.items():
+        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
+                and key[at] in hyperparams):
+            raise InvalidParameterError(
+                f"{where}: {name} must map ({', '.join(words)}) to a dict of settings, for an "
+                f"algorithm with hyperparams, got {key!r}: {over!r}")
 
 
 def register(entry: TrainingSettings) -> TrainingSettings:

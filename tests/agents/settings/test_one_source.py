@@ -201,3 +201,20 @@ def test_engine_settings_must_name_an_algorithm_with_settings():
         with pytest.raises(InvalidParameterError, match="engine_settings"):
             register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
                                       hyperparams=tuned.ALL, engine_settings=bad))
+
+
+@pytest.mark.parametrize("field, bad", [
+    ("scene_settings", {("ddpg", "boom-sat"): {}}),
+    ("scene_settings", {"ppo": {}}),
+    ("scene_settings", {("ppo", "boom-sat"): 0.98}),
+    ("run_defaults", {"ddpg": {"stop_success": 1.0}}),
+    ("run_defaults", {"ppo": {"learning_rate": 1e-3}}),  # a model setting, not the run's
+    ("run_defaults", {"ppo": 1.0}),
+])
+def test_scene_settings_and_run_defaults_are_checked_at_registration(field, bad):
+    from rbenv.agents.settings.table import TrainingSettings, register
+    from rbenv.core.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match=field):
+        register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
+                                  hyperparams=tuned.ALL, **{field: bad}))
