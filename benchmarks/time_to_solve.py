@@ -145,6 +145,17 @@ PATHS = {p.name: p for p in [
     Path("torchrl-b4096-e3-lr2e-3", engine="torchrl", eval_every=50_000,
          hyperparams={"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
                       "lr": 2e-3, "hidden": 64}),
+    # The same libraries with the third sweep's two changes (gamma 0.98, log std -0.5).
+    Path("rsl_rl-g0.98-std-0.5", engine="rsl_rl", n_envs=256, eval_every=50_000,
+         budget=800_000,
+         hyperparams={"num_steps_per_env": 32, "num_mini_batches": 2, "num_learning_epochs": 3,
+                      "learning_rate": 2e-3, "gamma": 0.98, "init_std": float(np.exp(-0.5))}),
+    Path("skrl-g0.98-std-0.5", engine="skrl", n_envs=256, eval_every=50_000, budget=800_000,
+         hyperparams={"rollouts": 32, "mini_batches": 2, "learning_epochs": 3,
+                      "learning_rate": 2e-3, "discount_factor": 0.98, "log_std_init": -0.5}),
+    Path("torchrl-g0.98-std-0.5", engine="torchrl", eval_every=50_000, budget=800_000,
+         hyperparams={"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
+                      "lr": 2e-3, "hidden": 64, "gamma": 0.98, "log_std_init": -0.5}),
 ]}
 
 # The off-policy learners, FastSAC/FastTD3's recipe on a CPU: more envs, fewer and larger
