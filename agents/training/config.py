@@ -39,7 +39,8 @@ class RunConfig:
 
     # The fields a resumed run takes from the caller (when given); the rest are the run's own.
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = ("timesteps", "threads")
-    # What a config.json written before a field existed meant by its absence.
+    # What a config.json written before a field existed meant by its absence, or by null where
+    # null now means "the task's default".
     LEGACY_DEFAULTS: ClassVar[dict] = {}
 
     engine: Engine = "sb3"
@@ -146,7 +147,8 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
         raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
                              f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
     known = cls.__dataclass_fields__
-    saved = {**cls.LEGACY_DEFAULTS, **saved}
+    saved = {**cls.LEGACY_DEFAULTS, **{k: v for k, v in saved.items()
+                                        if not (v is None and k in cls.LEGACY_DEFAULTS)}}
     try:
         cfg = cls(**{k: v for k, v in saved.items() if k in known})
     except TypeError as e:
@@ -251,7 +253,8 @@ class TrainConfig(RunConfig):
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "max_minutes",
                                                     "stop_success")
     # Runs written before --save-replay-buffer kept their buffer: a resume goes on keeping it.
-    LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True}
+    # A run saved with stop_success null (before the run defaults) never stopped early.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True, "stop_success": 0.0}
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
@@ -275,8 +278,7 @@ class TrainConfig(RunConfig):
                 or not isinstance(self.max_minutes, numbers.Real) or not self.max_minutes > 0):
             raise InvalidParameterError(f"max_minutes must be a number > 0, got "
                                         f"{self.max_minutes!r}")
-        if self.stop_success is not None and (
-                isinstance(self.stop_success, bool)
+        if (isinstance(self.stop_success, bool)
                 or not isinstance(self.stop_success, numbers.Real)
                 or not 0 <= self.stop_success <= 1):
             raise InvalidParameterError(f"stop_success must be a success rate in [0, 1] (0: "

@@ -289,3 +289,18 @@ def test_stop_success_must_be_a_rate(value):
 
     with pytest.raises(InvalidParameterError, match=r"stop_success must be a success rate"):
         TrainConfig(stop_success=value).resolve()
+
+
+def test_a_run_saved_before_the_run_defaults_resumes_as_it_trained(tmp_path):
+    """config.json of a Reorient-v1 PPO run written when stop_success null meant "never stop"
+    resumes without stopping; one written with 1.0 keeps it."""
+    from dataclasses import asdict
+
+    from rbenv.agents.training.config import resumed_config
+
+    cfg = TrainConfig(out=str(tmp_path)).resolve()
+    assert cfg.stop_success == 1.0  # the id's run default for a new run
+    for saved, resumed in ((None, 0.0), (1.0, 1.0)):
+        (tmp_path / "config.json").write_text(json.dumps({**asdict(cfg),
+                                                          "stop_success": saved}))
+        assert resumed_config(TrainConfig, tmp_path).stop_success == resumed
