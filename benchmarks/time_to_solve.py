@@ -93,8 +93,7 @@ PATHS = {p.name: p for p in [
          hyperparams=_ppo(n_steps=16, batch_size=4096, n_epochs=3, learning_rate=2e-3,
                           net=[32, 32])),
     # Sample efficiency around the shipped path (B = sb3-b4096-e3-lr2e-3), one change each.
-    *[Path(f"B-{tag}", n_envs=2048 if tag == "2048x4" else 256, eval_every=50_000,
-           budget=1_200_000,
+    *[Path(f"B-{tag}", n_envs=256, eval_every=50_000, budget=1_200_000,
            hyperparams=_ppo(**{"batch_size": 4096, "n_epochs": 3, "learning_rate": 2e-3,
                               **over}))
       for tag, over in {
@@ -119,7 +118,6 @@ PATHS = {p.name: p for p in [
                                         "ortho_init": False}},
           "relu": {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0,
                                      "activation_fn": "relu"}},
-          "2048x4": {"n_steps": 4},
           "g0.98-std-0.5": {"gamma": 0.98, "policy_kwargs": {"net_arch": [64, 64],
                                                              "log_std_init": -0.5}},
       }.items()],
@@ -131,6 +129,8 @@ PATHS = {p.name: p for p in [
     # Python step carries more satellites).
     Path("B-1024x8", n_envs=1024, eval_every=50_000, budget=1_200_000,
          hyperparams=_ppo(n_steps=8, batch_size=4096, n_epochs=3, learning_rate=2e-3)),
+    Path("B-2048x4", n_envs=2048, eval_every=50_000, budget=1_200_000,
+         hyperparams=_ppo(n_steps=4, batch_size=4096, n_epochs=3, learning_rate=2e-3)),
     *[Path(f"B-1024x8-linlr{lr}-{k}k", n_envs=1024, eval_every=50_000, budget=k * 1000,
            to_budget=True, hyperparams=_ppo(n_steps=8, batch_size=4096, n_epochs=3,
                                             learning_rate=f"lin_{lr}"))
