@@ -49,6 +49,7 @@ from rbenv.agents.policies.runfolder import (
 from rbenv.agents.training.config import RunConfig, resumed_config
 
 EVAL_KEYS = ("timesteps", "results", "ep_lengths", "successes")
+LOCK_RECORD_WAIT_S = 2.0  # how long a refused start waits for a lock holder's record (s)
 
 
 class Backend(Protocol):
@@ -284,16 +285,14 @@ class RunLock:
 
     def acquire(self) -> RunLock:
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = _lock_record(fd)
+        holder = self._wait_for_holder(fd)
+        if holder is not None:
             os.close(fd)
             who = (f"pid {holder.get('pid')} on {holder.get('host')}, started "
                    f"{holder.get('started')}") if holder else "another process"
             raise RunLockedError(f"run folder {str(self.path.parent)!r} is in use by {who} "
                                  f"(lock {str(self.path)!r}); wait for it or use another --out"
-                                 ) from None
+                                 )
         self.stale = _lock_record(fd) or None
         if self.stale:
             print(f"found a stale lock {str(self.path)!r} from pid {self.stale.get('pid')} "
@@ -305,6 +304,26 @@ class RunLock:
         os.pwrite(fd, record.encode(), 0)
         self._fd = fd
         return self
+
+    @staticmethod
+    def _wait_for_holder(fd: int) -> dict | None:
+        """Take the flock on ``fd`` and return None, or return the live holder's record.
+
+        A holder writes its record just after it takes the lock and clears it just before it
+        lets go, so an empty record under a held lock is a holder in one of those two moments:
+        try again for up to :data:`LOCK_RECORD_WAIT_S` until it has a record or has gone, and
+        return ``{}`` (no record) only if neither happens.
+        """
+        deadline = time.monotonic() + LOCK_RECORD_WAIT_S
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return None
+            except BlockingIOError:
+                holder = _lock_record(fd)
+            if holder or time.monotonic() >= deadline:
+                return holder
+            time.sleep(0.02)
 
     def release(self) -> None:
         if self._fd is None:

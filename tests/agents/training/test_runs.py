@@ -5,13 +5,16 @@ trains one run with checkpoints at 128, 256, 384 and 512 timesteps, and each tes
 copy of it.
 """
 
+import fcntl
 import json
+import os
 import re
 import shutil
 import subprocess
 import sys
 import textwrap
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -265,6 +268,49 @@ def test_a_live_lock_refuses_a_second_run_and_a_killed_holder_leaves_a_stale_loc
         assert lock.stale["pid"] == holder.pid  # recognised as stale, and taken over
     finally:
         lock.release()
+
+
+def _hold_without_record(run_dir) -> int:
+    """Take ``run_dir``'s lock as a holder does in the moment before it writes its record."""
+    fd = os.open(Path(run_dir) / "run.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return fd
+
+
+def test_a_refused_start_waits_for_the_holders_record(tmp_path):
+    fd = _hold_without_record(tmp_path)
+    record = json.dumps({"pid": 4242, "host": "h", "started": "now"}).encode()
+    writer = threading.Timer(0.2, os.pwrite, (fd, record, 0))
+    writer.start()
+    try:
+        with pytest.raises(RunLockedError, match="in use by pid 4242 on h"):
+            RunLock(tmp_path).acquire()
+    finally:
+        writer.join()
+        os.close(fd)
+
+
+def test_a_start_takes_the_lock_a_holder_lets_go_of_while_it_waits(tmp_path):
+    fd = _hold_without_record(tmp_path)
+    releaser = threading.Timer(0.2, os.close, (fd,))
+    releaser.start()
+    lock = RunLock(tmp_path).acquire()
+    releaser.join()
+    try:
+        assert json.loads((tmp_path / "run.lock").read_text())["pid"] == os.getpid()
+    finally:
+        lock.release()
+
+
+def test_a_holder_that_never_writes_a_record_is_named_another_process(tmp_path, monkeypatch):
+    import rbenv.agents.training.engine as engine
+    monkeypatch.setattr(engine, "LOCK_RECORD_WAIT_S", 0.1)
+    fd = _hold_without_record(tmp_path)
+    try:
+        with pytest.raises(RunLockedError, match="in use by another process"):
+            RunLock(tmp_path).acquire()
+    finally:
+        os.close(fd)
 
 
 def _train_command(out, *, timesteps: int, checkpoint_every: int, eval_every: int) -> list:
