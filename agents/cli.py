@@ -47,6 +47,7 @@ from rbenv.agents.training.config import (
     SBXConfig,
     SessionOptions,
     TorchRLOptions,
+    TorchRLRunConfig,
     TrainConfig,
 )
 from rbenv.agents.training.engine import add_run_arguments
@@ -125,6 +126,8 @@ class Parser(argparse.ArgumentParser):
         return f"unrecognized arguments: {' '.join(shown)}"
 
 
+# --engine torchrl --quick: CI's smoke run, where the caller does not set these.
+QUICK_TORCHRL_TIMESTEPS, QUICK_REPORT_EPISODES = 16_384, 50
 # The option groups of `rbenv train`: which engine reads which configuration class.
 COMMON = (RunConfig, SessionOptions)
 ENGINE_GROUPS = (
@@ -133,17 +136,17 @@ ENGINE_GROUPS = (
      (TrainConfig, SB3Options)),
     ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)",
      (RLlibConfig, RLlibOptions)),
-    ("torchrl", "torchrl options (--engine torchrl: TorchRL's PPO on the torch env; the "
-                "ecosystem extra). It reads only --algo ppo, --env-id, --scene, --seed, "
-                "--timesteps, --out, --threads and --report-episodes of the common options",
-     (TorchRLOptions,)),
+    ("torchrl", "torchrl options (--engine torchrl: TorchRL's PPO on the torch env, env and "
+                "learner on --device; the ecosystem extra). It reads every common option and "
+                "--stop-success; "
+                "its --hyperparams are the learner's (rbenv.agents.training.config."
+                "TORCHRL_HYPERPARAMS)",
+     (TorchRLRunConfig, TorchRLOptions)),
 )
 # The classes whose fields each engine takes from the command line.
 ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "sbx": (SBXConfig, SB3Options),
                  "rllib": (RLlibConfig, RLlibOptions),
-                 "torchrl": (TorchRLOptions,)}
-TORCHRL_READS = ("engine", "algo", "env_id", "scene", "seed", "timesteps", "out", "threads",
-                 "report_episodes")
+                 "torchrl": (TorchRLRunConfig, TorchRLOptions)}
 
 
 def _parser() -> Parser:
@@ -157,8 +160,7 @@ def _parser() -> Parser:
                                    "checked (and the env made once) before anything is "
                                    "written.")
     seen: set[str] = set()
-    common = t.add_argument_group("common options (sb3 and rllib; torchrl reads the few its "
-                                  "group names)")
+    common = t.add_argument_group("common options (every engine)")
     for fields in COMMON:
         flags.add_fields(common, fields, seen=seen)
     add_run_arguments(common)
@@ -231,28 +233,22 @@ def _check_train(args) -> tuple[type, type]:
     """The engine's (config, options) classes, once every given flag is one the engine reads."""
     engine = getattr(args, "engine", "sb3")
     reads = {f.name for c in ENGINE_FIELDS[engine] for f in dataclasses.fields(c)}
-    if engine == "torchrl":
-        reads |= set(TORCHRL_READS)
     common = {f.name for c in COMMON for f in dataclasses.fields(c)}
-    owner = {f.name: name for name, _, classes in ENGINE_GROUPS for c in classes
-             for f in dataclasses.fields(c) if f.name not in common}
-    torchrl_reads = ", ".join(flags.flag(n) for n in TORCHRL_READS if n != "engine")
+    owners: dict[str, list[str]] = {}
+    for name, _, classes in ENGINE_GROUPS:
+        for f in (f for c in classes for f in dataclasses.fields(c) if f.name not in common):
+            owners.setdefault(f.name, []).append(name)
     for cls in (*COMMON, *(c for _, _, classes in ENGINE_GROUPS for c in classes)):
         for name in flags.given(args, cls):
-            if name in reads:
-                continue
-            if name in owner:
-                reason = f"belongs to --engine {owner[name]}, not to --engine {engine}"
-            else:
-                reason = f"not read by --engine {engine}, which reads only {torchrl_reads}"
-            raise usage.InvalidChoiceError(name, getattr(args, name), reason)
-    for switch in ("resume", "force", "no_report"):
-        if engine == "torchrl" and getattr(args, switch):
-            raise usage.InvalidChoiceError(switch, True, (
-                "not an option of --engine torchrl, which writes torchrl.json and has no run "
-                "folder to resume or replace yet"))
+            if name not in reads:
+                engines = " and ".join(f"--engine {o}" for o in owners[name])
+                raise usage.InvalidChoiceError(name, getattr(args, name), (
+                    f"belongs to {engines}, not to --engine {engine}"))
+    if engine == "torchrl" and getattr(args, "quick", False) and args.resume:
+        raise usage.InvalidChoiceError("quick", True, "a new run's smoke form, not one of "
+                                       "--resume, which continues the run as it was saved")
     config = {"sb3": TrainConfig, "sbx": SBXConfig, "rllib": RLlibConfig,
-              "torchrl": RunConfig}[engine]
+              "torchrl": TorchRLRunConfig}[engine]
     return config, ENGINE_FIELDS[engine][-1]
 
 
@@ -272,10 +268,15 @@ def _train(args) -> int:
         if cfg.algo != "ppo":
             raise usage.invalid_choice("algo", cfg.algo, ["ppo"],
                                        what="one of --engine torchrl's algorithms:")
-        registry.check_env_options(cfg.env_id, {"scene": cfg.scene})
         from rbenv.agents.training import torchrl  # the ecosystem extra (torch, TorchRL)
 
-        return torchrl.train_from_config(cfg, TorchRLOptions(**flags.given(args, options)))
+        session = torchrl.TorchRLSession(**flags.given(args, options))
+        if session.quick:  # a new run's smoke form: what the caller did not set
+            cfg.timesteps = QUICK_TORCHRL_TIMESTEPS if cfg.timesteps is None else cfg.timesteps
+            cfg.report_episodes = cfg_fields.get("report_episodes", QUICK_REPORT_EPISODES)
+        engine_run(cfg, session, resume=args.resume, force=args.force,
+                   report=not args.no_report)
+        return 0
     if engine == "rllib":
         rllib.run(cfg, rllib.RLlibSession(**flags.given(args, options)), resume=args.resume,
                   force=args.force, report=not args.no_report)

@@ -1,13 +1,15 @@
 """What a training run is defined by: :class:`RunConfig`, every back end's fields, and
 :class:`TrainConfig`, the Stable-Baselines3 back end's (``rbenv train``).
 
-:class:`rbenv.agents.training.rllib.RLlibConfig` extends :class:`RunConfig` likewise. The
+:class:`rbenv.agents.training.rllib.RLlibConfig` and :class:`TorchRLRunConfig` extend
+:class:`RunConfig` likewise. The
 resolved config is saved as the run folder's ``config.json`` and read back by
 :func:`resumed_config`. Nothing here imports SB3, torch or Ray.
 """
 
 from __future__ import annotations
 
+import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,7 +49,7 @@ class RunConfig:
     """The training back end: sb3 (Stable-Baselines3), sbx (SAC and TD3 in JAX with SBX, the
     same run folders as sb3; the sbx extra), rllib (PPO on Ray RLlib; the ray extra), or
     torchrl (TorchRL's PPO on the torch env, env and learner on --device; the ecosystem extra;
-    writes torchrl.json, no run-folder engine yet)."""
+    its policy is saved as an SB3 PPO policy)."""
     algo: Algo = "ppo"
     """The algorithm. Its settings (hyperparameters, envs, budget, env options) come from the
     task's training settings (rbenv.agents.settings), which rl_zoo3 reads too."""
@@ -259,9 +261,7 @@ class TrainConfig(RunConfig):
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
         shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
-        for name, value in task_entry(self.env_id).run_defaults.get(self.algo, {}).items():
-            if getattr(self, name) is None:
-                setattr(self, name, value)
+        apply_run_defaults(self, self.algo)
         if self.stop_success is None:
             self.stop_success = 0.0
         if self.timesteps is None:
@@ -278,11 +278,7 @@ class TrainConfig(RunConfig):
                 or not isinstance(self.max_minutes, numbers.Real) or not self.max_minutes > 0):
             raise InvalidParameterError(f"max_minutes must be a number > 0, got "
                                         f"{self.max_minutes!r}")
-        if (isinstance(self.stop_success, bool)
-                or not isinstance(self.stop_success, numbers.Real)
-                or not 0 <= self.stop_success <= 1):
-            raise InvalidParameterError(f"stop_success must be a success rate in [0, 1] (0: "
-                                        f"never stop early), got {self.stop_success!r}")
+        check_stop_success(self.stop_success)
         super().resolve()
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
@@ -297,6 +293,21 @@ class TrainConfig(RunConfig):
                 f"step is taken, got timesteps={self.timesteps}; raise --timesteps or pass "
                 "--hyperparams '{\"learning_starts\": N}'")
         return self
+
+
+def check_stop_success(value) -> None:
+    """``stop_success`` a success rate in [0, 1]; else a named error."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 <= value <= 1:
+        raise InvalidParameterError(f"stop_success must be a success rate in [0, 1] (0: never "
+                                    f"stop early), got {value!r}")
+
+
+def apply_run_defaults(cfg: RunConfig, algo: str) -> None:
+    """Set each field the caller left unset (None) that the task's run defaults for ``algo``
+    name (rbenv.agents.settings) and ``cfg`` has."""
+    for name, value in task_entry(cfg.env_id).run_defaults.get(algo, {}).items():
+        if hasattr(cfg, name) and getattr(cfg, name) is None:
+            setattr(cfg, name, value)
 
 
 SBX_ALGOS = ("sac", "td3")
@@ -348,10 +359,124 @@ class RLlibOptions(SessionOptions):
 
 
 @dataclass(frozen=True)
-class TorchRLOptions:
-    """How one TorchRL training session runs (``--engine torchrl``)."""
+class TorchRLOptions(SessionOptions):
+    """How one TorchRL training session runs (``--engine torchrl``); not saved with the run,
+    so a run trained on one device may resume on another."""
 
     device: str = "cpu"
     """The torch device of env and learner (cpu, cuda, cuda:1, ...)."""
     quick: bool = False
-    """A 16k-step smoke run with 50 held-out episodes (CI's form)."""
+    """A smoke run (CI's form): 16384 timesteps unless --timesteps is given, and 50 episodes
+    for the report; not with --resume."""
+
+
+@dataclass
+class TorchRLConfig:
+    """TorchRL's PPO learner (:func:`rbenv.agents.training.torchrl.train`, and a run of
+    ``--engine torchrl`` through :class:`TorchRLRunConfig`); the defaults were chosen for the
+    default scene on a CPU (docs/torch.md). Lengths are in samples (env steps of one sub-env)."""
+
+    env_id: str = rbenv.ENV_ID
+    scene: str | None = None
+    device: str = "cpu"
+    timesteps: int = 800_000
+    num_envs: int = 256
+    rollout: int = 64  # steps per sub-env per batch
+    minibatch: int = 2048
+    epochs: int = 5
+    lr: float = 1e-3
+    gamma: float = 0.99
+    lmbda: float = 0.95
+    clip: float = 0.2
+    hidden: int = 128
+    log_std_init: float = -1.0
+    seed: int = 0
+    threads: int = 1
+    compile: bool = False
+    eval_episodes: int = 500
+    eval_every: int = 0  # samples between held-out evaluations during training (0: none)
+    env_kwargs: dict = field(default_factory=dict)  # the torch env's options over the scene
+
+    def check(self) -> TorchRLConfig:
+        """Every learner field in its range; else an error naming the field, value and rule."""
+        for name in ("num_envs", "rollout", "minibatch", "epochs", "hidden", "threads"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+                raise InvalidParameterError(f"{name} must be an integer >= 1, got {value!r}")
+        for name, rule, ok in (("lr", "> 0", lambda v: v > 0), ("clip", "> 0", lambda v: v > 0),
+                               ("gamma", "in (0, 1]", lambda v: 0 < v <= 1),
+                               ("lmbda", "in [0, 1]", lambda v: 0 <= v <= 1),
+                               ("log_std_init", "", lambda v: True)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+                    or not math.isfinite(value) or not ok(value):
+                raise InvalidParameterError(f"{name} must be a finite number {rule}".rstrip()
+                                            + f", got {value!r}")
+        if not isinstance(self.compile, bool):
+            raise InvalidParameterError(f"compile must be true or false, got {self.compile!r}")
+        batch = self.num_envs * self.rollout
+        if isinstance(self.timesteps, bool) or not isinstance(self.timesteps, numbers.Integral) \
+                or self.timesteps < batch:
+            raise InvalidParameterError(
+                f"timesteps must be an integer >= num_envs * rollout = {batch} (one batch), "
+                f"got {self.timesteps!r}")
+        return self
+
+
+# The fields of TorchRLConfig that a run's hyperparams set (the rest are the run's own).
+TORCHRL_HYPERPARAMS = ("num_envs", "rollout", "minibatch", "epochs", "lr", "gamma", "lmbda",
+                       "clip", "hidden", "log_std_init", "compile")
+
+
+@dataclass
+class TorchRLRunConfig(RunConfig):
+    """A run of the TorchRL back end (``--engine torchrl``: TorchRL's PPO on the torch env);
+    saved as ``config.json``. Its ``hyperparams`` are :class:`TorchRLConfig`'s learner fields
+    (``TORCHRL_HYPERPARAMS``), resolved in full; its policy files are an SB3 PPO policy's."""
+
+    engine: Engine = "torchrl"
+    stop_success: float | None = None
+    """Stop training at the first periodic evaluation (--eval-every, --eval-episodes) whose
+    success rate reaches this fraction; 0: never. Unset: the task's run default for ppo."""
+
+    RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "stop_success")
+
+    def default_out(self) -> str:
+        return f"runs/torchrl-{self.algo}-{self.scene}-seed{self.seed}"
+
+    def resolve(self) -> TorchRLRunConfig:
+        """The learner's defaults under the caller's hyperparams; the task's run defaults for
+        ppo; every field checked."""
+        if self.algo != "ppo":
+            raise InvalidParameterError(f"algo must be ppo for --engine torchrl, got "
+                                        f"{self.algo!r}")
+        apply_run_defaults(self, self.algo)
+        if self.stop_success is None:
+            self.stop_success = 0.0
+        check_stop_success(self.stop_success)
+        defaults = TorchRLConfig()
+        if self.timesteps is None:
+            self.timesteps = defaults.timesteps
+        super().resolve()
+        unknown = sorted(set(self.hyperparams) - set(TORCHRL_HYPERPARAMS))
+        if unknown:
+            raise InvalidParameterError(f"hyperparams {unknown} are not --engine torchrl's; "
+                                        f"it takes {', '.join(TORCHRL_HYPERPARAMS)}")
+        self.hyperparams = {k: self.hyperparams.get(k, getattr(defaults, k))
+                            for k in TORCHRL_HYPERPARAMS}
+        self.learner("cpu").check()
+        return self
+
+    def learner(self, device: str) -> TorchRLConfig:
+        """The learner's configuration for this run on ``device``."""
+        return TorchRLConfig(env_id=self.env_id, scene=self.scene, device=device,
+                             timesteps=self.timesteps, seed=self.seed, threads=self.threads,
+                             env_kwargs=dict(self.env_kwargs), **self.hyperparams)
+
+    def check_env(self) -> None:
+        """The NumPy env's check, then the torch env made once with the run's options."""
+        super().check_env()
+        import gymnasium as gym  # the torch env imports torch only when made
+
+        gym.make_vec(self.env_id, num_envs=1, backend="torch", scene=self.scene,
+                     **self.env_kwargs).close()

@@ -13,23 +13,42 @@ mask, which becomes ``reset(options={"reset_mask": mask})``. It passes
 ``torchrl.envs.utils.check_env_specs``. Observations leave as float32 (the networks'
 dtype) whatever the physics dtype.
 
-The held-out evaluation is :func:`success_rate`: the same 500 seeded episodes as ``rbenv
-evaluate`` (seeds 1,000,000 + i: sub-env i of a torch env reset with seed 1,000,000), acting
-with the mean throttle of the Gaussian policy (:func:`rbenv.agents.policies.sb3.expected_throttle`,
-as ``rbenv evaluate`` acts for a PPO run in throttle mode).
+A run (:class:`TorchRLSession`, through :func:`rbenv.agents.training.engine.run`) has the run
+folder of every other back end: its lock, ``config.json``, checkpoints every
+``--checkpoint-every`` samples, the periodic evaluation and ``--stop-success``, ``--resume``
+from the newest complete checkpoint, ``training.json`` and the report. The policy is written
+as an SB3 PPO policy (:func:`save_policy`: the actor's and critic's layers copied into SB3's
+``MlpPolicy`` of the same shape, the observation normaliser as ``obs_stats.npz``), so
+``rbenv evaluate``, ``load_policy`` and ``rbenv export`` read it unchanged; each checkpoint
+adds ``policy_<N>.torchrl.pt``, the learner's whole state (weights, Adam's moments, the
+return scaler) as tensors, which a resume restores (read with ``weights_only=True``).
+
+Evaluation acts with the mean throttle of the Gaussian policy
+(:func:`rbenv.agents.policies.sb3.expected_throttle`, as ``rbenv evaluate`` acts for a PPO run in
+throttle mode), on the first episode of each sub-env of a torch env: the periodic validation on
+seeds ``seed + 10,000 + i``, :func:`success_rate` (the benchmarks' held-out figure) on the
+500 seeds 1,000,000 + i of ``rbenv evaluate``.
 """
 
 from __future__ import annotations
 
-import json
+import contextlib
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import SimpleNamespace
+from typing import ClassVar
 
 import gymnasium as gym
+import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
-from rbenv.core.errors import InvalidParameterError
+from rbenv.agents.policies import runfolder, weights
+from rbenv.agents.policies.runfolder import RunFolderError, atomic_write
+from rbenv.agents.policies.sb3 import SB3Policy
+from rbenv.agents.training import engine
+from rbenv.agents.training.config import TorchRLConfig, TorchRLOptions, TorchRLRunConfig
+from rbenv.agents.training.report import Trained, write_report
 from tensordict import TensorDict
 from tensordict.nn import AddStateIndependentNormalScale, TensorDictModule
 from torch import nn
@@ -43,9 +62,12 @@ from torchrl.objectives.value import GAE
 
 import rbenv
 
-__all__ = ["RbenvTorchRLEnv", "TorchRLConfig", "success_rate", "train"]
+__all__ = ["Learner", "RbenvTorchRLEnv", "TorchRLConfig", "TorchRLSession", "save_policy",
+           "success_rate", "train"]
 
 HELD_OUT_SEED = 1_000_000
+VALIDATION_SEED_OFFSET = 10_000  # the periodic evaluation's episodes: seed + this + i
+STATE_FORMAT = 1
 
 
 class RbenvTorchRLEnv(EnvBase):
@@ -97,31 +119,6 @@ class RbenvTorchRLEnv(EnvBase):
     def _set_seed(self, seed):
         self._seed_next, self._started = int(seed or 0), False
         return seed
-
-
-@dataclass
-class TorchRLConfig:
-    """A TorchRL PPO run; defaults chosen for the default scene on a CPU (docs/torch.md)."""
-
-    env_id: str = rbenv.ENV_ID
-    scene: str | None = None
-    device: str = "cpu"
-    timesteps: int = 800_000
-    num_envs: int = 256
-    rollout: int = 64  # steps per sub-env per batch
-    minibatch: int = 2048
-    epochs: int = 5
-    lr: float = 1e-3
-    gamma: float = 0.99
-    lmbda: float = 0.95
-    clip: float = 0.2
-    hidden: int = 128
-    log_std_init: float = -1.0
-    seed: int = 0
-    threads: int = 1
-    compile: bool = False
-    eval_episodes: int = 500
-    eval_every: int = 0  # samples between held-out evaluations during training (0: none)
 
 
 class RunningNorm(nn.Module):
@@ -195,43 +192,92 @@ class ReturnScale:
         return batch
 
 
-def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
-    """Train PPO; returns (and writes to ``out/torchrl.json``) samples, wall times, throughput
-    and the held-out success rate."""
-    if cfg.timesteps < cfg.num_envs * cfg.rollout:
-        raise InvalidParameterError(
-            f"timesteps must be >= num_envs * rollout = {cfg.num_envs * cfg.rollout} (one "
-            f"batch), got {cfg.timesteps}")
-    torch.set_num_threads(cfg.threads)
-    torch.manual_seed(cfg.seed)
-    kwargs = {} if cfg.scene is None else {"scene": cfg.scene}
-    env = RbenvTorchRLEnv(cfg.env_id, cfg.num_envs, cfg.device, cfg.seed, compile=cfg.compile,
-                          **kwargs)
-    obs_dim = env.observation_spec["observation"].shape[-1]
-    actor, critic, norm = make_modules(obs_dim, env.action_spec.shape[-1], cfg)
-    scale = ReturnScale(cfg.num_envs, cfg.gamma, cfg.device)
-    gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=critic, average_gae=False)
-    loss = ClipPPOLoss(actor, critic, clip_epsilon=cfg.clip, entropy_bonus=False,
-                       critic_coeff=0.5, loss_critic_type="l2", normalize_advantage=True)
-    opt = torch.optim.Adam(loss.parameters(), lr=cfg.lr)
-    frames = cfg.num_envs * cfg.rollout
-    collector = Collector(env, actor, frames_per_batch=frames, total_frames=cfg.timesteps,
-                          device=cfg.device, auto_register_policy_transforms=False)
+
+class Learner:
+    """TorchRL's PPO for one :class:`TorchRLConfig`: the batched env (seeded ``env_seed``, by
+    default the config's seed), actor, critic, return scaling, GAE, loss and Adam.
+    :meth:`batches` collects and trains; :meth:`state` and :meth:`load_state` are its whole
+    training state as tensors."""
+
+    def __init__(self, cfg: TorchRLConfig, env_seed: int | None = None):
+        cfg.check()
+        self.cfg = cfg
+        torch.set_num_threads(cfg.threads)
+        torch.manual_seed(cfg.seed if env_seed is None else env_seed)
+        self.env = RbenvTorchRLEnv(cfg.env_id, cfg.num_envs, cfg.device,
+                                   cfg.seed if env_seed is None else env_seed,
+                                   compile=cfg.compile, **self.env_kwargs)
+        obs_dim = self.env.observation_spec["observation"].shape[-1]
+        self.actor, self.critic, self.norm = make_modules(
+            obs_dim, self.env.action_spec.shape[-1], cfg)
+        self.scale = ReturnScale(cfg.num_envs, cfg.gamma, cfg.device)
+        self.gae = GAE(gamma=cfg.gamma, lmbda=cfg.lmbda, value_network=self.critic,
+                       average_gae=False)
+        self.loss = ClipPPOLoss(self.actor, self.critic, clip_epsilon=cfg.clip,
+                                entropy_bonus=False, critic_coeff=0.5, loss_critic_type="l2",
+                                normalize_advantage=True)
+        self.opt = torch.optim.Adam(self.loss.parameters(), lr=cfg.lr)
+        self.updates = 0  # gradient steps taken over the run
+
+    @property
+    def env_kwargs(self) -> dict:
+        """The torch env's options: the scene (if set) and the config's env_kwargs."""
+        return {**({} if self.cfg.scene is None else {"scene": self.cfg.scene}),
+                **self.cfg.env_kwargs}
+
+    def batches(self, frames: int):
+        """Collect ``frames`` samples (rounded up to whole batches of num_envs x rollout);
+        after each batch, one PPO update. Yields (samples in the batch, its mean reward per
+        step, seconds spent collecting it)."""
+        cfg = self.cfg
+        batch = cfg.num_envs * cfg.rollout
+        collector = Collector(self.env, self.actor, frames_per_batch=batch,
+                              total_frames=-(-frames // batch) * batch, device=cfg.device,
+                              auto_register_policy_transforms=False)
+        try:
+            tick = time.perf_counter()
+            for batch in collector:
+                collect_s = time.perf_counter() - tick
+                reward = float(batch.get(("next", "reward")).mean())
+                self.updates += _update(self.scale(batch), self.gae, self.loss, self.opt, cfg)
+                self.norm.update(batch.get("observation"))  # for the next rollout and update
+                yield batch.numel(), reward, collect_s
+                tick = time.perf_counter()
+        finally:
+            collector.shutdown()
+
+    def state(self, samples: int) -> dict:
+        """The whole training state after ``samples`` samples: tensors and plain values."""
+        return {"format": STATE_FORMAT, "samples": int(samples), "updates": self.updates,
+                "actor": self.actor.state_dict(), "critic": self.critic.state_dict(),
+                "optimizer": self.opt.state_dict(),
+                "return_scale": {"ret": self.scale.ret, "stats": self.scale.stats.state_dict()}}
+
+    def load_state(self, state: dict) -> None:
+        """Restore :meth:`state`'s output (onto this learner's device)."""
+        self.actor.load_state_dict(state["actor"])
+        self.critic.load_state_dict(state["critic"])
+        self.opt.load_state_dict(state["optimizer"])
+        self.scale.ret = state["return_scale"]["ret"].to(self.cfg.device)
+        self.scale.stats.load_state_dict(state["return_scale"]["stats"])
+        self.updates = int(state["updates"])
+
+
+def train(cfg: TorchRLConfig, log=print) -> dict:
+    """Train PPO without a run folder (the benchmarks' form); returns samples, wall times,
+    throughput, the curve and the held-out success rate."""
+    learner = Learner(cfg)
     t0, cpu0 = time.perf_counter(), time.process_time()
     collect_s = eval_s = eval_cpu_s = 0.0
     samples, curve, next_eval = 0, [], cfg.eval_every
-    tick = time.perf_counter()
-    for i, batch in enumerate(collector):
-        collect_s += time.perf_counter() - tick
-        samples += batch.numel()
-        reward = float(batch.get(("next", "reward")).mean())
-        _update(scale(batch), gae, loss, opt, cfg)
-        norm.update(batch.get("observation"))  # for the next iteration's rollout and update
+    for i, (n, reward, collect) in enumerate(learner.batches(cfg.timesteps)):
+        collect_s += collect
+        samples += n
         point = {"samples": samples, "s": time.perf_counter() - t0 - eval_s,
                  "cpu_s": time.process_time() - cpu0 - eval_cpu_s, "reward": reward}
         if cfg.eval_every and samples >= next_eval:  # held-out success, timed apart
             tick, tock = time.perf_counter(), time.process_time()
-            point["held_out_success"] = success_rate(actor, cfg, kwargs)
+            point["held_out_success"] = success_rate(learner.actor, cfg, learner.env_kwargs)
             eval_s += time.perf_counter() - tick
             eval_cpu_s += time.process_time() - tock
             next_eval += cfg.eval_every
@@ -240,27 +286,20 @@ def train(cfg: TorchRLConfig, out: Path | None = None, log=print) -> dict:
             log(f"torchrl ppo: {samples} samples, {point['s']:.0f} s, reward/step "
                 f"{reward:.3f}" + (f", held-out success {point['held_out_success']:.3f}"
                                    if "held_out_success" in point else ""))
-        tick = time.perf_counter()
     train_s = time.perf_counter() - t0 - eval_s
-    collector.shutdown()
-    rate = success_rate(actor, cfg, kwargs)
-    result = {"config": asdict(cfg), "samples": samples, "train_wall_s": train_s,
-              "eval_wall_s": eval_s,
-              "collect_wall_s": collect_s, "samples_per_s": samples / train_s,
-              "held_out_success": rate, "episodes": cfg.eval_episodes, "curve": curve,
-              "torch": torch.__version__}
+    rate = success_rate(learner.actor, cfg, learner.env_kwargs)
     log(f"torchrl ppo: {samples} samples in {train_s:.1f} s ({samples / train_s:.0f}/s); "
         f"held-out success {100 * rate:.1f} % of {cfg.eval_episodes}")
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "torchrl.json").write_text(json.dumps(result, indent=2))
-        torch.save({"actor": actor.state_dict(), "critic": critic.state_dict()},
-                   out / "torchrl_modules.pt")
-    return result
+    return {"config": asdict(cfg), "samples": samples, "train_wall_s": train_s,
+            "eval_wall_s": eval_s,
+            "collect_wall_s": collect_s, "samples_per_s": samples / train_s,
+            "held_out_success": rate, "episodes": cfg.eval_episodes, "curve": curve,
+            "torch": torch.__version__}
 
 
-def _update(batch, gae, loss, opt, cfg: TorchRLConfig) -> None:
-    """PPO epochs over one batch: GAE, then minibatches of ClipPPOLoss (TorchRL's)."""
+def _update(batch, gae, loss, opt, cfg: TorchRLConfig) -> int:
+    """PPO epochs over one batch: GAE, then minibatches of ClipPPOLoss (TorchRL's); returns
+    the number of gradient steps."""
     with torch.no_grad():
         gae(batch)
     flat = batch.reshape(-1)
@@ -274,43 +313,242 @@ def _update(batch, gae, loss, opt, cfg: TorchRLConfig) -> None:
             total.backward()
             nn.utils.clip_grad_norm_(loss.parameters(), 0.5)
             opt.step()
+    return cfg.epochs * -(-n // cfg.minibatch)
 
 
 @torch.no_grad()
-def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
-    """The fraction of the held-out episodes (seeds 1,000,000 + i) the policy ends in
-    success, acting with its mean throttle (first episode of each sub-env)."""
+def evaluate_episodes(actor, cfg: TorchRLConfig, env_kwargs: dict, episodes: int,
+                      seed: int) -> dict:
+    """The first episode of each of ``episodes`` sub-envs of a torch env reset with ``seed``
+    (episode i: seed + i), acting with the policy's mean throttle: per episode the return
+    (``results``), length (``ep_lengths``) and success (``successes``), as lists."""
     from rbenv.agents.policies.sb3 import expected_throttle
 
-    n = cfg.eval_episodes
-    env = gym.make_vec(cfg.env_id, num_envs=n, backend="torch", device=cfg.device,
+    env = gym.make_vec(cfg.env_id, num_envs=episodes, backend="torch", device=cfg.device,
                        autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)  # final_info
-    obs, _ = env.reset(seed=HELD_OUT_SEED)
+    obs, _ = env.reset(seed=seed)
     module = actor.module[0]  # the (loc, scale) network
-    ended = torch.zeros(n, dtype=torch.bool, device=cfg.device)
+    ended = torch.zeros(episodes, dtype=torch.bool, device=cfg.device)
     success = torch.zeros_like(ended)
-    scene = env.unwrapped.plant.scene
-    thrusters_only = set(scene.actuators) == {"thrusters"}
+    returns = torch.zeros(episodes, dtype=torch.float64, device=cfg.device)
+    lengths = torch.zeros(episodes, dtype=torch.int64, device=cfg.device)
+    thrusters_only = set(env.unwrapped.plant.scene.actuators) == {"thrusters"}
     while not bool(ended.all()):
         loc, scale = module.module(obs.float())
         action = loc
         if thrusters_only and env.unwrapped.plant.action_mode == "throttle":
             action = torch.as_tensor(expected_throttle(loc.cpu().numpy(), scale.cpu().numpy()))
-        obs, _, term, trunc, info = env.step(action.to(cfg.device, torch.float64))
+        obs, reward, term, trunc, info = env.step(action.to(cfg.device, torch.float64))
+        returns += torch.where(ended, 0.0, reward.to(torch.float64))
+        lengths += (~ended).to(torch.int64)
         done = (term | trunc) & ~ended
         success |= done & info["final_info"]["is_success"]
         ended |= done
-    return float(success.float().mean())
+    env.close()
+    return {"results": returns.cpu().tolist(), "ep_lengths": lengths.cpu().tolist(),
+            "successes": success.cpu().tolist()}
 
 
-def train_from_config(run, options) -> int:
-    """``rbenv train --engine torchrl``: the run's shared fields (task, scene, seed, timesteps,
-    out, threads, report_episodes) and its options (device, quick)."""
-    cfg = TorchRLConfig(env_id=run.env_id, scene=run.scene, device=options.device,
-                        seed=run.seed, threads=run.threads or 1,
-                        eval_episodes=run.report_episodes,
-                        **({"timesteps": run.timesteps} if run.timesteps else {}))
-    if options.quick:
-        cfg.timesteps, cfg.num_envs, cfg.eval_episodes = 16_384, 256, 50
-    train(cfg, Path(run.out) if run.out else None)
-    return 0
+def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
+    """The fraction of the held-out episodes (the ``cfg.eval_episodes`` seeds 1,000,000 + i)
+    the policy ends in success (:func:`evaluate_episodes`)."""
+    outcome = evaluate_episodes(actor, cfg, env_kwargs, cfg.eval_episodes, HELD_OUT_SEED)
+    return float(np.mean(outcome["successes"]))
+
+
+# --- the run-folder engine --------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TorchRLSession(TorchRLOptions):
+    """The TorchRL back end (:class:`rbenv.agents.training.engine.Backend`) with the options of
+    one training session (``device``; ``quick`` is applied by the CLI to a new run's config)."""
+
+    packages: ClassVar[tuple[str, ...]] = ("torchrl", "tensordict", "torch")
+
+    def fit(self, cfg: TorchRLRunConfig, out: Path, resume: bool) -> dict:
+        return fit(cfg, out, resume, self)
+
+    def report(self, out: Path, cfg: TorchRLRunConfig, summary: dict) -> Path:
+        return write_report(out, cfg, summary, Trained(
+            SB3Policy(out), name="ppo (TorchRL)", title=f"PPO (TorchRL) on `{cfg.scene}`",
+            setup=f"{cfg.hyperparams['num_envs']} envs on {summary.get('device', self.device)}",
+            load=f"`rbenv.agents.policies.load_policy({str(out)!r})`: an SB3 PPO policy with "
+                 "the observation normalisation (`obs_stats.npz`) that the bare weights lack"))
+
+    def load_hint(self, out: Path) -> str:
+        return runfolder.LOAD_HINT.replace("PATH", repr(str(out)))
+
+
+def fit(cfg: TorchRLRunConfig, out: Path, resume: bool, session: TorchRLSession) -> dict:
+    """Train under the engine's lock (from the newest checkpoint if ``resume``); evaluate
+    every ``eval_every`` samples, stopping at ``stop_success``; checkpoint every
+    ``checkpoint_every``; save the final policy; return the summary."""
+    ckpt_dir = out / runfolder.CHECKPOINTS
+    learner_cfg = cfg.learner(session.device)
+    loaded = load_checkpoint(ckpt_dir, session.device) if resume else None
+    done = 0 if loaded is None else loaded[0]["samples"]
+    # A resumed session draws new episodes (seed + samples done), as SB3's resume starts new ones.
+    learner = Learner(learner_cfg, env_seed=cfg.seed + done)
+    clock = engine.WallClock(0.0 if loaded is None else loaded[1].wall_time_s or 0.0)
+    if loaded is not None:
+        learner.load_state(loaded[0])
+        print(f"resuming torchrl ppo in {str(out)!r} from {done} timesteps "
+              f"({loaded[1].model.name})")
+    elif resume:
+        print(f"no checkpoint in {str(ckpt_dir)!r} yet; starting {str(out)!r} from 0 timesteps")
+    log = out / runfolder.EVAL_LOG
+    history = engine.load_eval_history(log, done)
+    next_eval = engine.next_multiple(done, cfg.eval_every)
+    next_ckpt = engine.next_multiple(done, cfg.checkpoint_every)
+    steps, stopped = done, None
+    if cfg.timesteps > done:
+        with contextlib.closing(learner.batches(cfg.timesteps - done)) as batches:
+            for i, (n, reward, _) in enumerate(batches):
+                steps += n
+                if steps >= next_eval:
+                    stopped = _evaluate(learner, cfg, log, history, steps)
+                    next_eval = engine.next_multiple(steps, cfg.eval_every)
+                if steps >= next_ckpt:
+                    save_checkpoint(learner, ckpt_dir, steps, clock.total())
+                    next_ckpt = engine.next_multiple(steps, cfg.checkpoint_every)
+                if session.progress and (i % 10 == 0 or stopped):
+                    print(f"torchrl ppo: {steps:,} of {cfg.timesteps:,} timesteps, "
+                          f"{clock.session():.0f} s, reward/step {reward:.3f}")
+                if stopped:
+                    break
+    latest = runfolder.latest_checkpoint(ckpt_dir)
+    if latest is None or latest["timesteps"] != steps:
+        save_checkpoint(learner, ckpt_dir, steps, clock.total())
+    if stopped:
+        print(f"stopped by --stop-success {cfg.stop_success:g} at {steps:,} of "
+              f"{cfg.timesteps:,} timesteps: {100 * stopped['success_rate']:.0f} % of "
+              f"{stopped['episodes']} validation episodes; the policy evaluated then is the "
+              "run's final one (--stop-success 0 trains on to the end)")
+    save_policy(learner, out / runfolder.FINAL_MODEL, out / runfolder.FINAL_STATS, steps)
+    return {**engine.session_summary(cfg, steps, done, clock), "device": session.device,
+            "gradient_updates": learner.updates, "trained": learner.updates > 0,
+            **({"stopped_at_success": stopped} if stopped else {})}
+
+
+def _evaluate(learner: Learner, cfg: TorchRLRunConfig, log: Path, history: dict,
+              steps: int) -> dict | None:
+    """The periodic validation at ``steps``, logged; the stop record if it reaches
+    ``cfg.stop_success``."""
+    outcome = evaluate_episodes(learner.actor, learner.cfg, learner.env_kwargs,
+                                cfg.eval_episodes, cfg.seed + VALIDATION_SEED_OFFSET)
+    engine.record_evaluation(log, history, steps, outcome)
+    rate = float(np.mean(outcome["successes"]))
+    if cfg.stop_success and rate >= cfg.stop_success:
+        return {"timesteps": int(steps), "success_rate": rate, "episodes": cfg.eval_episodes}
+    return None
+
+
+# --- policy files and checkpoints -------------------------------------------------------------
+
+def state_path(model: Path) -> Path:
+    """The learner's training state beside a checkpoint's ``policy_<N>.pt``."""
+    return Path(model).with_suffix(".torchrl.pt")
+
+
+def save_checkpoint(learner: Learner, directory: Path, steps: int,
+                    wall_time_s: float | None) -> None:
+    """Write policy_<steps>.pt/.json, obs_stats_<steps>.npz and policy_<steps>.torchrl.pt, then
+    point latest.json at them."""
+    directory.mkdir(parents=True, exist_ok=True)
+    model, stats = directory / f"policy_{steps}.pt", directory / f"obs_stats_{steps}.npz"
+    atomic_write(state_path(model), lambda p: torch.save(_to_cpu(learner.state(steps)), p))
+    save_policy(learner, model, stats, steps)
+    engine.point_latest(directory, steps, wall_time_s, model=model.name, stats=stats.name)
+
+
+def load_checkpoint(directory: Path, device: str):
+    """(training state, checkpoint) of the newest checkpoint whose files are complete and
+    load, or None if there is none; an unusable one is reported and the next older tried."""
+    tried = []
+    for ckpt in runfolder.checkpoints(directory):
+        path = state_path(ckpt.model)
+        try:
+            if not (path.is_file() and ckpt.model.is_file() and ckpt.stats.is_file()):
+                raise RunFolderError(f"it is incomplete ({str(path)!r} and the policy files "
+                                     "are written together)")
+            state = torch.load(path, map_location=device, weights_only=True)
+            if not isinstance(state, dict) or state.get("format") != STATE_FORMAT \
+                    or state.get("samples") != ckpt.steps:
+                raise RunFolderError(f"{str(path)!r} is not the TorchRL state of "
+                                     f"{ckpt.steps} timesteps")
+        except Exception as e:  # torn, foreign or hostile: torch refuses non-tensor objects
+            print(f"checkpoint at {ckpt.steps} timesteps is unusable: {e}")
+            tried.append(path.name)
+            continue
+        return state, ckpt
+    if tried:
+        raise RunFolderError(f"no usable checkpoint in {str(directory)!r} (tried "
+                             f"{', '.join(tried)}); pass --force without --resume to start over")
+    return None
+
+
+def _to_cpu(tree):
+    if isinstance(tree, torch.Tensor):
+        return tree.detach().cpu()
+    if isinstance(tree, dict):
+        return {k: _to_cpu(v) for k, v in tree.items()}
+    if isinstance(tree, list | tuple):
+        return type(tree)(_to_cpu(v) for v in tree)
+    return tree
+
+
+def save_policy(learner: Learner, model: Path, stats: Path, steps: int) -> None:
+    """The actor and critic as an SB3 PPO policy (``model``: ``.pt`` and ``.json``, see
+    :mod:`rbenv.agents.policies.weights`) and the observation normaliser as VecNormalize's
+    statistics (``stats``): what ``rbenv evaluate``, ``load_policy`` and export read."""
+    cfg, env = learner.cfg, learner.env.env
+    config = {"format": weights.FORMAT, "algo": "ppo", "policy": weights.POLICY,
+              "engine": "torchrl",
+              "policy_kwargs": {"net_arch": {"pi": [cfg.hidden] * 2, "vf": [cfg.hidden] * 2},
+                                "activation_fn": "tanh", "log_std_init": cfg.log_std_init},
+              "observation_space": weights.space_to_json(_float32(env.single_observation_space)),
+              "action_space": weights.space_to_json(_float32(env.single_action_space)),
+              "num_timesteps": int(steps), "n_updates": learner.updates, "episode_num": 0}
+    policy = weights.build_model(config).policy
+    actor_net = learner.actor.module[0].module  # Sequential(mlp, state-independent scale)
+    actor_layers = _linears(actor_net[0])
+    critic_layers = _linears(learner.critic.module)
+    with torch.no_grad():
+        _copy([*_linears(policy.mlp_extractor.policy_net), policy.action_net], actor_layers)
+        _copy([*_linears(policy.mlp_extractor.value_net), policy.value_net], critic_layers)
+        policy.log_std.copy_(actor_net[1].state_independent_scale.detach().cpu())
+    tensors = {"format": weights.FORMAT, "params": {"policy": policy.state_dict()},
+               "variables": {}}
+    norm, ret = learner.norm, learner.scale.stats
+    vecnormalize = SimpleNamespace(
+        obs_rms=_moments(norm), ret_rms=_moments(ret, scalar=True), clip_obs=10.0,
+        clip_reward=10.0, gamma=cfg.gamma, epsilon=1e-8, norm_obs=True, norm_reward=True)
+    atomic_write(stats, lambda p: weights.save_stats(vecnormalize, p))
+    atomic_write(Path(model), lambda p: weights.save_tensors(tensors, p))
+    runfolder.write_json(weights.config_path(model), config)
+
+
+def _float32(space: gym.spaces.Box) -> gym.spaces.Box:
+    """The torch env's space (in its physics dtype) as the NumPy env's: float32, as the
+    networks see it and as SB3's policies of the other engines record it."""
+    return gym.spaces.Box(space.low.astype(np.float32), space.high.astype(np.float32),
+                          dtype=np.float32)
+
+
+def _linears(module: nn.Module) -> list[nn.Linear]:
+    return [m for m in module.modules() if isinstance(m, nn.Linear)]
+
+
+def _copy(targets: list[nn.Linear], sources: list[nn.Linear]) -> None:
+    for target, source in zip(targets, sources, strict=True):
+        target.weight.copy_(source.weight.detach().cpu())
+        target.bias.copy_(source.bias.detach().cpu())
+
+
+def _moments(norm: RunningNorm, scalar: bool = False) -> SimpleNamespace:
+    """A RunningNorm's statistics as SB3's RunningMeanStd fields (float64 arrays)."""
+    mean, var = (norm.mean.detach().cpu().double().numpy(),
+                 norm.var.detach().cpu().double().numpy())
+    if scalar:
+        mean, var = mean.reshape(()), var.reshape(())
+    return SimpleNamespace(mean=mean, var=var, count=float(norm.count))

@@ -1,18 +1,35 @@
 """rbenv train --engine torchrl: the batched TorchRL adapter passes check_env_specs, partial
-resets through "_reset" reach the torch env, and the quick CLI form trains end to end (a smoke
-run: its success rate is not asserted; the full run's is in docs/torch.md)."""
+resets through "_reset" reach the torch env, the saved SB3 policy acts as the trained actor,
+and a run has the run folder of the other engines: checkpoints, resume (from the newest usable
+checkpoint), the periodic evaluation and --stop-success, the report (smoke runs: success rates
+are not asserted; the full run's is in docs/torch.md)."""
 
 from __future__ import annotations
 
 import json
+import shutil
 
+import gymnasium as gym
+import numpy as np
 import pytest
 
 pytest.importorskip("torchrl", reason="torchrl is not installed (ecosystem extra)")
 import torch
 from rbenv.agents import cli
-from rbenv.agents.training.torchrl import RbenvTorchRLEnv
+from rbenv.agents.policies import load_policy
+from rbenv.agents.policies.sb3 import expected_throttle
+from rbenv.agents.training.config import TORCHRL_HYPERPARAMS, TorchRLRunConfig
+from rbenv.agents.training.engine import run as engine_run
+from rbenv.agents.training.torchrl import (
+    Learner,
+    RbenvTorchRLEnv,
+    TorchRLConfig,
+    save_policy,
+)
+from tensordict import TensorDict
 from torchrl.envs.utils import check_env_specs
+
+import rbenv
 
 
 def test_the_adapter_passes_check_env_specs():
@@ -33,12 +50,118 @@ def test_partial_reset_restarts_only_the_masked_sub_envs():
     assert torch.equal(out["observation"][1], td["observation"][1])
 
 
-def test_quick_cli_trains_and_writes_its_record(tmp_path):
+def test_quick_cli_writes_a_run_folder_that_loads_as_a_policy(tmp_path):
+    out = tmp_path / "run"
     assert cli.main(["train", "--engine", "torchrl", "--device", "cpu", "--quick",
-                     "--out", str(tmp_path)]) == 0
-    record = json.loads((tmp_path / "torchrl.json").read_text())
-    assert record["samples"] >= 16_384 and 0.0 <= record["held_out_success"] <= 1.0
-    assert record["config"]["device"] == "cpu"
+                     "--out", str(out)]) == 0
+    config = json.loads((out / "config.json").read_text())
+    assert config["engine"] == "torchrl" and config["timesteps"] == 16_384
+    assert config["report_episodes"] == 50
+    assert set(config["hyperparams"]) == set(TORCHRL_HYPERPARAMS)
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["timesteps"] == 16_384 and summary["device"] == "cpu"
+    assert summary["gradient_updates"] == 5 * 8  # one batch of 256 x 64: 8 minibatches, 5 epochs
+    report = (out / "report.md").read_text()
+    assert "ppo (TorchRL)" in report and "| pd |" in report
+    policy = load_policy(out)
+    assert policy.predict(policy.make_env().reset(seed=0)[0])[0].shape == (12,)
+    assert not list(out.rglob("*.pkl")) and not list(out.rglob("*.zip"))
+    if shutil.which("cc"):  # export verifies the C policy against the run's predict
+        assert cli.main(["export", str(out), "--format", "c", "--out", str(tmp_path / "c")]) == 0
+        record = json.loads((tmp_path / "c" / "export.json").read_text())
+        assert record["output_stage"] == "mean_throttle" and record["timesteps"] == 16_384
+        assert record["check"]["max_error_of_range"]["c"] < record["check"]["tolerance"]
+
+
+def _learner(**over) -> Learner:
+    cfg = TorchRLConfig(num_envs=8, rollout=16, minibatch=64, epochs=2, hidden=16,
+                        timesteps=256, **over)
+    return Learner(cfg)
+
+
+def test_the_saved_policy_acts_values_and_normalises_as_the_trained_modules(tmp_path):
+    learner = _learner()
+    for _ in learner.batches(256):  # two updates: weights and statistics away from their start
+        pass
+    save_policy(learner, tmp_path / "policy.pt", tmp_path / "obs_stats.npz", 256)
+    policy = load_policy(tmp_path / "policy.pt", action="mode")
+    obs = np.stack([gym.make(rbenv.ENV_ID).reset(seed=s)[0] for s in range(5)])
+    x = torch.as_tensor(obs, dtype=torch.float32)
+    with torch.no_grad():
+        loc, scale = learner.actor.module[0].module(x)
+        value = learner.critic(TensorDict({"observation": x}, [5]))["state_value"]
+    action, _ = policy.predict(obs)
+    np.testing.assert_allclose(action, np.clip(loc.numpy(), -1, 1), atol=1e-5)  # SB3's clip
+    space = gym.make(rbenv.ENV_ID).action_space
+    assert policy.model.action_space == space and policy.model.observation_space.dtype == \
+        np.float32
+    sb3 = policy.model.policy
+    with torch.no_grad():
+        ours = sb3.predict_values(torch.as_tensor(policy.normalize(obs)))
+    np.testing.assert_allclose(ours.numpy(), value.numpy(), atol=1e-5)
+    np.testing.assert_allclose(sb3.log_std.exp().detach().numpy(), scale[0].numpy(), rtol=1e-6)
+    throttle = load_policy(tmp_path / "policy.pt").predict(obs)[0]  # auto: the mean throttle
+    np.testing.assert_allclose(throttle, expected_throttle(loc.numpy(), scale.numpy()),
+                               atol=1e-5)
+
+
+def test_resume_restores_the_learner_and_goes_on_counting(tmp_path):
+    out = tmp_path / "run"
+    args = ["train", "--engine", "torchrl", "--out", str(out), "--hyperparams", json.dumps(
+        {"num_envs": 8, "rollout": 16, "minibatch": 64, "epochs": 2, "hidden": 16}),
+            "--checkpoint-every", "128", "--eval-every", "256", "--eval-episodes", "4",
+            "--no-report", "--no-progress"]
+    assert cli.main([*args, "--timesteps", "256"]) == 0
+    state = torch.load(out / "checkpoints" / "policy_256.torchrl.pt", weights_only=True)
+    assert state["samples"] == 256 and state["updates"] == 2 * 2 * 2
+    assert (out / "checkpoints" / "policy_128.torchrl.pt").is_file()
+    assert cli.main([*args, "--timesteps", "512", "--resume"]) == 0
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["resumed_from"] == 256 and summary["timesteps"] == 512
+    assert summary["gradient_updates"] == 2 * state["updates"]
+    adam = torch.load(out / "checkpoints" / "policy_512.torchrl.pt", weights_only=True)
+    steps = {float(s["step"]) for s in adam["optimizer"]["state"].values()}
+    assert steps == {16.0}  # Adam's moments went on from the checkpoint's 8 steps
+    counts = [v for k, v in adam["actor"].items() if k.endswith("count")]
+    assert [float(c) for c in counts] == [pytest.approx(512, abs=1e-3)]  # the normaliser too
+    with np.load(out / "eval" / "evaluations.npz") as log:
+        assert log["timesteps"].tolist() == [256, 512]
+        assert log["successes"].shape == (2, 4)
+
+
+def test_resume_skips_a_corrupt_newest_checkpoint(tmp_path, capsys):
+    out = tmp_path / "run"
+    args = ["train", "--engine", "torchrl", "--out", str(out), "--hyperparams", json.dumps(
+        {"num_envs": 8, "rollout": 16, "minibatch": 128, "epochs": 1, "hidden": 8}),
+            "--checkpoint-every", "128", "--no-report", "--no-progress"]
+    assert cli.main([*args, "--timesteps", "256"]) == 0
+    (out / "checkpoints" / "policy_256.torchrl.pt").write_bytes(b"not a checkpoint")
+    assert cli.main([*args, "--timesteps", "384", "--resume"]) == 0
+    printed = capsys.readouterr().out
+    assert "checkpoint at 256 timesteps is unusable" in printed
+    assert "from 128 timesteps" in printed
+    assert json.loads((out / "training.json").read_text())["resumed_from"] == 128
+
+
+def test_stop_success_ends_the_run_on_the_policy_it_evaluated(tmp_path, monkeypatch):
+    import rbenv.agents.training.torchrl as trl
+
+    def all_succeed(actor, cfg, env_kwargs, episodes, seed):
+        assert seed == 3 + trl.VALIDATION_SEED_OFFSET  # the validation episodes, not the report's
+        return {"results": [0.0] * episodes, "ep_lengths": [1] * episodes,
+                "successes": [True] * episodes}
+
+    monkeypatch.setattr(trl, "evaluate_episodes", all_succeed)
+    out = tmp_path / "run"
+    cfg = TorchRLRunConfig(out=str(out), seed=3, timesteps=1024, eval_every=256, eval_episodes=5,
+                           stop_success=1.0, hyperparams={"num_envs": 8, "rollout": 16,
+                                                          "minibatch": 128, "epochs": 1})
+    engine_run(cfg, trl.TorchRLSession(progress=False), report=False)
+    summary = json.loads((out / "training.json").read_text())
+    assert summary["timesteps"] == 256
+    assert summary["stopped_at_success"] == {"timesteps": 256, "success_rate": 1.0,
+                                             "episodes": 5}
+    assert json.loads((out / "policy.json").read_text())["num_timesteps"] == 256
 
 
 def test_cli_refuses_device_without_torchrl():
