@@ -156,6 +156,10 @@ PATHS = {p.name: p for p in [
     Path("torchrl-g0.98-std-0.5", engine="torchrl", eval_every=50_000, budget=800_000,
          hyperparams={"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
                       "lr": 2e-3, "hidden": 64, "gamma": 0.98, "log_std_init": -0.5}),
+    # The same on a longer budget: the settings --engine torchrl ships for Reorient-v1.
+    Path("torchrl-g0.98-std-0.5-1.2M", engine="torchrl", eval_every=50_000, budget=1_200_000,
+         hyperparams={"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
+                      "lr": 2e-3, "hidden": 64, "gamma": 0.98, "log_std_init": -0.5}),
 ]}
 
 # The off-policy learners, FastSAC/FastTD3's recipe on a CPU: more envs, fewer and larger

@@ -44,6 +44,9 @@ class TrainingSettings:
     and ended, where the flags are not given (:data:`RUN_DEFAULT_KEYS`: stop at a validation
     success rate, evaluate every so many steps on so many episodes, keep the best policy).
     They are not model settings: RL Zoo never sees them.
+    torchrl: ``rbenv train --engine torchrl``'s learner on this id (TorchRL's PPO, whose
+    fields are not RL Zoo's: :class:`rbenv.agents.training.config.TorchRLConfig`), where it
+    differs from the learner's defaults, and ``timesteps``, its budget.
     """
 
     env_id: str
@@ -56,6 +59,7 @@ class TrainingSettings:
     engine_settings: Mapping[tuple, dict] = field(default_factory=dict)
     scene_settings: Mapping[tuple, dict] = field(default_factory=dict)
     run_defaults: Mapping[str, dict] = field(default_factory=dict)
+    torchrl: Mapping[str, object] = field(default_factory=dict)
 
     def settings(self, algo: str, engine: str = "sb3", scene: str | None = None) -> dict:
         """``algo``'s settings on this id, RL Zoo's format: the shared ``hyperparams[algo]``
@@ -115,6 +119,11 @@ def _check(entry: TrainingSettings) -> None:
             raise InvalidParameterError(
                 f"{where}: run_defaults must map an algorithm with hyperparams to a dict of "
                 f"{', '.join(RUN_DEFAULT_KEYS)}, got {algo!r}: {defaults!r}")
+    steps = entry.torchrl.get("timesteps", 1) if isinstance(entry.torchrl, Mapping) else None
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
+        raise InvalidParameterError(
+            f"{where}: torchrl must be a dict of TorchRL learner fields whose 'timesteps' (if "
+            f"given) is a positive int, got {entry.torchrl!r}")
     _check_pairs(where, "scene_settings", entry.scene_settings, ("algorithm", "scene"),
                  entry.hyperparams)
     _check_pairs(where, "engine_settings", entry.engine_settings, ("engine", "algorithm"),

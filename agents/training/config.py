@@ -432,7 +432,9 @@ TORCHRL_HYPERPARAMS = ("num_envs", "rollout", "minibatch", "epochs", "lr", "gamm
 class TorchRLRunConfig(RunConfig):
     """A run of the TorchRL back end (``--engine torchrl``: TorchRL's PPO on the torch env);
     saved as ``config.json``. Its ``hyperparams`` are :class:`TorchRLConfig`'s learner fields
-    (``TORCHRL_HYPERPARAMS``), resolved in full; its policy files are an SB3 PPO policy's."""
+    (``TORCHRL_HYPERPARAMS``), resolved in full: the caller's over the task's (``torchrl`` of
+    its training settings) over the learner's defaults; its policy files are an SB3 PPO
+    policy's."""
 
     engine: Engine = "torchrl"
     stop_success: float | None = None
@@ -454,16 +456,20 @@ class TorchRLRunConfig(RunConfig):
         if self.stop_success is None:
             self.stop_success = 0.0
         check_stop_success(self.stop_success)
-        defaults = TorchRLConfig()
+        shipped = {**{k: getattr(TorchRLConfig, k) for k in ("timesteps", *TORCHRL_HYPERPARAMS)},
+                   **task_entry(self.env_id).torchrl}
         if self.timesteps is None:
-            self.timesteps = defaults.timesteps
+            self.timesteps = shipped["timesteps"]
         super().resolve()
-        unknown = sorted(set(self.hyperparams) - set(TORCHRL_HYPERPARAMS))
-        if unknown:
-            raise InvalidParameterError(f"hyperparams {unknown} are not --engine torchrl's; "
-                                        f"it takes {', '.join(TORCHRL_HYPERPARAMS)}")
-        self.hyperparams = {k: self.hyperparams.get(k, getattr(defaults, k))
-                            for k in TORCHRL_HYPERPARAMS}
+        for source, names in (("hyperparams", set(self.hyperparams)),
+                              (f"the torchrl settings of {self.env_id}",
+                               set(shipped) - {"timesteps"})):
+            unknown = sorted(names - set(TORCHRL_HYPERPARAMS))
+            if unknown:
+                raise InvalidParameterError(
+                    f"{source}: {unknown} are not --engine torchrl's hyperparameters; it takes "
+                    f"{', '.join(TORCHRL_HYPERPARAMS)} (the budget is --timesteps)")
+        self.hyperparams = {k: self.hyperparams.get(k, shipped[k]) for k in TORCHRL_HYPERPARAMS}
         self.learner("cpu").check()
         return self
 

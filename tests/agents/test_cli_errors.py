@@ -74,7 +74,7 @@ MISTAKES = {
                              ["argument --quick", "not one of --resume"]),
     "torchrl hyperparameter": (["train", "--engine", "torchrl", "--hyperparams",
                                 '{"n_steps": 8}'],
-                               ["hyperparams ['n_steps']", "num_envs, rollout"]),
+                               ["hyperparams: ['n_steps']", "num_envs, rollout"]),
     "torchrl hyperparameter value": (["train", "--engine", "torchrl", "--hyperparams",
                                       '{"gamma": 1.5}'],
                                      ["gamma must be a finite number in (0, 1]", "1.5"]),

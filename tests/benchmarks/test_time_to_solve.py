@@ -76,3 +76,12 @@ def test_quick_run_through_skrl(results):
     assert [p["samples"] for p in run["curve"]] == [4096, 8192]
     assert 0 < run["curve"][0]["cpu_s"] < run["curve"][1]["cpu_s"]
     assert not run["solved"] and run["best_success"] < 0.99
+
+
+def test_the_measured_torchrl_path_is_what_the_registry_ships():
+    from rbenv.agents import settings
+
+    shipped = dict(settings.get("rbenv/SatelliteReorient-v1").torchrl)
+    path = time_to_solve.PATHS["torchrl-g0.98-std-0.5-1.2M"]
+    assert path.budget == shipped.pop("timesteps")
+    assert path.hyperparams == shipped

@@ -210,6 +210,9 @@ def test_engine_settings_must_name_an_algorithm_with_settings():
     ("run_defaults", {"ddpg": {"stop_success": 1.0}}),
     ("run_defaults", {"ppo": {"learning_rate": 1e-3}}),  # a model setting, not the run's
     ("run_defaults", {"ppo": 1.0}),
+    ("torchrl", {"timesteps": 0}),
+    ("torchrl", {"timesteps": 1.5e6}),
+    ("torchrl", [("gamma", 0.98)]),
 ])
 def test_scene_settings_and_run_defaults_are_checked_at_registration(field, bad):
     from rbenv.agents.settings.table import TrainingSettings, register
@@ -218,3 +221,30 @@ def test_scene_settings_and_run_defaults_are_checked_at_registration(field, bad)
     with pytest.raises(InvalidParameterError, match=field):
         register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
                                   hyperparams=tuned.ALL, **{field: bad}))
+
+
+def test_an_ids_torchrl_settings_set_the_torchrl_run_under_the_callers():
+    from rbenv.agents.settings.table import TrainingSettings, register, unregister
+    from rbenv.agents.training.config import TorchRLConfig, TorchRLRunConfig
+    from rbenv.core.errors import InvalidParameterError
+
+    v1 = "rbenv/SatelliteReorient-v1"
+    shipped = settings.get(v1).torchrl
+    cfg = TorchRLRunConfig(env_id=v1).resolve()
+    assert cfg.timesteps == shipped["timesteps"]
+    assert {k: cfg.hyperparams[k] for k in shipped if k != "timesteps"} == \
+        {k: v for k, v in shipped.items() if k != "timesteps"}
+    mine = TorchRLRunConfig(env_id=v1, timesteps=65_536, hyperparams={"gamma": 0.95}).resolve()
+    assert mine.timesteps == 65_536 and mine.hyperparams["gamma"] == 0.95
+    assert mine.hyperparams["hidden"] == shipped["hidden"]
+    plain = TorchRLRunConfig(env_id="rbenv/SatelliteReorient-v0").resolve()  # none shipped
+    assert plain.timesteps == TorchRLConfig.timesteps
+    assert plain.hyperparams["hidden"] == TorchRLConfig.hidden
+    register(TrainingSettings(env_id="test/TorchRLTypo-v0", baselines={"pd": "a.b:C"},
+                              hyperparams=tuned.ALL, torchrl={"n_steps": 32}))
+    try:
+        with pytest.raises(InvalidParameterError,
+                           match=r"torchrl settings of test/TorchRLTypo-v0: \['n_steps'\]"):
+            TorchRLRunConfig(env_id="test/TorchRLTypo-v0").resolve()
+    finally:
+        unregister("test/TorchRLTypo-v0")
