@@ -509,7 +509,8 @@ def save_policy(learner: Learner, model: Path, stats: Path, steps: int) -> None:
               "observation_space": weights.space_to_json(_float32(env.single_observation_space)),
               "action_space": weights.space_to_json(_float32(env.single_action_space)),
               "num_timesteps": int(steps), "n_updates": learner.updates, "episode_num": 0}
-    policy = weights.build_model(config).policy
+    with torch.random.fork_rng(devices=[]):  # SB3's initialisation draws: not the run's
+        policy = weights.build_model(config).policy
     actor_net = learner.actor.module[0].module  # Sequential(mlp, state-independent scale)
     actor_layers = _linears(actor_net[0])
     critic_layers = _linears(learner.critic.module)

@@ -24,6 +24,7 @@ from rbenv.agents.training.torchrl import (
     Learner,
     RbenvTorchRLEnv,
     TorchRLConfig,
+    TorchRLSession,
     save_policy,
 )
 from tensordict import TensorDict
@@ -183,3 +184,20 @@ def test_bench_env_speed_torch_quick_writes_json_and_png(tmp_path):
     assert data["memory"]["bytes_per_sub_env"] > 0
     assert 0 < data["float32_accuracy"]["obs_gap_max"] < 1e-3
     assert data["training"]["samples"] >= 16_384
+
+
+def test_checkpoints_and_evaluations_leave_the_training_as_it_is(tmp_path):
+    """A run's weights do not depend on how often it is checkpointed or evaluated (saving the
+    SB3 policy draws SB3's initial weights, outside the run's random numbers)."""
+    hyperparams = {"num_envs": 8, "rollout": 16, "minibatch": 64, "epochs": 2, "hidden": 16}
+    finals = []
+    for every in (128, 10**9):
+        out = tmp_path / f"every{every}"
+        cfg = TorchRLRunConfig(out=str(out), timesteps=512, hyperparams=hyperparams,
+                               checkpoint_every=every, eval_every=every, eval_episodes=4,
+                               stop_success=0.0)
+        engine_run(cfg, TorchRLSession(progress=False), report=False)
+        finals.append(torch.load(out / "checkpoints" / "policy_512.torchrl.pt",
+                                 weights_only=True)["actor"])
+    assert finals[0].keys() == finals[1].keys()
+    assert all(torch.equal(finals[0][k], finals[1][k]) for k in finals[0])
