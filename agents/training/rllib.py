@@ -36,7 +36,13 @@ from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.rllib import MODULE_PATH, RLLIB_HINT, RLlibPolicy, latest
 from rbenv.agents.settings import rllib as _rllib
 from rbenv.agents.training import engine, flags
-from rbenv.agents.training.config import Engine, RLlibOptions, RunConfig, task_entry
+from rbenv.agents.training.config import (
+    Engine,
+    RLlibOptions,
+    RunConfig,
+    apply_run_defaults,
+    task_entry,
+)
 from rbenv.agents.training.engine import add_run_arguments
 from rbenv.agents.training.ray_cluster import connect, require_ray, shutdown
 from rbenv.agents.training.report import Trained, write_report
@@ -83,6 +89,7 @@ class RLlibConfig(RunConfig):
         if self.algo != "ppo":
             raise InvalidParameterError(f"algo must be 'ppo' with engine rllib, got "
                                         f"{self.algo!r}")
+        apply_run_defaults(self, self.algo)  # the periodic evaluation's (no stop_success here)
         self.check_counts(("envs_per_runner",))
         self.check_counts(("env_runners",), minimum=0)
         self.check_dicts(("model",))

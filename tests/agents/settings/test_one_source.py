@@ -248,3 +248,19 @@ def test_an_ids_torchrl_settings_set_the_torchrl_run_under_the_callers():
             TorchRLRunConfig(env_id="test/TorchRLTypo-v0").resolve()
     finally:
         unregister("test/TorchRLTypo-v0")
+
+
+def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
+    from rbenv.agents.training.config import TorchRLRunConfig, TrainConfig
+    from rbenv.agents.training.rllib import RLlibConfig
+
+    v1 = "rbenv/SatelliteReorient-v1"
+    watch = settings.get(v1).run_defaults["ppo"]
+    for cls in (TrainConfig, RLlibConfig, TorchRLRunConfig):
+        cfg = cls(env_id=v1).resolve()
+        assert (cfg.eval_every, cfg.eval_episodes) == (watch["eval_every"],
+                                                       watch["eval_episodes"]), cls
+        assert getattr(cfg, "stop_success", watch["stop_success"]) == watch["stop_success"]
+        assert cls(env_id=v1, eval_every=1000).resolve().eval_every == 1000  # the caller's wins
+        plain = cls(env_id="rbenv/SatelliteReorient-v0").resolve()
+        assert (plain.eval_every, plain.eval_episodes) == (200_000, 100), cls
