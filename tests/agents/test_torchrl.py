@@ -61,7 +61,10 @@ def test_quick_cli_writes_a_run_folder_that_loads_as_a_policy(tmp_path):
     assert set(config["hyperparams"]) == set(TORCHRL_HYPERPARAMS)
     summary = json.loads((out / "training.json").read_text())
     assert summary["timesteps"] == 16_384 and summary["device"] == "cpu"
-    assert summary["gradient_updates"] == 5 * 8  # one batch of 256 x 64: 8 minibatches, 5 epochs
+    hp = config["hyperparams"]
+    batch = hp["num_envs"] * hp["rollout"]
+    assert summary["gradient_updates"] == \
+        16_384 // batch * hp["epochs"] * -(-batch // hp["minibatch"])
     report = (out / "report.md").read_text()
     assert "ppo (TorchRL)" in report and "| pd |" in report
     policy = load_policy(out)
