@@ -49,6 +49,7 @@ from rbenv.agents.policies.sb3 import SB3Policy
 from rbenv.agents.training import engine
 from rbenv.agents.training.config import TorchRLConfig, TorchRLOptions, TorchRLRunConfig
 from rbenv.agents.training.report import Trained, write_report
+from rbenv.core.errors import InvalidParameterError
 from tensordict import TensorDict
 from tensordict.nn import AddStateIndependentNormalScale, TensorDictModule
 from torch import nn
@@ -365,6 +366,9 @@ class TorchRLSession(TorchRLOptions):
 
     packages: ClassVar[tuple[str, ...]] = ("torchrl", "tensordict", "torch")
 
+    def __post_init__(self):
+        check_device(self.device)
+
     def fit(self, cfg: TorchRLRunConfig, out: Path, resume: bool) -> dict:
         return fit(cfg, out, resume, self)
 
@@ -377,6 +381,24 @@ class TorchRLSession(TorchRLOptions):
 
     def load_hint(self, out: Path) -> str:
         return runfolder.LOAD_HINT.replace("PATH", repr(str(out)))
+
+
+def check_device(device: str) -> None:
+    """``device`` a torch device this machine has; else an error naming it and the rule."""
+    try:
+        kind = torch.device(device)
+    except (RuntimeError, TypeError) as e:
+        raise InvalidParameterError(f"device must be a torch device such as cpu, cuda or "
+                                    f"cuda:1, got {device!r} ({e})") from None
+    if kind.type == "cpu":
+        return
+    backend = getattr(torch, kind.type, None)
+    count = backend.device_count() if hasattr(backend, "device_count") else 0
+    if count == 0 or (kind.index is not None and kind.index >= count):
+        raise InvalidParameterError(
+            f"device {device!r} is not on this machine (torch {torch.__version__} sees "
+            f"{count} {kind.type} device(s)); pass --device cpu, or install a torch build "
+            f"for {kind.type}")
 
 
 def fit(cfg: TorchRLRunConfig, out: Path, resume: bool, session: TorchRLSession) -> dict:

@@ -204,3 +204,16 @@ def test_checkpoints_and_evaluations_leave_the_training_as_it_is(tmp_path):
                                  weights_only=True)["actor"])
     assert finals[0].keys() == finals[1].keys()
     assert all(torch.equal(finals[0][k], finals[1][k]) for k in finals[0])
+
+
+@pytest.mark.parametrize("device", ["gpu", "cuda:99", "mps"])
+def test_a_device_this_machine_lacks_is_named_before_anything_is_written(device, tmp_path,
+                                                                         capsys):
+    if device == "mps" and torch.backends.mps.is_available():
+        pytest.skip("this machine has mps")
+    assert cli.console(["train", "--engine", "torchrl", "--device", device, "--out",
+                        str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rbenv train: error: device") and repr(device) in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "run").exists()
