@@ -57,6 +57,10 @@ class Backend(Protocol):
 
     packages: tuple[str, ...]  # modules whose versions config.json records (beside NumPy, ...)
 
+    def check(self, cfg: RunConfig) -> None:
+        """Refuse, with a named error, a resolved config that this back end cannot train;
+        called before anything is written."""
+
     def fit(self, cfg: RunConfig, out: Path, resume: bool) -> dict:
         """Train under the run's lock (from the newest checkpoint if ``resume``), save the
         final policy; return the summary (:func:`session_summary` plus the back end's keys)."""
@@ -83,6 +87,7 @@ def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool =
         cfg.out = str(out)
         cfg.resolve()
         cfg.check_env()
+    backend.check(cfg)
     out.mkdir(parents=True, exist_ok=True)
     with RunLock(out):
         if resume:

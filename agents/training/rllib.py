@@ -192,6 +192,10 @@ class RLlibSession(RLlibOptions):
 
     packages: ClassVar[tuple[str, ...]] = ("ray", "torch")
 
+    def check(self, cfg: RLlibConfig) -> None:
+        """Nothing beyond :meth:`RLlibConfig.resolve`: RLlib checks its own settings when it
+        builds the algorithm."""
+
     def fit(self, cfg: RLlibConfig, out: Path, resume: bool) -> dict:
         started = connect(self.address, feature="--engine rllib")
         try:

@@ -15,6 +15,8 @@ is also the fastest for these small MLPs) and the CPU kind.
 from __future__ import annotations
 
 import copy
+import difflib
+import inspect
 import os
 import shutil
 import sys
@@ -56,6 +58,9 @@ class SB3Session(SB3Options):
     written before issue 19; never needed for runs written now, which hold no pickle)."""
 
     packages: ClassVar[tuple[str, ...]] = ("stable_baselines3", "torch")
+
+    def check(self, cfg: TrainConfig) -> None:
+        check_hyperparams(cfg)
 
     def fit(self, cfg: TrainConfig, out: Path, resume: bool) -> dict:
         return fit(cfg, out, resume, self)
@@ -174,6 +179,30 @@ def _start(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> tu
     model = algo_class(cfg.algo, cfg.engine)("MlpPolicy", env, seed=cfg.seed, device="cpu",
                                              verbose=session.verbose, **model_kwargs(cfg, env))
     return model, env, 0, engine.WallClock()
+
+
+# Keyword arguments of the model class that the engine itself passes.
+_ENGINE_ARGS = ("self", "policy", "env", "seed", "device", "verbose", "_init_setup_model")
+# RL Zoo's settings that are rbenv train's own fields, and the zoo's noise, which becomes
+# action_noise (model_kwargs).
+_OWN_FLAGS = {"n_envs": "--n-envs", "n_timesteps": "--timesteps", "normalize": "--normalize",
+              "env_kwargs": "--env-kwargs"}
+
+
+def check_hyperparams(cfg: TrainConfig) -> None:
+    """Each key of ``cfg.hyperparams`` a keyword argument of the algorithm's model class (or RL
+    Zoo's ``noise_type``/``noise_std``); else an error naming the keys and what is valid."""
+    cls = algo_class(cfg.algo, cfg.engine)
+    takes = set(inspect.signature(cls.__init__).parameters) - set(_ENGINE_ARGS)
+    unknown = sorted(set(cfg.hyperparams) - takes - {"noise_type", "noise_std"})
+    if unknown:
+        own = [f"{k} is {_OWN_FLAGS[k]}" if k in _OWN_FLAGS else f"{k}: did you mean {near[0]!r}?"
+               for k in unknown
+               if k in _OWN_FLAGS or (near := difflib.get_close_matches(k, takes, n=1))]
+        raise InvalidParameterError(
+            f"hyperparams: {unknown} are not keyword arguments of {cls.__name__} ("
+            + (f"{'; '.join(own)}; " if own else "")
+            + f"it takes {', '.join(sorted(takes))})")
 
 
 def set_threads(n: int) -> None:

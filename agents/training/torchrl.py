@@ -369,6 +369,9 @@ class TorchRLSession(TorchRLOptions):
     def __post_init__(self):
         check_device(self.device)
 
+    def check(self, cfg: TorchRLRunConfig) -> None:
+        """Nothing beyond :meth:`TorchRLRunConfig.resolve`, which checks every learner field."""
+
     def fit(self, cfg: TorchRLRunConfig, out: Path, resume: bool) -> dict:
         return fit(cfg, out, resume, self)
 

@@ -128,3 +128,16 @@ def test_a_missing_sbx_names_its_extra(monkeypatch, tmp_path):
     with pytest.raises(MissingExtraError, match=r'--engine sbx needs sbx.*the sbx extra'):
         train_cli(tmp_path / "run", "--timesteps", "256")
     assert not (tmp_path / "run").exists()
+
+
+def test_a_hyperparameter_sbx_does_not_take_is_named_before_anything_is_written(tmp_path,
+                                                                              capsys):
+    from rbenv.agents.cli import console
+
+    out = tmp_path / "run"
+    assert console(["train", "--engine", "sbx", "--algo", "td3", "--out", str(out),
+                    "--hyperparams", '{"tau": 0.01, "polyak": 0.99}']) == 2
+    err = capsys.readouterr().err
+    assert "hyperparams: ['polyak'] are not keyword arguments of TD3" in err
+    assert "tau" in err.split("it takes", 1)[1]  # what it does take is listed
+    assert not out.exists()
