@@ -474,7 +474,8 @@ def _copy_linear(modules, layers) -> None:
             module.bias.copy_(torch.from_numpy(np.array(bias)))
 
 
-def _linears(module) -> list:
+def linear_layers(module) -> list:
+    """The torch ``Linear`` modules of ``module``, in the order they apply."""
     import torch
 
     return [m for m in module.modules() if isinstance(m, torch.nn.Linear)]
@@ -491,15 +492,15 @@ def sb3_policy_state(model) -> dict:
     sb3 = build_model({**config, "engine": "sb3"}).policy
     jax_policy = model.policy
     if config["algo"] == "sac":  # hidden layers, then the mean's and the log-std's heads
-        _copy_linear([*_linears(sb3.actor.latent_pi), sb3.actor.mu, sb3.actor.log_std],
+        _copy_linear([*linear_layers(sb3.actor.latent_pi), sb3.actor.mu, sb3.actor.log_std],
                      _dense_layers(jax_policy.actor_state.params))
     else:  # td3: a tanh network and its target
-        _copy_linear(_linears(sb3.actor), _dense_layers(jax_policy.actor_state.params))
-        _copy_linear(_linears(sb3.actor_target),
+        _copy_linear(linear_layers(sb3.actor), _dense_layers(jax_policy.actor_state.params))
+        _copy_linear(linear_layers(sb3.actor_target),
                      _dense_layers(jax_policy.actor_state.target_params))
     for critic, params in ((sb3.critic, jax_policy.qf_state.params),
                            (sb3.critic_target, jax_policy.qf_state.target_params)):
         stacked = _dense_layers(params)
         for k, q_net in enumerate(critic.q_networks):
-            _copy_linear(_linears(q_net), [(w[k], b[k]) for w, b in stacked])
+            _copy_linear(linear_layers(q_net), [(w[k], b[k]) for w, b in stacked])
     return sb3.state_dict()

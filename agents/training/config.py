@@ -94,12 +94,7 @@ class RunConfig:
     def check_counts(self, names, minimum: int = 1) -> None:
         """Each named field an integer >= ``minimum`` (stored as int); else a named error."""
         for name in names:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
-                    or value < minimum:
-                raise InvalidParameterError(f"{name} must be an integer >= {minimum}, got "
-                                            f"{value!r}")
-            setattr(self, name, int(value))
+            setattr(self, name, check_count(name, getattr(self, name), minimum))
 
     def check_dicts(self, names) -> None:
         """Each named field a dict (a JSON object); else a named error."""
@@ -131,6 +126,14 @@ class RunConfig:
                 f"env_kwargs must not hold 'scene' (got {self.env_kwargs['scene']!r}): the run's "
                 "scene is its own field, --scene")
         check_env_options(self.env_id, {"scene": self.scene, **self.env_kwargs})
+
+
+def check_count(name: str, value, minimum: int = 1) -> int:
+    """``value`` (the field ``name``) as an int, if it is an integer >= ``minimum``; else a
+    named error."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise InvalidParameterError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
 
 
 def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
@@ -400,9 +403,7 @@ class TorchRLConfig:
     def check(self) -> TorchRLConfig:
         """Every learner field in its range; else an error naming the field, value and rule."""
         for name in ("num_envs", "rollout", "minibatch", "epochs", "hidden", "threads"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-                raise InvalidParameterError(f"{name} must be an integer >= 1, got {value!r}")
+            check_count(name, getattr(self, name))
         for name, rule, ok in (("lr", "> 0", lambda v: v > 0), ("clip", "> 0", lambda v: v > 0),
                                ("gamma", "in (0, 1]", lambda v: 0 < v <= 1),
                                ("lmbda", "in [0, 1]", lambda v: 0 <= v <= 1),

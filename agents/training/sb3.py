@@ -15,7 +15,6 @@ is also the fastest for these small MLPs) and the CPU kind.
 from __future__ import annotations
 
 import copy
-import difflib
 import inspect
 import os
 import shutil
@@ -49,6 +48,8 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize, sync_envs_normalization
 from tqdm import tqdm
+
+from rbenv.satellite import usage
 
 
 @dataclass(frozen=True)
@@ -183,8 +184,7 @@ def _start(cfg: TrainConfig, out: Path, resume: bool, session: SB3Session) -> tu
 
 # Keyword arguments of the model class that the engine itself passes.
 _ENGINE_ARGS = ("self", "policy", "env", "seed", "device", "verbose", "_init_setup_model")
-# RL Zoo's settings that are rbenv train's own fields, and the zoo's noise, which becomes
-# action_noise (model_kwargs).
+# RL Zoo's settings that are rbenv train's own flags (a key the error then names).
 _OWN_FLAGS = {"n_envs": "--n-envs", "n_timesteps": "--timesteps", "normalize": "--normalize",
               "env_kwargs": "--env-kwargs"}
 
@@ -196,9 +196,9 @@ def check_hyperparams(cfg: TrainConfig) -> None:
     takes = set(inspect.signature(cls.__init__).parameters) - set(_ENGINE_ARGS)
     unknown = sorted(set(cfg.hyperparams) - takes - {"noise_type", "noise_std"})
     if unknown:
-        own = [f"{k} is {_OWN_FLAGS[k]}" if k in _OWN_FLAGS else f"{k}: did you mean {near[0]!r}?"
+        own = [f"{k} is {_OWN_FLAGS[k]}" if k in _OWN_FLAGS else f"{k}: did you mean {near!r}?"
                for k in unknown
-               if k in _OWN_FLAGS or (near := difflib.get_close_matches(k, takes, n=1))]
+               if k in _OWN_FLAGS or (near := usage.suggestion(k, takes))]
         raise InvalidParameterError(
             f"hyperparams: {unknown} are not keyword arguments of {cls.__name__} ("
             + (f"{'; '.join(own)}; " if own else "")

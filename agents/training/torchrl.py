@@ -537,11 +537,12 @@ def save_policy(learner: Learner, model: Path, stats: Path, steps: int) -> None:
     with torch.random.fork_rng(devices=[]):  # SB3's initialisation draws: not the run's
         policy = weights.build_model(config).policy
     actor_net = learner.actor.module[0].module  # Sequential(mlp, state-independent scale)
-    actor_layers = _linears(actor_net[0])
-    critic_layers = _linears(learner.critic.module)
+    layers = weights.linear_layers
     with torch.no_grad():
-        _copy([*_linears(policy.mlp_extractor.policy_net), policy.action_net], actor_layers)
-        _copy([*_linears(policy.mlp_extractor.value_net), policy.value_net], critic_layers)
+        _copy([*layers(policy.mlp_extractor.policy_net), policy.action_net],
+              layers(actor_net[0]))
+        _copy([*layers(policy.mlp_extractor.value_net), policy.value_net],
+              layers(learner.critic.module))
         policy.log_std.copy_(actor_net[1].state_independent_scale.detach().cpu())
     tensors = {"format": weights.FORMAT, "params": {"policy": policy.state_dict()},
                "variables": {}}
@@ -559,10 +560,6 @@ def _float32(space: gym.spaces.Box) -> gym.spaces.Box:
     networks see it and as SB3's policies of the other engines record it."""
     return gym.spaces.Box(space.low.astype(np.float32), space.high.astype(np.float32),
                           dtype=np.float32)
-
-
-def _linears(module: nn.Module) -> list[nn.Linear]:
-    return [m for m in module.modules() if isinstance(m, nn.Linear)]
 
 
 def _copy(targets: list[nn.Linear], sources: list[nn.Linear]) -> None:
