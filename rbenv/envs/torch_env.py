@@ -328,9 +328,15 @@ class TorchVectorEnv(VectorContract):
         return obs, info
 
     def _reset_mask(self, mask) -> torch.Tensor:
+        """The (N,) bool mask of ``options["reset_mask"]`` on the env's device: a torch bool
+        tensor or a NumPy bool array (as Gymnasium users pass it; actions are taken from NumPy
+        too). Another type or dtype -> TypeError; wrong shape or all False -> ValueError."""
         if mask is None:
             return self._mask
-        rule = f"options['reset_mask'] must be a torch bool tensor of shape ({self.num_envs},)"
+        rule = (f"options['reset_mask'] must be a torch bool tensor or a NumPy bool array of "
+                f"shape ({self.num_envs},)")
+        if isinstance(mask, np.ndarray) and mask.dtype == np.bool_:
+            mask = torch.from_numpy(mask.copy())
         if not isinstance(mask, torch.Tensor) or mask.dtype != torch.bool:
             raise TypeError(f"{rule}, got {type(mask).__name__} "
                             f"{getattr(mask, 'dtype', '')}")
@@ -339,7 +345,7 @@ class TorchVectorEnv(VectorContract):
         if not bool(mask.any()):  # a host read, as reset's check() already makes
             raise InvalidParameterError("options['reset_mask'] must contain at least one True "
                                         "(a sub-env to reset), got all False")
-        if self._st is None:
+        if self._st is None and not bool(mask.all()):
             raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
         return mask.to(self.device)
 
