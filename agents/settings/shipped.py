@@ -57,6 +57,10 @@ REORIENT_V1_TORCHRL = {"num_envs": 256, "rollout": 32, "minibatch": 4096, "epoch
                        "lr": 2e-3, "hidden": 64, "gamma": 0.98, "log_std_init": -0.5,
                        "timesteps": 1_200_000}
 
+# Reorient-v2's PPO (the main job, rbenv train with no arguments; docs/performance.md): to be
+# measured.
+REORIENT_V2_PPO = {**REORIENT_V1_PPO, "n_timesteps": 2_000_000}
+
 SHIPPED = (
     TrainingSettings(
         env_id="rbenv/SatelliteReorient-v0", baselines=REORIENT_BASELINES,
@@ -127,5 +131,14 @@ SHIPPED = (
         # from 30k to 176k (17.2 %). Their budgets only bound the time spent.
         id_settings=tuned.budgets(sac=75_000, td3=80_000, tqc=75_000, crossq=75_000),
         scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
+        hyperparams=tuned.ALL),
+    TrainingSettings(
+        env_id="rbenv/SatelliteReorient-v2", baselines=REORIENT_BASELINES,
+        id_settings={**tuned.budgets(sac=150_000, td3=150_000, tqc=70_000, crossq=180_000),
+                     "ppo": REORIENT_V2_PPO},
+        scene_settings={("ppo", scene): REORIENT_V1_PPO_EARLIER for scene in (
+            "boom-sat", "cubesat-12u-dr", "cubesat-12u-rw", "cubesat-6u-rw", "innocube-3u",
+            "microsat-100kg")},
+        scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE, **INNOCUBE},
         hyperparams=tuned.ALL),
 )
