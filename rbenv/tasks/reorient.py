@@ -399,7 +399,7 @@ OPTIONS_TABLE
 SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteReorient-v1", task=ReorientV1, make=make_reorient_v1,
                    env_doc=ENV_DOC_V1)
 
-ENV_DOC_V2 = """Reorient a satellite to a target attitude, paying for time and propellant (v2 reward).
+ENV_DOC_V2 = """Reorient a satellite to a target attitude, paying for time and propellant.
 
     Made by ``gym.make("rbenv/SatelliteReorient-v2", **kwargs)``; arguments, observation,
     action, episode end, info and reset options as ``rbenv/SatelliteReorient-v1``, and the

@@ -9,9 +9,9 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents.baselines.controllers import QuaternionPD
 
 import rbenv
-from rbenv.agents.baselines.controllers import QuaternionPD
 from rbenv.tasks.reorient import ReorientV2Weights
 
 V2, V1 = "rbenv/SatelliteReorient-v2", "rbenv/SatelliteReorient-v1"
