@@ -1,6 +1,7 @@
 """The time–propellant trade of Reorient-v2: median settle time against mean propellant.
 
-Run ``python -m benchmarks.trade [--fuel 0.5 1 1.5 3] [--seeds 0] [--runs DIR] [--quick]``.
+Run ``python -m benchmarks.trade [--fuel 0.5 1 1.5 3] [--seeds 0] [--runs DIR] [--reuse]
+[--quick]``.
 Results: ``benchmarks/results/trade.json`` and ``.png`` (``--quick``: a seconds-long smoke
 form, CI's, written as ``trade_quick``); docs/results.md has the table.
 
@@ -80,13 +81,14 @@ def evaluate(policy: str, episodes: int, env_id: str | None = None) -> dict | No
 
 
 def run_setting(fuel: float, seed: int, runs: Path, episodes: int,
-                timesteps: int | None) -> dict:
+                timesteps: int | None, reuse: bool = False) -> dict:
     out = runs / f"fuel{fuel:g}-seed{seed}"
     args = train_command(fuel, seed, out, timesteps)
     load = os.getloadavg()
-    done = _rbenv(*args)
-    if done.returncode != 0:
-        raise RuntimeError(f"rbenv {' '.join(args)} failed:\n{done.stderr[-2000:]}")
+    if not (reuse and (out / "training.json").is_file()):
+        done = _rbenv(*args)
+        if done.returncode != 0:
+            raise RuntimeError(f"rbenv {' '.join(args)} failed:\n{done.stderr[-2000:]}")
     trained = json.loads((out / "training.json").read_text())
     row = {"fuel_weight": fuel, "seed": seed, "run": str(out),
            "train_command": "python -m rbenv " + " ".join(args),
@@ -146,6 +148,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--fuel", type=float, nargs="+", default=list(FUELS))
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--runs", type=Path, default=Path("runs/trade"))
+    parser.add_argument("--reuse", action="store_true",
+                        help="evaluate a run folder that holds a finished run instead of "
+                        "training it again (its load figures are then the evaluation's)")
     parser.add_argument("--quick", action="store_true",
                         help="8192 timesteps, 20 episodes, fuel weights 1 and 1.5")
     args = parser.parse_args(argv)
@@ -154,7 +159,7 @@ def main(argv=None) -> dict:
         episodes, timesteps, name = 20, 8192, "trade_quick"
         args.fuel, args.seeds = [1.0, DEFAULT_FUEL], [0]
     start = time.perf_counter()
-    learned = [run_setting(f, s, args.runs, episodes, timesteps)
+    learned = [run_setting(f, s, args.runs, episodes, timesteps, args.reuse)
                for f in args.fuel for s in args.seeds]
     scripted = {p: evaluate(p, episodes, ENV_ID) for p in SCRIPTED}
     data = {"env_id": ENV_ID, "scene": "cubesat-12u", "episodes": episodes,
