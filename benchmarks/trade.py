@@ -64,9 +64,7 @@ def evaluate(policy: str, episodes: int, env_id: str | None = None) -> dict | No
     not exist (MPC before it lands)."""
     out = Path(RESULTS) / f".trade_eval_{os.getpid()}.json"
     args = ["evaluate", "--policy", policy, "--episodes", str(episodes), "--seed",
-            str(HELD_OUT_SEED), "--json", str(out)]
-    if env_id:
-        args += ["--env-id", env_id]
+            str(HELD_OUT_SEED)] + (["--env-id", env_id] if env_id else []) + ["--json", str(out)]
     done = _rbenv(*args)
     if done.returncode != 0:
         if policy in SCRIPTED:
