@@ -131,6 +131,18 @@ def test_the_fuel_weight_trades_propellant_against_time_monotonically():
     assert base - ret == pytest.approx(0.2 * steps, rel=1e-9)
 
 
+def test_hovering_pays_less_than_completing():
+    """Inside the thresholds every default term but progress is ≤ 0 (time −0.1 per step) and
+    progress telescopes, so hovering earns at most ``w_progress·ψ(1°)`` = 25·log 2/log(181)
+    ≈ 3.3, less than the success pay of 20 (the v1 argument, with v2's weights)."""
+    wt = ReorientV2Weights()
+    psi_threshold = math.log(2) / math.log1p(180.0)
+    assert _psi(math.radians(1.0), math.radians(1.0)) == pytest.approx(psi_threshold)
+    assert wt.progress * psi_threshold == pytest.approx(3.33, abs=0.01)
+    assert wt.progress * psi_threshold < wt.success
+    assert wt.time > 0 and wt.error == wt.rate == 0.0
+
+
 def test_bad_weights_are_refused_naming_the_term():
     with pytest.raises(ValueError, match="time"):
         _make(V2, reward_weights={"time": -1.0})
