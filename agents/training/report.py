@@ -55,6 +55,7 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
         f"- load the policy with {trained.load}",
         "",
         table,
+        *bounds_lines(cfg),
         "",
         "![episode](episode.png)",
     ]
@@ -65,6 +66,35 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+# env options under which the nominal scene's bounds still hold (they do not change the plant)
+_BOUNDS_OPTIONS = {"reward_weights", "action_mode", "allocator"}
+
+
+def bounds_lines(cfg: RunConfig) -> list[str]:
+    """The report's line on the lower bounds of the same episodes (:mod:`rbenv.envs.bounds`:
+    settle time and propellant no policy can beat), for reorientation with thrusters on a
+    scene they hold for (nominal, bounded disturbance); none otherwise."""
+    from rbenv.core.errors import InvalidParameterError
+
+    import rbenv.envs.bounds as rb
+    from rbenv.envs import registry
+    from rbenv.satellite.scene import load_scene
+
+    if registry.get(cfg.env_id).task.table_name() != "reorient" or \
+            not set(cfg.env_kwargs) <= _BOUNDS_OPTIONS or load_scene(cfg.scene).thrusters is None:
+        return []
+    try:
+        limits = rb.scene_limits(cfg.scene)
+    except InvalidParameterError:
+        return []
+    st = rb.episode_starts(cfg.report_episodes, cfg.report_seed, cfg.scene, env_id=cfg.env_id)
+    settle = rb.settle_time_bound(limits, st["angle"], st["omega_B"], st["bias_B"])["sampled"]
+    fuel_g = 1e3 * rb.fuel_bound(limits, st["angle"], st["omega_B"], st["bias_B"])["kg"]
+    return ["", f"Lower bounds on these episodes (`rbenv.envs.bounds`; no policy beats them): "
+            f"settle time median {np.median(settle):.1f} s, propellant median "
+            f"{np.median(fuel_g):.3f} g."]
 
 
 def duration(seconds: float) -> str:
