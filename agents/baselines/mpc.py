@@ -51,7 +51,9 @@ objects and the prediction of each batch row are kept in the controller between 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -126,22 +128,22 @@ class ModelPredictive:
     plant: Plant
     task: Task
     time_factor: float = 1.0  # arrival time / the eigenaxis bang-coast-bang time
-    rate_fraction: float = 0.85  # coast rate of that reference time, of the rate limit
-    accel_fraction: float = 0.85  # of the authority about the eigenaxis, for that time
+    rate_fraction: float = 0.92  # coast rate of that reference time, of the rate limit
+    accel_fraction: float = 0.9  # of the authority about the eigenaxis, for that time
     rate_margin: float = 0.95  # the QP keeps |ω| below this fraction of the rate limit
     momentum_margin: float = 0.95  # wheels: of each wheel's momentum at its speed limit
     blocks: int = 12  # blocks to the arrival
     hold_blocks: int = 3  # blocks of one control step after it
     box_fraction: float = 0.4  # of the success angle and rate, per component
     box_weight: float = 2000.0  # g per rad (and per rad/s) outside the box
-    max_iter: int = 4000
-    solver: str = "osqp"  # or "highs" (the same problem as an LP, SciPy's HiGHS)
     rows: dict = field(default_factory=dict, init=False, repr=False)
-    solve_times: list = field(default_factory=list, init=False, repr=False)
+    # s per solve (building and solving the LP of one satellite), appended by predict
+    solve_times_s: list = field(default_factory=list, init=False, repr=False)
+    # run when named, not in every comparison of the baselines (applicable_baselines)
+    on_request: ClassVar[bool] = True
 
     def __post_init__(self):
-        self._osqp = require("osqp", "the mpc baseline") if self.solver == "osqp" else None
-        self._highs = require("highspy", "the mpc baseline") if self.solver == "highs" else None
+        self._highs = require("highspy", "the mpc baseline")
         for name in ("time_factor", "rate_fraction", "accel_fraction", "rate_margin",
                      "momentum_margin", "box_fraction"):
             value = getattr(self, name)
@@ -274,10 +276,6 @@ class ModelPredictive:
             self._put(("boxlo_s", j), np.eye(ns))
             if self.nw:
                 self._put(("wheel", j), np.eye(self.nw))
-        # cost: P diagonal (regularisation), q linear
-        reg = np.concatenate([np.full((K + 1) * nx, 1e-6), np.full(K * nu, 1e-4),
-                              np.full(K * ns, 1e-2)])
-        self.P = sp.diags(reg).tocsc()
 
     def _put(self, name, value):
         start, shape = self.vals_index[name]
@@ -405,31 +403,7 @@ class ModelPredictive:
         for j in range(K):
             q[self.iu(j):self.iu(j) + nu] = h[j] * self.cost_u
         q[self.is_(1):] = self.box_weight
-        A = self._matrix()
-        if self.solver == "highs":
-            return self._solve_lp(row, A, q, lo, hi, ends)
-        if row.solver is None:
-            P = self.P.copy()
-            if self.nw:  # wheels: a small quadratic on the motor torques
-                P = P + sp.diags(np.concatenate([np.zeros((K + 1) * nx),
-                                                 np.full(K * nu, 1e-2),
-                                                 np.zeros(K * 6)])).tocsc()
-            solver = self._osqp.OSQP()
-            solver.setup(P=sp.triu(P).tocsc(), q=q, A=A, l=lo, u=hi, verbose=False,
-                         max_iter=self.max_iter, eps_abs=1e-3, eps_rel=1e-3, scaling=25,
-                         polishing=True, warm_starting=True, adaptive_rho=True)
-            row.solver = solver
-        else:
-            row.solver.update(q=q, l=lo, u=hi, Ax=A.data)
-        res = row.solver.solve()
-        self._last = res
-        z = res.x
-        if z is None or not np.all(np.isfinite(z)):
-            row.x = None
-            return np.zeros(nu)
-        X = z[:(K + 1) * nx].reshape(K + 1, nx)
-        row.x, row.times = X, ends
-        return np.clip(z[self.iu(0):self.iu(0) + nu], self.u_low, self.u_high)
+        return self._solve_lp(row, self._matrix(), q, lo, hi, ends)
 
     def _solve_lp(self, row, A, q, lo, hi, ends):
         """The same problem as a linear program (no regularisation), by HiGHS's dual simplex,
@@ -437,7 +411,7 @@ class ModelPredictive:
         highspy = self._highs
         K, nx, nu = self.K, self.nx, self.nu
         keep = self.lp_rows
-        A = A[keep].tocsc() if False else self._lp_matrix(A)
+        A = A[keep]
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = self.nz, len(keep)
         lp.col_cost_ = q
@@ -464,7 +438,6 @@ class ModelPredictive:
         if row.basis is not None:
             h.setBasis(row.basis)
         h.run()
-        self._last = h
         sol = h.getSolution()
         if h.getModelStatus() != highspy.HighsModelStatus.kOptimal or not sol.value_valid:
             row.x, row.basis = None, None
@@ -474,14 +447,13 @@ class ModelPredictive:
         row.x, row.times = z[:(K + 1) * nx].reshape(K + 1, nx), ends
         return np.clip(z[self.iu(0):self.iu(0) + nu], self.u_low, self.u_high)
 
-    def _lp_matrix(self, A):
-        """A without the identity rows of the inputs and slacks (column bounds in the LP)."""
-        return A[self.lp_rows]
+    def wheel_speeds(self, obs: np.ndarray) -> np.ndarray:
+        """(N, m) wheel speeds relative to the body, rad/s, from observations (N, size)."""
+        return obs[:, self.slices] * self.wheels.wheels.max_speed
 
     # ------------------------------------------------------------------ SB3 interface
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         """SB3-style ``(actions, state)`` for observations (size,) or (N, size)."""
-        import time
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         obs = obs.reshape(-1, obs.shape[-1])
@@ -501,25 +473,20 @@ class ModelPredictive:
         new_state = np.empty((n, 6))
         new_state[:, :4] = q_err
         out = np.zeros((n, self.plant.action_shape[0]), np.float32)
-        hw = None
-        if self.nw:
-            ws = self.wheels.wheels
-            hw = obs[:, self.slices] * ws.max_speed * ws.inertia
+        hw = self.wheel_speeds(obs) * self.wheels.wheels.inertia if self.nw else None
         for i in range(n):
             if starts[i] or i not in self.rows:
                 arrival = self.arrival_time(phi[i], omega[i])
                 clock = 0.0
                 row = self.rows.get(i)
                 self.rows[i] = row = _Row(solver=None if row is None else row.solver)
-                if self.solver == "osqp":
-                    row.solver = None
             else:
                 arrival, clock = prev[i, 4], prev[i, 5]
                 row = self.rows[i]
             x0 = np.concatenate([phi[i], omega[i], [] if hw is None else hw[i]])
             t0 = time.perf_counter()
             u = self._solve(row, x0, arrival - clock)
-            self.solve_times.append(time.perf_counter() - t0)
+            self.solve_times_s.append(time.perf_counter() - t0)
             out[i, self.action_slice] = u
             new_state[i, 4:] = arrival, clock + self.dt
         state_out = new_state.astype(np.float64)

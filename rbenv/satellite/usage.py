@@ -35,7 +35,7 @@ EXTRAS = {
     "flax": "sbx",
     "ray": "ray",
     "mujoco": "bench",
-    "osqp": "mpc",
+    "highspy": "mpc",
 }
 
 
