@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from rbenv.agents.baselines.controllers import applicable_baselines, baseline
 from rbenv.agents.policies.evaluate import evaluate
-from rbenv.satellite.usage import MissingExtraError
 from scipy.spatial.transform import Rotation
 
 import rbenv
+from rbenv.satellite.usage import MissingExtraError
 
 pytest.importorskip("highspy")
-from rbenv.agents.baselines.mpc import (  # noqa: E402
+from rbenv.agents.baselines.mpc import (
     ModelPredictive,
     inverse_right_jacobian,
     rotation_vector,
