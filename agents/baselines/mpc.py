@@ -71,31 +71,49 @@ _G_PER_KG = 1000.0
 _HYSTERESIS = 0.05  # |w| of q_err below which the rotation direction is kept (as the PD)
 
 
-def _directions() -> np.ndarray:
-    """The 26 unit directions of the cube's faces, edges and corners (26, 3)."""
-    grid = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
-                     if (i, j, k) != (0, 0, 0)], float)
-    return grid / np.linalg.norm(grid, axis=1, keepdims=True)
+def _half_directions() -> np.ndarray:
+    """13 unit directions (13, 3), one of each ± pair of the cube's faces, edges and corners:
+    ``|n̂·ω| ≤ r`` along them bounds ω inside a polytope around the ball of radius r."""
+    grid = [(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
+            if (i, j, k) > (0, 0, 0)]
+    d = np.array(grid, float)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-_DIRS = _directions()
+_HALF_DIRS = _half_directions()
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    x, y, z = v
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+def _skew_batch(v: np.ndarray) -> np.ndarray:
+    """[v]× (..., 3, 3) of vectors (..., 3)."""
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1),
+                     np.stack([-y, x, z], -1)], -2)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for (..., 3) arrays (written out: np.cross is slow on small arrays)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], -1)
+
+
+def inverse_right_jacobian_batch(phi: np.ndarray) -> np.ndarray:
+    """``J_r⁻¹(φ)`` (..., 3, 3) of rotation vectors φ (..., 3), |φ| < 2π: ``φ̇ = J_r⁻¹(φ) ω``
+    for ``R = exp([φ]×)``, ``Ṙ = R[ω]×``. ``J_r⁻¹ = 1 + ½[φ]× + k[φ]×²`` with
+    ``k = (1 − (θ/2)cot(θ/2))/θ²`` (1/12 + θ²/720 for small θ)."""
+    theta = np.linalg.norm(phi, axis=-1)
+    small = theta < 1e-3
+    safe = np.where(small, 1.0, theta)
+    k = np.where(small, 1.0 / 12.0 + theta**2 / 720.0,
+                 (1.0 - 0.5 * safe * np.cos(0.5 * safe) / np.sin(0.5 * safe)) / safe**2)
+    S = _skew_batch(phi)
+    return np.eye(3) + 0.5 * S + k[..., None, None] * (S @ S)
 
 
 def inverse_right_jacobian(phi: np.ndarray) -> np.ndarray:
-    """``J_r⁻¹(φ)`` (3, 3): ``φ̇ = J_r⁻¹(φ) ω`` for ``R = exp([φ]×)``, ``Ṙ = R[ω]×``."""
-    theta = float(np.linalg.norm(phi))
-    S = _skew(phi)
-    if theta < 1e-6:
-        return np.eye(3) + 0.5 * S + S @ S / 12.0
-    half = 0.5 * theta
-    coef = 1.0 / theta**2 - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta)) \
-        if abs(math.sin(theta)) > 1e-9 else 1.0 / theta**2 - half / (theta**2 * math.tan(half))
-    return np.eye(3) + 0.5 * S + coef * S @ S
+    """``J_r⁻¹(φ)`` (3, 3) of one rotation vector (3,) (:func:`inverse_right_jacobian_batch`)."""
+    return inverse_right_jacobian_batch(np.asarray(phi, float)[None])[0]
 
 
 def rotation_vector(q_err: np.ndarray) -> np.ndarray:
@@ -201,89 +219,53 @@ class ModelPredictive:
 
     # ------------------------------------------------------------------ QP structure
     def _pattern(self):
-        """The fixed sparsity of the QP; variables z = (x_0..x_K, u_0..u_{K-1}, s_1..s_K)."""
+        """The LP's fixed sparsity. Columns z = (x_0..x_K, u_0..u_{K-1}, s_1..s_K); rows:
+        dynamics ``x_{j+1} − A_j x_j − E_j u_j = c_j`` (K·nx), the soft box ``(φ, ω)_j ∓ s_j``
+        (K·12), the rate polytope (K·14: 13 two-sided cube directions and the predicted one).
+        x_0, the inputs, the slacks and the wheel momenta are column bounds."""
         K, nx, nu = self.K, self.nx, self.nu
-        ns = 6  # slack per block end: |φ_i|, |ω_i| outside the box
         self.ix = lambda j: j * nx
         self.iu = lambda j: (K + 1) * nx + j * nu
-        self.is_ = lambda j: (K + 1) * nx + K * nu + (j - 1) * ns
-        self.nz = (K + 1) * nx + K * nu + K * ns
-        rows, cols, self.vals_index = [], [], {}
-        self._row = 0
-
-        def block(name, r0, c0, shape):
-            rr, cc = np.meshgrid(np.arange(shape[0]) + r0, np.arange(shape[1]) + c0,
-                                 indexing="ij")
-            self.vals_index[name] = (len(rows), shape)
-            rows.extend(rr.ravel())
-            cols.extend(cc.ravel())
-
-        # dynamics rows: x_{j+1} − A_j x_j − E_j u_j = c_j  (nx rows per block), x_0 = x_now
-        r = 0
-        block("x0", r, 0, (nx, nx))
-        r += nx
-        self.r_dyn = r
-        for j in range(K):
-            block(("Ax", j), r, self.ix(j), (nx, nx))
-            block(("I", j), r, self.ix(j + 1), (nx, nx))
-            block(("Bu", j), r, self.iu(j), (nx, nu))
-            r += nx
-        self.r_u = r
-        block("u", r, self.iu(0), (K * nu, K * nu))
-        r += K * nu
-        self.r_s = r
-        block("s", r, self.is_(1), (K * ns, K * ns))
-        r += K * ns
-        # box rows per block end j = 1..K: (φ, ω)_i − s_i ≤ b_i and (φ, ω)_i + s_i ≥ −b_i
-        self.r_box = r
-        for j in range(1, K + 1):
-            block(("boxhi_x", j), r, self.ix(j), (ns, 6))
-            block(("boxhi_s", j), r, self.is_(j), (ns, ns))
-            r += ns
-            block(("boxlo_x", j), r, self.ix(j), (ns, 6))
-            block(("boxlo_s", j), r, self.is_(j), (ns, ns))
-            r += ns
-        # rate rows per block end: 26 directions + the predicted direction
-        self.r_rate = r
-        self.n_dirs = len(_DIRS) + 1
-        for j in range(1, K + 1):
-            block(("rate", j), r, self.ix(j) + 3, (self.n_dirs, 3))
-            r += self.n_dirs
-        self.r_wheel = r
-        if self.nw:
-            for j in range(1, K + 1):
-                block(("wheel", j), r, self.ix(j) + 6, (self.nw, self.nw))
-                r += self.nw
-        self.m = r
-        self.lp_rows = np.concatenate([np.arange(self.r_u), np.arange(self.r_box, r)])
-        self.rows_coo = np.array(rows)
-        self.cols_coo = np.array(cols)
-        probe = sp.coo_matrix((np.arange(1, len(rows) + 1, dtype=float),
-                               (self.rows_coo, self.cols_coo)), shape=(self.m, self.nz)).tocsc()
+        self.is_ = lambda j: (K + 1) * nx + K * nu + (j - 1) * 6
+        self.nz = (K + 1) * nx + K * nu + K * 6
+        j = np.arange(K)[:, None, None]
+        r, c = np.arange(nx)[None, :, None], np.arange(nx)[None, None, :]
+        dyn = j * nx + r
+        parts = [  # (rows, cols) of each value group, in the order _values fills them
+            (dyn, self.ix(0) + j * nx + c),  # −A_j
+            ((j * nx + np.arange(nx)[None, :]).ravel(),
+             (self.ix(1) + j * nx + np.arange(nx)[None, :]).ravel()),  # +I on x_{j+1}
+            (dyn, self.iu(0) + j * nu + np.arange(nu)[None, None, :]),  # −E_j
+        ]
+        self.r_box = K * nx
+        i6 = np.arange(6)[None, :]
+        jj = np.arange(K)[:, None]
+        hi_rows, lo_rows = self.r_box + jj * 12 + i6, self.r_box + jj * 12 + 6 + i6
+        x_cols, s_cols = self.ix(1) + jj * nx + i6, self.is_(1) + jj * 6 + i6
+        parts += [(hi_rows, x_cols), (hi_rows, s_cols), (lo_rows, x_cols), (lo_rows, s_cols)]
+        self.r_rate = self.r_box + K * 12
+        self.n_dirs = len(_HALF_DIRS) + 1
+        d = np.arange(self.n_dirs)[None, :, None]
+        parts.append((self.r_rate + j * self.n_dirs + d,
+                      self.ix(1) + j * nx + 3 + np.arange(3)[None, None, :]))
+        self.m = self.r_rate + K * self.n_dirs
+        parts = [np.broadcast_arrays(*p) for p in parts]
+        rows = np.concatenate([p[0].ravel() for p in parts])
+        cols = np.concatenate([p[1].ravel() for p in parts])
+        probe = sp.coo_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)),
+                              shape=(self.m, self.nz)).tocsc()
         self.perm = probe.data.astype(int) - 1  # coo entry of each csc entry
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
-        self.vals = np.zeros(len(rows))
-        # constant entries
-        self._put("x0", np.eye(nx))
-        for j in range(K):
-            self._put(("I", j), np.eye(nx))
-        self._put("u", np.eye(K * nu))
-        self._put("s", np.eye(K * ns))
-        for j in range(1, K + 1):
-            self._put(("boxhi_x", j), np.eye(6))
-            self._put(("boxhi_s", j), -np.eye(ns))
-            self._put(("boxlo_x", j), np.eye(6))
-            self._put(("boxlo_s", j), np.eye(ns))
-            if self.nw:
-                self._put(("wheel", j), np.eye(self.nw))
+        ones = np.ones(K * 6)
+        self.box_values = np.concatenate([ones, -ones, ones, ones])
+        self.identity_values = np.ones(K * nx)
 
-    def _put(self, name, value):
-        start, shape = self.vals_index[name]
-        self.vals[start:start + shape[0] * shape[1]] = np.asarray(value).ravel()
-
-    def _matrix(self):
-        return sp.csc_matrix((self.vals[self.perm], self.csc_indices, self.csc_indptr),
-                             shape=(self.m, self.nz))
+    def _values(self, A, E, D) -> np.ndarray:
+        """The LP matrix's values in CSC order from A (K, nx, nx), E (K, nx, nu) and the
+        rate directions D (K, n_dirs, 3)."""
+        vals = np.concatenate([-A.ravel(), self.identity_values, -E.ravel(), self.box_values,
+                               D.ravel()])
+        return vals[self.perm]
 
     # ------------------------------------------------------------------ one satellite
     def arrival_time(self, phi: np.ndarray, omega_B: np.ndarray) -> float:
@@ -337,112 +319,103 @@ class ModelPredictive:
         ref[1:, 3:6] = np.where(ends[1:, None] < T, -x0[:3] / T, 0.0)
         return ref
 
-    def _solve(self, row: _Row, x0: np.ndarray, remaining: float) -> np.ndarray:
+    def _linearise(self, ref: np.ndarray, h: np.ndarray):
+        """Block matrices about the prediction ``ref`` (K+1, nx) with durations h (K,):
+        ``x_{j+1} = A_j x_j + E_j u_j + c_j``; A (K, nx, nx), E (K, nx, nu), c (K, nx)."""
         K, nx, nu = self.K, self.nx, self.nu
+        I, I_inv = self.inertia, self.inv_inertia
+        wb = ref[:K, 3:6]
+        L = wb @ I.T + (ref[:K, 6:] @ self.G.T if self.nw else 0.0)
+        g = _cross(wb, L)
+        Dg = _skew_batch(wb) @ I - _skew_batch(L)  # ∂(ω × (Iω + h))/∂ω
+        hh = h[:, None, None]
+        Aw = np.eye(3) - hh * (I_inv @ Dg)
+        Ew = hh * (I_inv @ self.B)
+        cw = h[:, None] * ((np.einsum("kab,kb->ka", Dg, wb) - g) @ I_inv.T)
+        half = 0.5 * hh * inverse_right_jacobian_batch(0.5 * (ref[:K, :3] + ref[1:, :3]))
+        A = np.zeros((K, nx, nx))
+        E = np.zeros((K, nx, nu))
+        c = np.zeros((K, nx))
+        A[:, :3, :3] = np.eye(3)
+        A[:, :3, 3:6] = half @ (np.eye(3) + Aw)
+        A[:, 3:6, 3:6] = Aw
+        E[:, :3] = half @ Ew
+        E[:, 3:6] = Ew
+        c[:, :3] = np.einsum("kab,kb->ka", half, cw)
+        c[:, 3:6] = cw
+        if self.nw:
+            A[:, 6:, 6:] = np.eye(self.nw)
+            E[:, 6:] = hh * np.diag(self.u_max)
+        return A, E, c
+
+    def _solve(self, row: _Row, x0: np.ndarray, remaining: float) -> np.ndarray:
+        """The first block's inputs (nu,) of the LP from state x0 (nx,), ``remaining`` s to
+        the arrival."""
+        highspy = self._highs
+        K, nx, nu = self.K, self.nx, self.nu
+        inf = highspy.kHighsInf
         h = self._block_times(remaining)
         ends = np.concatenate([[0.0], np.cumsum(h)])
         ref = self._reference(row, x0, ends, remaining)
-        I_inv, inertia = self.inv_inertia, self.inertia
-        lo = np.full(self.m, -np.inf)
-        hi = np.full(self.m, np.inf)
-        lo[:nx] = hi[:nx] = x0
-        d = np.zeros(3)  # the disturbance is unknown to the controller
-        for j in range(K):
-            wb = ref[j, 3:6]
-            hw = self.G @ ref[j, 6:] if self.nw else np.zeros(3)
-            L = inertia @ wb + hw
-            g = np.cross(wb, L)
-            Dg = _skew(wb) @ inertia - _skew(L)  # ∂(ω × (Iω + h))/∂ω
-            Jm = inverse_right_jacobian(0.5 * (ref[j, :3] + ref[j + 1, :3]))
-            Aw = np.eye(3) - h[j] * I_inv @ Dg  # ω⁺ = Aw ω + Ew u + cw
-            Ew = h[j] * I_inv @ self.B
-            cw = h[j] * I_inv @ (d - g + Dg @ wb)
-            A = np.zeros((nx, nx))
-            E = np.zeros((nx, nu))
-            c = np.zeros(nx)
-            A[3:6, 3:6] = Aw
-            E[3:6] = Ew
-            c[3:6] = cw
-            half = 0.5 * h[j] * Jm  # φ⁺ = φ + half (ω + ω⁺)
-            A[:3, :3] = np.eye(3)
-            A[:3, 3:6] = half @ (np.eye(3) + Aw)
-            E[:3] = half @ Ew
-            c[:3] = half @ cw
-            if self.nw:
-                A[6:, 6:] = np.eye(self.nw)
-                E[6:] = h[j] * np.diag(self.u_max)
-            self._put(("Ax", j), -A)
-            self._put(("Bu", j), -E)
-            r = self.r_dyn + j * nx
-            lo[r:r + nx] = hi[r:r + nx] = c
-        lo[self.r_u:self.r_s] = self.u_low
-        hi[self.r_u:self.r_s] = self.u_high
-        lo[self.r_s:self.r_box] = 0.0
-        # the box, from the first block end at or after the arrival
+        A, E, c = self._linearise(ref, h)
+        w = ref[1:, 3:6]
+        nrm = np.linalg.norm(w, axis=1, keepdims=True)
+        own = np.where(nrm > 1e-6, w / np.maximum(nrm, 1e-300), _HALF_DIRS[0])
+        D = np.concatenate([np.broadcast_to(_HALF_DIRS, (K, *_HALF_DIRS.shape)),
+                            own[:, None]], axis=1)
+        # column bounds: x_0 fixed, wheel momenta within their limit, inputs, slacks ≥ 0
+        col_lo = np.full(self.nz, -inf)
+        col_hi = np.full(self.nz, inf)
+        col_lo[:nx] = col_hi[:nx] = x0
+        if self.nw:
+            states_lo = col_lo[nx:(K + 1) * nx].reshape(K, nx)
+            states_hi = col_hi[nx:(K + 1) * nx].reshape(K, nx)
+            states_lo[:, 6:], states_hi[:, 6:] = -self.h_max, self.h_max
+        col_lo[self.iu(0):self.is_(1)] = self.u_low
+        col_hi[self.iu(0):self.is_(1)] = self.u_high
+        col_lo[self.is_(1):] = 0.0
+        # row bounds: dynamics, the box from the first block end at or after the arrival
+        row_lo = np.full(self.m, -inf)
+        row_hi = np.full(self.m, inf)
+        row_lo[:self.r_box] = row_hi[:self.r_box] = c.ravel()
         box = np.concatenate([np.full(3, self.box_fraction * self.task.success_angle),
                               np.full(3, self.box_fraction * self.task.success_rate)])
         active = ends[1:] >= remaining - 1e-9
-        for j in range(1, K + 1):
-            r = self.r_box + (j - 1) * 12
-            if active[j - 1]:
-                hi[r:r + 6] = box
-                lo[r + 6:r + 12] = -box
+        box_hi = row_hi[self.r_box:self.r_rate].reshape(K, 2, 6)
+        box_lo = row_lo[self.r_box:self.r_rate].reshape(K, 2, 6)
+        box_hi[active, 0] = box
+        box_lo[active, 1] = -box
         rate = self.rate_margin * self.task.rate_limit
-        for j in range(1, K + 1):
-            w = ref[j, 3:6]
-            nrm = np.linalg.norm(w)
-            own = w / nrm if nrm > 1e-6 else _DIRS[0]
-            self._put(("rate", j), np.vstack([_DIRS, own]))
-            r = self.r_rate + (j - 1) * self.n_dirs
-            hi[r:r + self.n_dirs] = rate
-            lo[r:r + self.n_dirs] = -np.inf
-        if self.nw:
-            lo[self.r_wheel:self.m] = -np.tile(self.h_max, K)
-            hi[self.r_wheel:self.m] = np.tile(self.h_max, K)
+        rate_lo = row_lo[self.r_rate:].reshape(K, self.n_dirs)
+        rate_lo[:, :-1] = -rate
+        row_hi[self.r_rate:] = rate
         q = np.zeros(self.nz)
-        for j in range(K):
-            q[self.iu(j):self.iu(j) + nu] = h[j] * self.cost_u
+        q[self.iu(0):self.is_(1)] = (h[:, None] * self.cost_u).ravel()
         q[self.is_(1):] = self.box_weight
-        return self._solve_lp(row, self._matrix(), q, lo, hi, ends)
-
-    def _solve_lp(self, row, A, q, lo, hi, ends):
-        """The same problem as a linear program (no regularisation), by HiGHS's dual simplex,
-        warm-started from the last step's basis."""
-        highspy = self._highs
-        K, nx, nu = self.K, self.nx, self.nu
-        keep = self.lp_rows
-        A = A[keep]
         lp = highspy.HighsLp()
-        lp.num_col_, lp.num_row_ = self.nz, len(keep)
-        lp.col_cost_ = q
-        col_lo = np.full(self.nz, -highspy.kHighsInf)
-        col_hi = np.full(self.nz, highspy.kHighsInf)
-        col_lo[self.iu(0):] = lo[self.r_u:self.r_box]
-        col_hi[self.iu(0):] = hi[self.r_u:self.r_box]
-        lp.col_lower_, lp.col_upper_ = col_lo, col_hi
-        lp.row_lower_ = np.where(np.isfinite(lo[keep]), lo[keep], -highspy.kHighsInf)
-        lp.row_upper_ = np.where(np.isfinite(hi[keep]), hi[keep], highspy.kHighsInf)
+        lp.num_col_, lp.num_row_ = self.nz, self.m
+        lp.col_cost_, lp.col_lower_, lp.col_upper_ = q, col_lo, col_hi
+        lp.row_lower_, lp.row_upper_ = row_lo, row_hi
         lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-        lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = self.nz, len(keep)
-        lp.a_matrix_.start_ = A.indptr
-        lp.a_matrix_.index_ = A.indices
-        lp.a_matrix_.value_ = A.data
+        lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = self.nz, self.m
+        lp.a_matrix_.start_ = self.csc_indptr
+        lp.a_matrix_.index_ = self.csc_indices
+        lp.a_matrix_.value_ = self._values(A, E, D)
         if row.solver is None:
-            h = highspy.Highs()
-            h.setOptionValue("output_flag", False)
-            h.setOptionValue("solver", "simplex")
-            h.setOptionValue("simplex_strategy", 1)  # dual
-            row.solver = h
-        h = row.solver
-        h.passModel(lp)
+            row.solver = highspy.Highs()
+            row.solver.setOptionValue("output_flag", False)
+            row.solver.setOptionValue("solver", "simplex")
+            row.solver.setOptionValue("simplex_strategy", 1)  # dual simplex
+        solver = row.solver
+        solver.passModel(lp)
         if row.basis is not None:
-            h.setBasis(row.basis)
-        h.run()
-        sol = h.getSolution()
-        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal or not sol.value_valid:
+            solver.setBasis(row.basis)  # warm start from the last step's optimal basis
+        solver.run()
+        sol = solver.getSolution()
+        if solver.getModelStatus() != highspy.HighsModelStatus.kOptimal or not sol.value_valid:
             row.x, row.basis = None, None
             return np.zeros(nu)
-        row.basis = h.getBasis()
+        row.basis = solver.getBasis()
         z = np.asarray(sol.col_value)
         row.x, row.times = z[:(K + 1) * nx].reshape(K + 1, nx), ends
         return np.clip(z[self.iu(0):self.iu(0) + nu], self.u_low, self.u_high)
