@@ -1,51 +1,57 @@
-"""Model-predictive control of a reorientation: a linearised QP over the rest of the slew (OSQP).
+"""Model-predictive control of a reorientation: a linearised LP over the rest of the slew (HiGHS).
 
-Each control step, for each satellite, :class:`ModelPredictive` solves one quadratic program
-and applies its first control (receding horizon). The QP is built from the scene and the task
-alone and reads only the observation (the error attitude, the body rate and, with wheels, the
-wheel speeds).
+Each control step, for each satellite, :class:`ModelPredictive` solves one linear program and
+applies its first control (receding horizon). The LP is built from the scene and the task alone
+and reads only the observation (the error attitude, the body rate and, with wheels, the wheel
+speeds). It is solved by HiGHS's dual simplex (the ``mpc`` extra: ``highspy``), warm-started
+from the previous step's optimal basis, which typically leaves a handful of pivots per step.
 
 **State and model.** ``x = (φ, ω_B[, h_w])``: φ (3,) rad, the error rotation vector of
 ``q_err = q_target* ⊗ q`` (its axis in body axes), ω_B (3,) rad/s, and with reaction wheels
 their momenta h_w (m,) N·m·s. Over a block of ``h`` s with the inputs held,
 
-* ``ω⁺ = ω + h·I⁻¹(B u + τ_d − g(ω̄) − ∂g(ω̄)(ω − ω̄))``, the gyroscopic term
-  ``g(ω) = ω × (Iω + G h_w)`` linearised about the predicted rate ω̄;
+* ``ω⁺ = ω + h·I⁻¹(B u − g(ω̄) − ∂g(ω̄)(ω − ω̄))``, the gyroscopic term
+  ``g(ω) = ω × (Iω + G h_w)`` linearised about the predicted rate ω̄ (the disturbance is
+  unknown to the controller; feedback absorbs it);
 * ``φ⁺ = φ + h·J⁻¹(φ̄)(ω + ω⁺)/2``, ``J⁻¹`` the inverse right Jacobian of SO(3) at the
-  predicted attitude φ̄ (``φ̇ = J⁻¹(φ)ω``; exact along the eigenaxis, where it is the identity
-  on ω); the mean of ω is exact for a constant torque;
+  predicted attitude φ̄ (``φ̇ = J⁻¹(φ)ω``; along the eigenaxis it leaves ω unchanged); the
+  mean of ω is exact for a constant torque;
 * ``h_w⁺ = h_w + h·u_max ⊙ u`` for wheels (the motor torque moves momentum into the rotor).
 
-The prediction (φ̄, ω̄) is the previous step's solution (real-time iteration); at an
-episode's start, a straight rest-to-rest eigenaxis profile.
+The prediction (φ̄, ω̄) is the previous step's solution (a real-time iteration); at an
+episode's start, a straight eigenaxis profile at constant rate.
 
 **Horizon: the rest of the slew.** At an episode's start the controller fixes an arrival
-time: the eigenaxis bang-coast-bang time for the angle, at ``rate_fraction`` of the rate
-limit and ``accel_fraction`` of the authority about that axis, times ``time_factor``. The
-horizon then shrinks towards it: ``blocks`` blocks, the first one control step (the control
-applied), the others sharing the time left to the arrival (at least a control step each), then
-``hold_blocks`` blocks of one control step. From the arrival on every state must lie in a box
-inside the success thresholds (``box_fraction`` of them per component); the box is soft, its
-violation paid per unit at ``box_weight`` (g per rad and per rad/s), so the QP stays
-feasible. Inside the box nothing is paid: a settled satellite does not fire.
+time: the eigenaxis bang-coast-bang time for the angle, coasting at ``rate_fraction`` of the
+rate limit and accelerating at ``accel_fraction`` of the authority about that axis, plus the
+time to stop the initial rate, times ``time_factor``. The horizon then shrinks towards it:
+``blocks`` blocks, the first one control step (the control applied), the others sharing the
+time left to the arrival (at least a control step each), then ``hold_blocks`` blocks of one
+control step. From the arrival on every state must lie in a box inside the success thresholds
+(``box_fraction`` of them per component); the box is soft, its violation paid per unit at
+``box_weight`` (g per rad and per rad/s), so the LP stays feasible. Inside the box nothing is
+paid: a settled satellite does not fire.
 
 **Cost and constraints.** Propellant (g; linear in the throttles: ``Σ h·F_i u_i / (Isp g₀)``)
-with thrusters, or a small quadratic motor-torque cost with wheels; inputs in their bounds
-(throttles in [0, 1], wheel torques within ±u_max); the rate limit at every block boundary
-(``|ω_i| ≤ r`` per axis, ``n̂·ω ≤ r`` along the predicted rate and along 26 directions, r =
-``rate_margin`` × the limit: a polytope inside the ball); the wheel speed limits
-(``|h_w,i| ≤ momentum_margin·J_i Ω_max,i``). With a constant torque over a block the rate is
-linear in time, so the limit at the block ends holds inside the block too (up to the
-gyroscopic term).
+with thrusters; nothing with wheels (any torque profile that arrives is optimal). Inputs
+within their bounds (throttles in [0, 1]; wheel motor torques within ±u_max). The wheel
+momenta within ``momentum_margin`` of each wheel's at its speed limit. The rate limit at every
+block end, as a polytope (r = ``rate_margin`` × the limit): ``n̂·ω ≤ r`` along the predicted
+rate and along six directions tilted 20° around it (|ω| ≤ 1.021 r near the prediction), and
+``|n̂·ω| ≤ r`` along the 13 directions of the cube's faces, edges and corners (|ω| ≤ 1.128 r
+anywhere). With a constant torque over a block the rate is linear in time, so the limit at the
+block ends holds inside the block too (up to the gyroscopic term).
 
 **The time–propellant knob.** ``time_factor`` (default 1): the arrival time relative to the
-eigenaxis bang-coast-bang time. Longer arrival times slew slower and spend less; the QP
-finds the least-propellant way to arrive at that time (bang-coast-bang with a slower coast).
-``rate_fraction`` sets the coast rate of that reference time.
+reference time above. A later arrival slews slower and spends less; the LP finds the
+least-propellant way to arrive then (bang-coast-bang with a slower coast).
+``rate_fraction`` sets the coast rate of the reference time.
 
 ``predict`` follows SB3 (``(actions, state)``; ``state`` (N, 6): the sign memory of q_err,
-the arrival time and the episode clock); pass ``episode_start`` at every reset. The solver
-objects and the prediction of each batch row are kept in the controller between calls.
+the arrival time and the episode clock, s); pass ``episode_start`` at every reset. The HiGHS
+instance, its last basis and the last prediction of each batch row are kept in the controller
+between calls. Reorientation ids only (the observation must carry the error attitude and the
+body rate); ``action_mode="throttle"``.
 """
 
 from __future__ import annotations
@@ -81,6 +87,24 @@ def _half_directions() -> np.ndarray:
 
 
 _HALF_DIRS = _half_directions()
+
+
+_RING = 6  # directions tilted by _RING_TILT around the predicted rate
+_RING_TILT = math.radians(20.0)
+
+
+def _ring(d: np.ndarray) -> np.ndarray:
+    """(K, _RING, 3) unit directions at _RING_TILT from each unit vector of d (K, 3), evenly
+    around it. With ``n̂·ω ≤ r`` along d and these, |ω| ≤ r·√(1 + (tan(β/2)/cos(π/6))²)
+    (1.021 r at β = 20°) for every ω within β of d."""
+    a = np.where(np.abs(d[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
+                 np.array([[0.0, 1.0, 0.0]]))
+    e1 = _cross(d, a)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = _cross(d, e1)
+    phase = 2.0 * math.pi * np.arange(_RING) / _RING
+    side = np.cos(phase)[None, :, None] * e1[:, None] + np.sin(phase)[None, :, None] * e2[:, None]
+    return math.cos(_RING_TILT) * d[:, None] + math.sin(_RING_TILT) * side
 
 
 def _skew_batch(v: np.ndarray) -> np.ndarray:
@@ -175,6 +199,10 @@ class ModelPredictive:
                 raise InvalidParameterError(
                     f"ModelPredictive.{name} must be an integer ≥ 1, got {value!r}")
         plant = self.plant
+        names = set(self.task.observation_slices())
+        if "omega_B" not in names or not names & {"q_err", "rot6_err"}:
+            raise NotApplicable(f"mpc reads the error attitude and the body rate; task "
+                                f"{self.task.name!r} observes {sorted(names)}")
         if plant.action_mode != "throttle":
             raise NotApplicable(f"mpc drives action_mode 'throttle', got {plant.action_mode!r}")
         self.wheels = plant.actuator("wheels")
@@ -244,7 +272,7 @@ class ModelPredictive:
         x_cols, s_cols = self.ix(1) + jj * nx + i6, self.is_(1) + jj * 6 + i6
         parts += [(hi_rows, x_cols), (hi_rows, s_cols), (lo_rows, x_cols), (lo_rows, s_cols)]
         self.r_rate = self.r_box + K * 12
-        self.n_dirs = len(_HALF_DIRS) + 1
+        self.n_dirs = len(_HALF_DIRS) + 1 + _RING
         d = np.arange(self.n_dirs)[None, :, None]
         parts.append((self.r_rate + j * self.n_dirs + d,
                       self.ix(1) + j * nx + 3 + np.arange(3)[None, None, :]))
@@ -362,7 +390,7 @@ class ModelPredictive:
         nrm = np.linalg.norm(w, axis=1, keepdims=True)
         own = np.where(nrm > 1e-6, w / np.maximum(nrm, 1e-300), _HALF_DIRS[0])
         D = np.concatenate([np.broadcast_to(_HALF_DIRS, (K, *_HALF_DIRS.shape)),
-                            own[:, None]], axis=1)
+                            own[:, None], _ring(own)], axis=1)
         # column bounds: x_0 fixed, wheel momenta within their limit, inputs, slacks ≥ 0
         col_lo = np.full(self.nz, -inf)
         col_hi = np.full(self.nz, inf)
@@ -387,7 +415,7 @@ class ModelPredictive:
         box_lo[active, 1] = -box
         rate = self.rate_margin * self.task.rate_limit
         rate_lo = row_lo[self.r_rate:].reshape(K, self.n_dirs)
-        rate_lo[:, :-1] = -rate
+        rate_lo[:, :len(_HALF_DIRS)] = -rate
         row_hi[self.r_rate:] = rate
         q = np.zeros(self.nz)
         q[self.iu(0):self.is_(1)] = (h[:, None] * self.cost_u).ravel()
