@@ -33,8 +33,9 @@ control step. From the arrival on every state must lie in a box inside the succe
 paid: a settled satellite does not fire.
 
 **Cost and constraints.** Propellant (g; linear in the throttles: ``Σ h·F_i u_i / (Isp g₀)``)
-with thrusters; nothing with wheels (any torque profile that arrives is optimal). Inputs
-within their bounds (throttles in [0, 1]; wheel motor torques within ±u_max). The wheel
+with thrusters; with wheels ``wheel_torque_weight`` per second of full motor torque (L1, a
+proxy for the electrical energy). Inputs within their bounds (throttles in [0, 1]; wheel
+motor torques within ±u_max). The wheel
 momenta within ``momentum_margin`` of each wheel's at its speed limit. The rate limit at every
 block end, as a polytope (r = ``rate_margin`` × the limit): ``n̂·ω ≤ r`` along the predicted
 rate and along six directions tilted 20° around it (|ω| ≤ 1.021 r near the prediction), and
@@ -178,6 +179,7 @@ class ModelPredictive:
     hold_blocks: int = 3  # blocks of one control step after it
     box_fraction: float = 0.4  # of the success angle and rate, per component
     box_weight: float = 2000.0  # g per rad (and per rad/s) outside the box
+    wheel_torque_weight: float = 0.01  # wheels: per second of full motor torque, each wheel
     rows: dict = field(default_factory=dict, init=False, repr=False)
     # s per solve (building and solving the LP of one satellite), appended by predict
     solve_times_s: list = field(default_factory=list, init=False, repr=False)
@@ -255,7 +257,9 @@ class ModelPredictive:
         self.ix = lambda j: j * nx
         self.iu = lambda j: (K + 1) * nx + j * nu
         self.is_ = lambda j: (K + 1) * nx + K * nu + (j - 1) * 6
-        self.nz = (K + 1) * nx + K * nu + K * 6
+        nt = self.nw  # wheels: |u| bounds t, paid at wheel_torque_weight
+        self.it = (K + 1) * nx + K * nu + K * 6
+        self.nz = self.it + K * nt
         j = np.arange(K)[:, None, None]
         r, c = np.arange(nx)[None, :, None], np.arange(nx)[None, None, :]
         dyn = j * nx + r
@@ -276,7 +280,13 @@ class ModelPredictive:
         d = np.arange(self.n_dirs)[None, :, None]
         parts.append((self.r_rate + j * self.n_dirs + d,
                       self.ix(1) + j * nx + 3 + np.arange(3)[None, None, :]))
-        self.m = self.r_rate + K * self.n_dirs
+        self.r_abs = self.r_rate + K * self.n_dirs
+        if nt:  # u − t ≤ 0 and u + t ≥ 0, per wheel and block
+            a = np.arange(K * nt)
+            parts += [(self.r_abs + 2 * a, self.iu(0) + a), (self.r_abs + 2 * a, self.it + a),
+                      (self.r_abs + 2 * a + 1, self.iu(0) + a),
+                      (self.r_abs + 2 * a + 1, self.it + a)]
+        self.m = self.r_abs + 2 * K * nt
         parts = [np.broadcast_arrays(*p) for p in parts]
         rows = np.concatenate([p[0].ravel() for p in parts])
         cols = np.concatenate([p[1].ravel() for p in parts])
@@ -286,13 +296,15 @@ class ModelPredictive:
         self.csc_indices, self.csc_indptr = probe.indices, probe.indptr
         ones = np.ones(K * 6)
         self.box_values = np.concatenate([ones, -ones, ones, ones])
+        ones = np.ones(K * nt)
+        self.abs_values = np.concatenate([ones, -ones, ones, ones])
         self.identity_values = np.ones(K * nx)
 
     def _values(self, A, E, D) -> np.ndarray:
         """The LP matrix's values in CSC order from A (K, nx, nx), E (K, nx, nu) and the
         rate directions D (K, n_dirs, 3)."""
         vals = np.concatenate([-A.ravel(), self.identity_values, -E.ravel(), self.box_values,
-                               D.ravel()])
+                               D.ravel(), self.abs_values])
         return vals[self.perm]
 
     # ------------------------------------------------------------------ one satellite
@@ -401,7 +413,7 @@ class ModelPredictive:
             states_lo[:, 6:], states_hi[:, 6:] = -self.h_max, self.h_max
         col_lo[self.iu(0):self.is_(1)] = self.u_low
         col_hi[self.iu(0):self.is_(1)] = self.u_high
-        col_lo[self.is_(1):] = 0.0
+        col_lo[self.is_(1):] = 0.0  # slacks, and t ≥ |u| (wheels)
         # row bounds: dynamics, the box from the first block end at or after the arrival
         row_lo = np.full(self.m, -inf)
         row_hi = np.full(self.m, inf)
@@ -414,12 +426,15 @@ class ModelPredictive:
         box_hi[active, 0] = box
         box_lo[active, 1] = -box
         rate = self.rate_margin * self.task.rate_limit
-        rate_lo = row_lo[self.r_rate:].reshape(K, self.n_dirs)
+        rate_lo = row_lo[self.r_rate:self.r_abs].reshape(K, self.n_dirs)
         rate_lo[:, :len(_HALF_DIRS)] = -rate
-        row_hi[self.r_rate:] = rate
+        row_hi[self.r_rate:self.r_abs] = rate
+        row_hi[self.r_abs::2] = 0.0  # u − t ≤ 0
+        row_lo[self.r_abs + 1::2] = 0.0  # u + t ≥ 0
         q = np.zeros(self.nz)
         q[self.iu(0):self.is_(1)] = (h[:, None] * self.cost_u).ravel()
-        q[self.is_(1):] = self.box_weight
+        q[self.is_(1):self.it] = self.box_weight
+        q[self.it:] = (h[:, None] * np.full(self.nw, self.wheel_torque_weight)).ravel()
         lp = highspy.HighsLp()
         lp.num_col_, lp.num_row_ = self.nz, self.m
         lp.col_cost_, lp.col_lower_, lp.col_upper_ = q, col_lo, col_hi
