@@ -7,6 +7,7 @@ import sys
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents import cli
 from rbenv.agents.baselines.controllers import applicable_baselines, baseline
 from rbenv.agents.policies.evaluate import evaluate
 from scipy.spatial.transform import Rotation
@@ -140,7 +141,11 @@ def test_evaluate_runs_it_on_a_vector_env():
     assert np.all(result.settle_time_s < 25.0)
 
 
-def test_without_highspy_the_error_names_the_extra(env, monkeypatch):
-    monkeypatch.setitem(sys.modules, "highspy", None)
+def test_without_highspy_the_error_names_the_extra(env, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "highspy", None)  # its import fails as if not installed
     with pytest.raises(MissingExtraError, match=r"mpc baseline needs highspy.*the mpc extra"):
         ModelPredictive.from_env(env)
+    code = cli.console(["evaluate", "--policy", "mpc", "--episodes", "1"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert 'needs highspy' in err and 'pip install -e ".[mpc]"' in err
