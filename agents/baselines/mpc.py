@@ -23,8 +23,10 @@ episode's start, a straight eigenaxis profile at constant rate.
 
 **Horizon: the rest of the slew.** At an episode's start the controller fixes an arrival
 time: the eigenaxis bang-coast-bang time for the angle, coasting at ``rate_fraction`` of the
-rate limit and accelerating at ``accel_fraction`` of the authority about that axis, plus the
-time to stop the initial rate, times ``time_factor``. The horizon then shrinks towards it:
+rate limit (with wheels, of the smaller of it and ``wheel_rate_fraction`` × the rate their
+momentum gives about that axis) and accelerating at ``accel_fraction`` of the authority about
+that axis, plus the time to stop the initial rate, times ``time_factor``. The arrival is a
+target, not a promise: a later one only pays the box below. The horizon then shrinks towards it:
 ``blocks`` blocks, the first one control step (the control applied), the others sharing the
 time left to the arrival (at least a control step each), then ``hold_blocks`` blocks of one
 control step. From the arrival on every state must lie in a box inside the success thresholds
@@ -180,6 +182,7 @@ class ModelPredictive:
     box_fraction: float = 0.4  # of the success angle and rate, per component
     box_weight: float = 2000.0  # g per rad (and per rad/s) outside the box
     wheel_torque_weight: float = 0.01  # wheels: per second of full motor torque, each wheel
+    wheel_rate_fraction: float = 1.3  # wheels: of the rate their momentum gives, for that time
     rows: dict = field(default_factory=dict, init=False, repr=False)
     # s per solve (building and solving the LP of one satellite), appended by predict
     solve_times_s: list = field(default_factory=list, init=False, repr=False)
@@ -188,13 +191,18 @@ class ModelPredictive:
 
     def __post_init__(self):
         self._highs = require("highspy", "the mpc baseline")
+        unbounded = ("time_factor", "wheel_rate_fraction", "box_weight")
         for name in ("time_factor", "rate_fraction", "accel_fraction", "rate_margin",
-                     "momentum_margin", "box_fraction"):
+                     "momentum_margin", "box_fraction", *unbounded[1:]):
             value = getattr(self, name)
-            limit = math.inf if name == "time_factor" else 1.0
+            limit = math.inf if name in unbounded else 1.0
             if not (isinstance(value, (int, float)) and 0.0 < value <= limit):
                 raise InvalidParameterError(
                     f"ModelPredictive.{name} must be a number in (0, {limit}], got {value!r}")
+        if not (isinstance(self.wheel_torque_weight, (int, float))
+                and 0.0 <= self.wheel_torque_weight < math.inf):
+            raise InvalidParameterError(f"ModelPredictive.wheel_torque_weight must be a "
+                                        f"number ≥ 0, got {self.wheel_torque_weight!r}")
         for name in ("blocks", "hold_blocks"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
@@ -323,7 +331,7 @@ class ModelPredictive:
             torque = np.min(self.u_max / np.maximum(np.abs(self.G.T @ In), 1e-12))
             accel = float(torque)
             h = np.min(self.h_max / np.maximum(np.abs(self.G.T @ In), 1e-12))
-            rate = min(self.rate_fraction * limit, 0.7 * float(h))
+            rate = self.rate_fraction * min(limit, self.wheel_rate_fraction * float(h))
         accel *= self.accel_fraction
         stop = float(np.linalg.norm(omega_B)) / accel  # removing the initial rate, roughly
         if theta >= rate * rate / accel:

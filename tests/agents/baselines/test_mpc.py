@@ -149,3 +149,10 @@ def test_without_highspy_the_error_names_the_extra(env, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert 'needs highspy' in err and 'pip install -e ".[mpc]"' in err
+
+
+@pytest.mark.parametrize(("field", "value"), [("time_factor", 0.0), ("rate_margin", 1.5),
+                                              ("blocks", 0), ("wheel_torque_weight", -1.0)])
+def test_a_bad_setting_is_named(env, field, value):
+    with pytest.raises(ValueError, match=rf"ModelPredictive\.{field} must be .*got {value}"):
+        ModelPredictive.from_env(env, **{field: value})
