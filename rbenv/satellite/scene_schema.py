@@ -307,7 +307,11 @@ def reference_markdown() -> str:
               "Per-task options of the scene, for the tasks that take them (gym.make's "
               "`task_options=` overrides them). `[tasks.<task>.physics]` and "
               "`[tasks.<task>.episode]` override the scene's `[physics]` and `[episode]` keys "
-              "for that task alone (same keys as above).", ""]
+              "for that task alone (same keys as above). Every task's table is checked whichever "
+              "task's env is made on the scene, and an error names the table and its task; a "
+              "table whose task cannot run on the scene (`[tasks.desaturate]` on a scene without "
+              "`[wheels]`) has only its option names checked, so it does not stop another "
+              "task's env.", ""]
     for task, (ref, keys) in TASK_TABLES.items():
         options = resolve(ref).OPTIONS
         lines += [f"`[tasks.{task}]`:", ""]
