@@ -345,3 +345,64 @@ def test_the_torch_backend_refuses_the_new_draws_by_name():
     with pytest.raises(InvalidParameterError, match="randomize="):
         gym.make_vec(REORIENT_V1, num_envs=2, scene="cubesat-6u-rw", backend="torch",
                      randomize={"wheel_torque_scale": 0.1})
+
+
+# --------------------------------------------------------------------------- friction as flown
+
+FRICTION = WHEELS_ONLY.replace('name = "wheels-only"', 'name = "wheels-friction"').replace(
+    "max_speed_rpm = 6500.0", "max_speed_rpm = 6500.0\nviscous = [1e-7, 3e-7]\n"
+    "coulomb = [1e-5, 2e-5]")
+
+
+@pytest.fixture
+def friction_scene(tmp_path):
+    path = tmp_path / "wheels-friction.toml"
+    path.write_text(FRICTION)
+    return str(path)
+
+
+def test_wheel_friction_ranges_are_drawn_per_episode_and_applied(friction_scene):
+    env = gym.make(REORIENT_V1, scene=friction_scene)
+    drawn = []
+    for seed in range(6):
+        env.reset(seed=seed)
+        st = env.unwrapped._st
+        viscous, coulomb = st.wheel_friction
+        assert 1e-7 <= viscous <= 3e-7 and 1e-5 <= coulomb <= 2e-5
+        drawn.append((viscous, coulomb))
+        speed = np.asarray(st.wheel_speed)
+        env.step(np.zeros(4))  # no command: the friction alone turns the wheels
+        np.testing.assert_array_equal(env.unwrapped._st.wheel_torque,
+                                      -viscous * speed - coulomb * np.sign(speed))
+    assert len(set(drawn)) == 6
+    venv = gym.make_vec(REORIENT_V1, num_envs=3, scene=friction_scene)
+    venv.reset(seed=2)
+    for i in range(3):
+        env.reset(seed=2 + i)
+        assert env.unwrapped._st.wheel_friction == tuple(
+            float(c[i]) for c in venv.unwrapped._st.wheel_friction)
+
+
+def test_a_fixed_friction_scene_keeps_its_draws():
+    """The friction's draws follow the wheels' others in their stream: a scene without ranges
+    draws what it drew before (random speeds, as-flown effects) and keeps no friction field."""
+    plant = make_plant("innocube-3u")
+    wheels = plant.actuator("wheels")
+    assert not wheels.friction_drawn and "wheel_friction" not in wheels.state_fields
+    assert wheels.start_slots == 3
+
+
+def test_the_torch_backend_draws_the_friction_as_numpy_does(friction_scene):
+    torch = pytest.importorskip("torch")
+    ref = gym.make_vec(REORIENT_V1, num_envs=3, scene=friction_scene)
+    dev = gym.make_vec(REORIENT_V1, num_envs=3, scene=friction_scene, backend="torch")
+    o_ref, _ = ref.reset(seed=9)
+    o_dev, _ = dev.reset(seed=9)
+    action = np.full((3, 4), 0.3)
+    for _ in range(4):
+        np.testing.assert_allclose(np.asarray(torch.as_tensor(o_dev).cpu()), o_ref, rtol=1e-6,
+                                   atol=1e-7)
+        o_ref = ref.step(action)[0]
+        o_dev = dev.step(torch.as_tensor(action))[0]
+    np.testing.assert_allclose(np.asarray(torch.as_tensor(o_dev).cpu()), o_ref, rtol=1e-6,
+                               atol=1e-7)

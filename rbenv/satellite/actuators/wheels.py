@@ -17,7 +17,8 @@ Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; a 
 speeds the wheel up is limited to ``(Ω_max − |Ω|) J/dt``, what brings it to the speed limit at
 the end of the control step, so at the limit the motor cannot accelerate it further (u = 0,
 Basilisk's rule, which checks only at the step's start and so overshoots by up to u·dt/J);
-optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
+optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it (each a number, or
+``[low, high]`` drawn per episode as the as-flown effects below). Action modes: ``throttle``
 (default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]),
 ``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
 pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max) and
@@ -481,7 +482,8 @@ class Wheels(ActuatorDefaults):
 
     def sample_start(self, draws) -> dict:
         """Initial speeds (the scene's, plus a uniform ± random_speed spread from stream
-        "wheels"), zero torque and energy."""
+        "wheels"), zero torque and energy; the as-flown draws (3 uniforms) and the friction
+        draws (2 uniforms) follow in the same stream, each block only when on."""
         m, ws = draws.n, self.wheels
         speed = np.broadcast_to(ws.initial_speed, (m, ws.n)).copy()
         if ws.random_speed:
