@@ -24,7 +24,8 @@ With reaction wheels the inertia drawn is the bus's, ``I_bus = I − Σ J ĝĝ�
 integrates): the rotors keep their spin inertia J about their (possibly tilted) axes ĝ', and
 the whole spacecraft's inertia, ``I_bus' + Σ J ĝ'ĝ'ᵀ``, is what the gravity gradient acts on.
 The wheels' firmware (the speed-limit headroom, the acceleration modes' ``J_eff``) keeps the
-nominal model, as the flight software does.
+nominal model, as the flight software does: it limits the torque it commands, so a motor
+stronger than nominal can pass Ω_max by up to ``wheel_torque_scale`` of the last step's headroom.
 
 A field that perturbs an actuator the scene lacks (``force_scale`` on a scene without
 ``[thrusters]``, say) would change nothing and is refused by name (:func:`check_applies`).

@@ -296,20 +296,24 @@ def test_every_actuator_mix_is_covered():
 
 @pytest.mark.parametrize("mix", MIXES)
 def test_every_randomization_key_steps_or_is_refused_by_name_on_every_mix(tmp_path, mix):
-    """Each key alone, then all keys, on one actuator mix: a few finite steps of the single and
-    the vector env, or a named refusal exactly when the key perturbs an absent actuator."""
+    """Each key alone, then all keys, on one actuator mix: a few finite steps of the single env
+    (the key in the scene's [randomization] table) and of the vector env (the key as
+    ``randomize=``), or a named refusal exactly when the key perturbs an absent actuator."""
     from rbenv.satellite.randomization import ACTUATOR_FIELDS
 
-    path = write(tmp_path, mix_scene(mix), "mix.toml")
     tables = set(mix.split("+"))
-    assert set(load_scene(path).actuators) == tables
+    plain = write(tmp_path, mix_scene(mix), "mix.toml")
+    assert set(load_scene(plain).actuators) == tables
     cases = [{key: value} for key, value in RANDOMIZE.items()] + [dict(RANDOMIZE)]
     for randomize in cases:
         absent = [k for k in randomize
                   if k in ACTUATOR_FIELDS and ACTUATOR_FIELDS[k][0] not in tables]
-        for make, kwargs in ((gym.make, {}), (gym.make_vec, {"num_envs": 2})):
+        table = write(tmp_path, {**mix_scene(mix), "randomization": randomize}, "mix-rnd.toml")
+        for make, kwargs in ((gym.make, {"scene": table}),
+                             (gym.make_vec, {"num_envs": 2, "scene": plain,
+                                             "randomize": randomize})):
             try:
-                env = make(rbenv.ENV_ID, scene=path, randomize=randomize, **kwargs)
+                env = make(rbenv.ENV_ID, **kwargs)
             except RbenvValueError as exc:
                 assert absent, f"{mix} {randomize}: refused {exc}"
                 assert f"randomization.{absent[0]} = " in str(exc), str(exc)

@@ -457,7 +457,8 @@ class Wheels(ActuatorDefaults):
 
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
-        w, axes = st.omega_B, self._axes(st)
+        w, model = st.omega_B, st.model
+        axes = self.axes if model is None or model.wheel_axes_c is None else model.wheel_axes_c
         h = tuple([hi + ui * dt for hi, ui in zip(st.wheel_momentum, st.wheel_torque,
                                                   strict=True)])
         st.wheel_momentum = h
