@@ -298,7 +298,7 @@ def _check_evaluate(args) -> None:
     env_id = _env_id(args)
     usage.check_choice("env_id", env_id, [s.env_id for s in rbenv.envs.registry.specs()],
                        what="a registered rbenv task:")
-    check_policy(args.policy, env_id)
+    check_policy(args.policy, env_id)  # its name; the scene it runs on once that is known
     options = dict(args.env_kwargs)
     if Path(args.policy).exists():
         options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}

@@ -66,17 +66,20 @@ def scripted_by_task() -> str:
 
 
 def check_policy(policy: str, env_id: str = rbenv.ENV_ID, options: dict | None = None) -> None:
-    """A scripted policy of ``env_id``'s task that runs on the scene of ``options`` (its
-    ``gym.make`` options), or an existing path; else an :class:`InvalidChoiceError` saying
-    which: the path that does not exist, the scripted names with a did-you-mean, the task a
-    baseline belongs to, or the scenes it runs on."""
+    """A scripted policy of ``env_id``'s task, or an existing path; with ``options`` (its
+    ``gym.make`` options, the scene among them: the ones the policy will run in) also one that
+    can act on that scene. Else an :class:`InvalidChoiceError` saying which: the path that does
+    not exist, the scripted names with a did-you-mean, the task a baseline belongs to, or the
+    scenes it runs on. Without ``options`` the scene is not checked: call it again once the
+    scene is known (``{}``: the task's default scene)."""
     if Path(policy).exists():
         return
     own = scripted(env_id)
     if policy in ANY_TASK:
         return
     if policy in own:
-        _check_runs_on(policy, env_id, dict(options or {}))
+        if options is not None:
+            _check_runs_on(policy, env_id, dict(options))
         return
     elsewhere = [s.env_id for s in rbenv.envs.registry.specs() if policy in _baselines(s.env_id)]
     if elsewhere:

@@ -49,6 +49,18 @@ MISTAKES = {
     "baseline not on this scene": (
         ["evaluate", "--policy", "bdot", "--env-id", "rbenv/SatelliteDetumble-v1"],
         ["argument --policy", "cannot act on scene 'cubesat-12u'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene asked for": (
+        ["evaluate", "--policy", "bdot", "--env-id", "rbenv/SatelliteDetumble-v1", "--scene",
+         "cubesat-12u-rw"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene asked for, scene first, v0": (
+        ["evaluate", "--scene", "cubesat-12u-rw", "--env-id", "rbenv/SatelliteDetumble-v0",
+         "--policy", "bdot"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene of --env-kwargs": (
+        ["evaluate", "--env-kwargs", '{"scene": "cubesat-12u-rw"}', "--policy", "bdot",
+         "--env-id", "rbenv/SatelliteDetumble-v1"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'"]),
     "env option": (["evaluate", "--policy", "pd", "--env-kwargs", '{"integrater": "rk4"}'],
                    ["argument --env-kwargs", "'integrater' is not an env option",
                     "did you mean 'integrator'?"]),
@@ -96,6 +108,29 @@ def test_a_mistake_is_one_line_naming_the_argument_and_what_is_valid(argv, expec
     for text in expected:
         assert text in err, (text, err)
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+BDOT_ON_6U = {"--policy": "bdot", "--scene": "cubesat-6u-rw"}
+
+
+@pytest.mark.parametrize("version", ["v0", "v1"])
+@pytest.mark.parametrize("order", [("--policy", "--env-id", "--scene"),
+                                   ("--scene", "--policy", "--env-id"),
+                                   ("--env-id", "--scene", "--policy"),
+                                   ("--env-kwargs", "--policy", "--env-id")])
+def test_a_baseline_is_checked_on_the_scene_asked_for_in_any_order(order, version, tmp_path,
+                                                                   capsys):
+    """The README's B-dot command: the policy is checked on --scene (or --env-kwargs' scene),
+    not on the task's default scene, whichever comes first; then its episodes run."""
+    values = {**BDOT_ON_6U, "--env-id": f"rbenv/SatelliteDetumble-{version}",
+              "--env-kwargs": '{"scene": "cubesat-6u-rw"}'}
+    argv = ["evaluate", *(w for flag in order for w in (flag, values[flag])),
+            "--episodes", "1", "--json", str(tmp_path / "bdot.json")]
+    code, _, err = console(argv, capsys)
+    assert code == 0, err
+    summary = json.loads((tmp_path / "bdot.json").read_text())
+    assert summary["policy"] == "bdot" and summary["scene"] == "cubesat-6u-rw"
+    assert summary["episodes"] == 1
 
 
 def test_a_typo_in_the_scene_writes_nothing_and_the_retry_then_works(tmp_path, capsys):
