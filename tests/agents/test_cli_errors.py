@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import rbenv.agents.training
 from rbenv.agents import cli
+from rbenv.agents.training.engine import RunLock
 
 TINY = ["--timesteps", "256", "--n-envs", "4", "--hyperparams",
         json.dumps({"n_steps": 32, "batch_size": 64, "n_epochs": 1}),
@@ -61,6 +62,10 @@ MISTAKES = {
         ["evaluate", "--env-kwargs", '{"scene": "cubesat-12u-rw"}', "--policy", "bdot",
          "--env-id", "rbenv/SatelliteDetumble-v1"],
         ["argument --policy", "cannot act on scene 'cubesat-12u-rw'"]),
+    "replay scene in env options": (
+        ["replay", "telemetry", "--scene", "innocube-3u", "--policy", "innocube-pd",
+         "--env-kwargs", '{"scene": "cubesat-6u-rw"}'],
+        ["argument --env-kwargs", "must not hold 'scene'", "'cubesat-6u-rw'", "--scene"]),
     "env option": (["evaluate", "--policy", "pd", "--env-kwargs", '{"integrater": "rk4"}'],
                    ["argument --env-kwargs", "'integrater' is not an env option",
                     "did you mean 'integrator'?"]),
@@ -131,6 +136,43 @@ def test_a_baseline_is_checked_on_the_scene_asked_for_in_any_order(order, versio
     summary = json.loads((tmp_path / "bdot.json").read_text())
     assert summary["policy"] == "bdot" and summary["scene"] == "cubesat-6u-rw"
     assert summary["episodes"] == 1
+
+
+def test_a_dry_run_checks_the_run_folder_and_writes_nothing(tmp_path, capsys):
+    """--dry-run: a new run into another run's folder is refused as the real start would be,
+    one with --force or into a new folder passes, and nothing is written or removed."""
+    out = tmp_path / "run"
+    code, printed, err = console(["train", "--out", str(out), "--dry-run", *TINY], capsys)
+    assert code == 0 and "dry run: every check passed; nothing written" in printed, err
+    assert not out.exists()
+    assert "--dry-run" in _help(["train"], capsys)
+    out.mkdir()
+    (out / "config.json").write_text("{}")
+    err = one_line_error(["train", "--out", str(out), "--dry-run", *TINY], capsys)
+    assert "is not empty (it holds config.json)" in err and "--force" in err
+    code, printed, err = console(["train", "--out", str(out), "--dry-run", "--force", *TINY],
+                                 capsys)
+    assert code == 0, err
+    assert sorted(p.name for p in out.iterdir()) == ["config.json"]
+
+
+def test_a_dry_run_names_a_live_run_holding_the_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert cli.console(["train", "--out", str(out), *TINY]) == 0
+    capsys.readouterr()
+    before = sorted(p.name for p in out.rglob("*"))
+    lock = RunLock(out).acquire()  # a live run, as another process would hold it
+    try:
+        err = one_line_error(["train", "--out", str(out), "--resume", "--timesteps", "512",
+                              "--dry-run"], capsys)
+    finally:
+        lock.release()
+    assert "is in use by pid" in err and str(os.getpid()) in err
+    code, printed, err = console(["train", "--out", str(out), "--resume", "--timesteps", "512",
+                                  "--dry-run"], capsys)
+    assert code == 0 and "the run would resume in" in printed, err
+    assert sorted(p.name for p in out.rglob("*")) == before
+    assert json.loads((out / "training.json").read_text())["timesteps"] == 256
 
 
 def test_a_typo_in_the_scene_writes_nothing_and_the_retry_then_works(tmp_path, capsys):
