@@ -161,9 +161,9 @@ class RunPolicy(TrainedOn):
         expected = self.model.observation_space.shape
         if obs.shape[-len(expected):] != expected:
             where = self.env_kwargs or NO_CONFIG
-            raise ValueError(f"observation shape {obs.shape} does not match the policy's "
-                             f"{expected} ({self.source}); evaluate it in the env it was "
-                             f"trained on: {where}")
+            raise InvalidParameterError(
+                f"observation shape {obs.shape} does not match the policy's {expected} "
+                f"({self.source}); evaluate it in the env it was trained on: {where}")
         return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):

@@ -261,3 +261,19 @@ def test_train_help_groups_the_options_by_engine(capsys):
     assert "--quick" not in text[:at[3]].split("usage:")[-1].split("options:")[-1]
     assert "--save-replay-buffer" in text[at[1]:at[2]]
     assert "(default: 'ppo')" in text and "(default: 200000)" in text
+
+
+def test_a_foreign_model_on_another_task_names_the_flags_that_pick_its_env(tmp_path, capsys):
+    """An SB3 .zip without a config.json (RL Zoo's) trained on Reorient-v0 (7 observations),
+    evaluated on the default v1 (15): one line naming --env-id, not a traceback."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+
+    model = tmp_path / "zoo.zip"
+    PPO("MlpPolicy", make_vec_env("rbenv/SatelliteReorient-v0", n_envs=1), n_steps=64,
+        batch_size=64, device="cpu").save(model)
+    with pytest.warns(UserWarning, match="sees raw observations"):
+        err = one_line_error(["evaluate", "--policy", str(model), "--trust-pickle",
+                              "--episodes", "2"], capsys)
+    assert "observation shape (2, 15) does not match the policy's (7,)" in err
+    assert "--env-id" in err

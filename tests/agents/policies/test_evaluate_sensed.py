@@ -79,3 +79,21 @@ def test_rbenv_evaluate_of_the_shipped_innocube_policy_says_why_it_fails(tmp_pat
     summary = json.loads(out.read_text())
     assert summary["observation"]["note"] == SENSED_NOTE
     assert summary["final_error_deg"]["sensed_median"] < summary["final_error_deg"]["median"]
+
+
+def test_a_run_report_on_the_gyro_scene_carries_the_note(tmp_path):
+    """report.md of a run (rbenv train's report) shows the same table, note included."""
+    pytest.importorskip("matplotlib")
+    import gymnasium as gym
+    from rbenv.agents.baselines.controllers import ZeroPolicy
+    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.report import Trained, write_report
+
+    n_act = gym.make(rbenv.ENV_ID, scene="innocube-3u", **LIFTED).action_space.shape[0]
+    cfg = TrainConfig(scene="innocube-3u", env_kwargs=LIFTED, report_episodes=2)
+    write_report(tmp_path, cfg, {"timesteps": 0, "wall_time_s": 0.0}, Trained(
+        ZeroPolicy(n_act), name="zero (stand-in)", title="t", setup="s", load="l"))
+    report = (tmp_path / "report.md").read_text()
+    assert f"Note: {SENSED_NOTE}" in report and "final error median, sensed (deg)" in report
+    evaluations = json.loads((tmp_path / "evaluation.json").read_text())
+    assert all(e["observation"]["note"] == SENSED_NOTE for e in evaluations)
