@@ -378,9 +378,15 @@ def test_a_documented_module_exists(module):
     assert importlib.util.find_spec(module.rstrip(".")) is not None, module
 
 
+# Pages the documentation site's build generates from the code (docs/_ext/rbenv_pages.py);
+# the site's build itself fails on a link to one that does not exist (tests/docs).
+GENERATED = [ROOT / "docs" / "reference" / name for name in ("envs", "scenes", "results")]
+
+
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_relative_links_resolve(page):
     missing = [t for t in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text())
                if not t.startswith(("http://", "https://", "mailto:"))
-               and not (page.parent / t).exists()]
+               and not (page.parent / t).exists()
+               and not any((page.parent / t).resolve().is_relative_to(g) for g in GENERATED)]
     assert not missing, missing
