@@ -23,6 +23,7 @@ from rbenv.agents.baselines.controllers import (
     baseline,
     env_parts,
 )
+from rbenv.agents.policies import optimality
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
@@ -141,6 +142,10 @@ class EvalResult:
     # What the policy sees in place of the true state (:func:`sensed_observation`), or None.
     observation: str | None = None
     sensed_final_error_deg: np.ndarray = None  # the error it believes at the end (sensors on)
+    # Achieved / lower bound per episode (:mod:`rbenv.agents.policies.optimality`: settle_ratio,
+    # fuel_ratio, fuel_ratio_own_time) and its JSON summary, or {"defined": False, "reason"}.
+    optimality_per_episode: dict = field(default_factory=dict)
+    optimality: dict = field(default_factory=dict)
 
     @property
     def episodes(self) -> int:
@@ -168,6 +173,7 @@ class EvalResult:
                                 **({"sensed_median": sensed} if sensed is not None else {})},
             **({"observation": {"sensed": self.observation, "note": SENSED_NOTE}}
                if self.observation else {}),
+            **({"optimality": self.optimality} if self.optimality else {}),
         }
 
     @property
@@ -222,8 +228,16 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
                                 env_id))
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
            if k not in ("traces", "scene", "observation")}
-    return EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
-                      traces=parts[0]["traces"], observation=parts[0]["observation"], **cat)
+    result = EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
+                        traces=parts[0]["traces"], observation=parts[0]["observation"], **cat)
+    bounds = optimality.episode_bounds(episodes, seed, env_id, env_kwargs)
+    if isinstance(bounds, str):
+        result.optimality = {"defined": False, "reason": bounds}
+    else:
+        result.optimality_per_episode = optimality.ratios(
+            result.success, result.settle_time_s, result.fuel_kg, bounds)
+        result.optimality = optimality.summary(result.optimality_per_episode, bounds)
+    return result
 
 
 def sensed_observation(plant) -> str | None:
@@ -295,29 +309,52 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
 
 
 def format_table(results: list[EvalResult]) -> str:
-    """A Markdown table of the summaries. Where a policy sees a sensed state (a scene with
-    sensors as flown or sensor noise) the table adds the sensed final error beside the true
-    one, and a line under it says that success reads the true state."""
+    """A Markdown table of the summaries. Where the scene's lower bounds are defined
+    (:mod:`rbenv.agents.policies.optimality`) it adds settle time and propellant as medians of
+    their per-episode ratios to the bounds, and a line under it with the bounds; where none is,
+    a line says why. Where a policy sees a sensed state (a scene with sensors as flown or
+    sensor noise) the table adds the sensed final error beside the true one, and a line under
+    it says that success reads the true state."""
     summaries = [r.summary() for r in results]
     fuel = any(np.isfinite(s["fuel"]["mean"]) for s in summaries)  # thrusters: propellant
     sensed = any(r.sensed_error_median is not None for r in results)
+    bounded = any(r.optimality.get("defined") for r in results)
     lines = ["| policy | episodes | success rate | settle time median (s) | settle time p90 (s) "
              f"| {'fuel mean (g)' if fuel else 'energy mean (J)'} | final error median (deg) |"
+             + (" settle / bound | fuel / bound |" if bounded else "")
              + (" final error median, sensed (deg) |" if sensed else ""),
-             "|---|---|---|---|---|---|---|" + ("---|" if sensed else "")]
+             "|---|---|---|---|---|---|---|" + ("---|---|" if bounded else "")
+             + ("---|" if sensed else "")]
+    def fmt(x, spec=".1f"):
+        return "—" if x is None else format(x, spec)
     for s in summaries:
-        def fmt(x, spec=".1f"):
-            return "—" if x is None else format(x, spec)
         effort = 1000 * s["fuel"]["mean"] if fuel else s["energy"]["mean"]
+        opt = s.get("optimality", {})
+        ratio = (f" {fmt(opt.get('settle_ratio', {}).get('median'), '.2f')} "
+                 f"| {fmt(opt.get('fuel_ratio', {}).get('median'), '.1f')} |") if bounded else ""
         lines.append(
             f"| {s['policy']} | {s['episodes']} | {100 * s['success_rate']:.1f}% "
             f"| {fmt(s['settle_time_s']['median'])} | {fmt(s['settle_time_s']['p90'])} "
-            f"| {fmt(effort, '.2f')} | {s['final_error_deg']['median']:.3g} |"
+            f"| {fmt(effort, '.2f')} | {s['final_error_deg']['median']:.3g} |" + ratio
             + (f" {fmt(s['final_error_deg'].get('sensed_median'), '.3g')} |" if sensed else ""))
+    lines += _optimality_notes(results)
     seen = dict.fromkeys((r.scene, r.observation) for r in results if r.observation)
     lines += [f"\nNote: {SENSED_NOTE} (scene {scene!r}: {what}; no estimator yet)."
               for scene, what in seen]
     return "\n".join(lines)
+
+
+def _optimality_notes(results: list[EvalResult]) -> list[str]:
+    """The line under the table on the bounds: their medians, or why there are none."""
+    defined = [r.optimality for r in results if r.optimality.get("defined")]
+    if defined:
+        b = defined[0]["bounds"]
+        return [f"\nOptimality: medians over successful episodes of achieved / lower bound per "
+                f"episode (docs/bounds.md; 1 is the limit). Bounds here: settle "
+                f"{b['settle_time_s_median']:.1f} s, propellant "
+                f"{1000 * b['fuel_kg_median']:.3f} g (medians)."]
+    reasons = dict.fromkeys(r.optimality["reason"] for r in results if r.optimality)
+    return [f"\nOptimality: no lower bounds here: {why}." for why in reasons]
 
 
 def plot_episodes(results: list[EvalResult], path, episode: int = 0):

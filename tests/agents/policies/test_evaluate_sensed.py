@@ -19,7 +19,7 @@ from rbenv.satellite.scene import Sensors
 ROOT = Path(__file__).resolve().parents[3]
 LIFTED = {"action_mode": "acceleration_lifted"}
 PLAIN_KEYS = {"policy", "scene", "seed", "episodes", "success_rate", "settle_time_s", "fuel",
-              "energy", "final_error_deg"}
+              "energy", "final_error_deg", "optimality"}  # optimality: issue 40
 
 
 def test_the_gyro_scene_reports_the_sensed_error_beside_the_true_one():
