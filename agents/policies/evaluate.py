@@ -349,10 +349,11 @@ def _optimality_notes(results: list[EvalResult]) -> list[str]:
     defined = [r.optimality for r in results if r.optimality.get("defined")]
     if defined:
         b = defined[0]["bounds"]
+        fuel = ("no propellant bound" if b["fuel_kg_median"] is None
+                else f"propellant {1000 * b['fuel_kg_median']:.3f} g")
         return [f"\nOptimality: medians over successful episodes of achieved / lower bound per "
-                f"episode (docs/bounds.md; 1 is the limit). Bounds here: settle "
-                f"{b['settle_time_s_median']:.1f} s, propellant "
-                f"{1000 * b['fuel_kg_median']:.3f} g (medians)."]
+                f"episode (docs/bounds.md; 1 is the limit; {b['which']}). Bounds here (medians): "
+                f"settle {b['settle_time_s_median']:.1f} s, {fuel}."]
     reasons = dict.fromkeys(r.optimality["reason"] for r in results if r.optimality)
     return [f"\nOptimality: no lower bounds here: {why}." for why in reasons]
 

@@ -1,10 +1,17 @@
 """How far an evaluated policy is from the limit: its settle time and propellant as ratios to
 per-episode lower bounds (:mod:`rbenv.envs.bounds`, derived in docs/bounds.md).
 
-A ratio of 1 would be perfect and no policy goes below it. The bounds hold for thruster
-reorientation on a scene whose torques the bounds know: thrusters alone, the nominal model (no
-domain randomization), no per-step disturbance noise and no orbit torques. Anywhere else
-:func:`episode_bounds` returns the reason none is defined, and the evaluation says it.
+A ratio of 1 would be perfect and no policy goes below it. Which bounds hold where:
+
+* reorientation with thrusters alone, no orbit torques: the settle time and propellant bounds
+  of docs/bounds.md (the rate-based settle bound, the weighted-rate propellant bound);
+* reorientation with any other actuators (wheels, rods, thrusters beside them), orbit torques
+  included: the energy-rate settle bound (:func:`rbenv.envs.bounds.energy_settle_bound`), no
+  propellant bound (wheels and rods spend none; thrusters beside them share the torque);
+* detumbling, any actuators: the energy-rate settle bound; with thrusters alone and no orbit
+  torques also the propellant bound (:func:`rbenv.envs.bounds.detumble_fuel_bound`);
+* nowhere else (tracking, unloading, a randomized model, per-step disturbance noise, drag or
+  solar pressure): :func:`episode_bounds` returns the reason, and the evaluation says it.
 
 Per episode (successful episodes only; NaN otherwise):
 
@@ -31,34 +38,25 @@ __all__ = ["EpisodeBounds", "episode_bounds", "ratios", "summary", "why_undefine
 @dataclass(frozen=True, eq=False)
 class EpisodeBounds:
     """Lower bounds of N seeded episodes. settle_s (N,) s: earliest settle (control-step
-    time); fuel_kg (N,) kg: least propellant of any successful policy; the starts (angle (N,)
-    rad, omega_B (N, 3) rad/s, bias_B (N, 3) N·m) and the scene's limits, for the bound at a
-    policy's own settle time."""
+    time); fuel_kg (N,) kg or None: least propellant of any successful policy; fuel_at: the
+    propellant bound at a given settle time ((N,) s → (N,) kg), or None; how: which bounds."""
 
     settle_s: np.ndarray
-    fuel_kg: np.ndarray
-    angle: np.ndarray
-    omega_B: np.ndarray
-    bias_B: np.ndarray
-    limits: rb.SceneLimits
+    fuel_kg: np.ndarray | None
+    fuel_at: object
+    how: str
 
 
 def why_undefined(scene: Scene, task_table: str) -> str | None:
-    """None when the bounds hold for this task on this scene, else the reason in words."""
-    if task_table != "reorient":
-        return (f"the bounds cover reorientation; task {task_table!r} has none yet "
-                "(docs/bounds.md)")
-    kinds = sorted(scene.actuators)
-    if kinds != ["thrusters"]:
-        return (f"the bounds cover thrusters alone; scene {scene.name!r} has {kinds} "
-                "(docs/bounds.md)")
-    if scene.orbit.enabled:
-        return f"scene {scene.name!r} has orbit torques, which the bounds do not account for"
-    if scene.randomization.enabled:
-        return f"scene {scene.name!r} randomizes the model; the bounds need the nominal one"
-    if scene.disturbance.model == "random" and scene.disturbance.noise_sigma > 0.0:
-        return f"scene {scene.name!r} has per-step disturbance noise, which no bound covers"
-    return None
+    """None when a settle bound holds for this task on this scene, else the reason in words."""
+    if task_table not in ("reorient", "detumble"):
+        return (f"the bounds cover reorientation and detumbling; task {task_table!r} has none "
+                "yet (docs/bounds.md)")
+    return rb.why_no_torque_limits(scene)
+
+
+def _thrusters_alone(scene: Scene) -> bool:
+    return sorted(scene.actuators) == ["thrusters"] and not scene.orbit.torques
 
 
 def episode_bounds(episodes: int, seed: int, env_id: str,
@@ -88,27 +86,63 @@ def _compute(episodes: int, seed: int, env_id: str, kwargs: dict):
     reason = why_undefined(scene, table)
     if reason is not None:
         return reason
-    limits = rb.scene_limits(scene)
-    starts = rb.episode_starts(episodes, seed, env_id=env_id, **kwargs)
-    settle = rb.settle_time_bound(limits, starts["angle"], starts["omega_B"],
-                                  starts["bias_B"])["sampled"]
-    fuel = rb.fuel_bound(limits, starts["angle"], starts["omega_B"], starts["bias_B"])["kg"]
-    return EpisodeBounds(settle_s=settle, fuel_kg=fuel, angle=starts["angle"],
-                         omega_B=starts["omega_B"], bias_B=starts["bias_B"], limits=limits)
+    start = _starts(episodes, seed, env_id, kwargs)
+    angle = start["angle"] if table == "reorient" else None
+    settle = rb.energy_settle_bound(rb.torque_limits(scene), start["omega_B"], angle,
+                                    start["bias_B"])["sampled"]
+    if not _thrusters_alone(scene):
+        return EpisodeBounds(settle, None, None, f"{table}: energy-rate settle bound")
+    lim = rb.scene_limits(scene)
+    w0, bias = start["omega_B"], start["bias_B"]
+    if angle is not None:
+        settle = np.maximum(settle, rb.settle_time_bound(lim, angle, w0, bias)["sampled"])
+        def fuel_at(t):
+            return rb.fuel_bound(lim, angle, w0, bias, time_s=t)["kg"]
+    else:
+        def fuel_at(t):
+            return rb.detumble_fuel_bound(lim, w0, bias, time_s=t)["kg"]
+    return EpisodeBounds(settle, fuel_at(None), fuel_at,
+                         f"{table}: settle and propellant bounds (thrusters alone)")
+
+
+def _starts(episodes: int, seed: int, env_id: str, kwargs: dict) -> dict:
+    """The starts of episodes ``seed + i`` as the vector env draws them: omega_B (N, 3) rad/s,
+    bias_B (N, 3) N·m, and angle (N,) rad where the task has a target."""
+    from rbenv.envs import transition
+    from rbenv.satellite.draws import EpisodeDraws
+
+    envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
+                        **kwargs)
+    try:
+        env = envs.unwrapped
+        seeds = np.arange(seed, seed + episodes, dtype=np.uint64)
+        start = transition.start(env.plant, env.task,
+                                 EpisodeDraws(seeds, np.zeros(episodes, dtype=np.uint64)))
+    finally:
+        envs.close()
+    bias = start["bias"]
+    out = {"omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
+           "bias_B": np.zeros((episodes, 3)) if bias is None
+           else np.broadcast_to(np.stack(bias, axis=-1), (episodes, 3)).astype(float)}
+    if "angle" in start:
+        out["angle"] = np.asarray(start["angle"], float)
+    return out
 
 
 def ratios(success, settle_time_s, fuel_kg, bounds: EpisodeBounds) -> dict:
-    """Per-episode ratios (see the module) of one policy's outcomes, arrays of length N."""
+    """Per-episode ratios (see the module) of one policy's outcomes, arrays of length N; the
+    propellant ratios only where a propellant bound holds."""
     ok = np.asarray(success, bool)
     settle = np.where(ok, settle_time_s, np.nan)
-    fuel = np.where(ok, fuel_kg, np.nan)
-    lim = bounds.limits
-    own = rb.fuel_bound(lim, bounds.angle, bounds.omega_B, bounds.bias_B,
-                        time_s=np.where(ok, settle, lim.settle_time_max))["kg"]
     with np.errstate(divide="ignore", invalid="ignore"):
-        return {"settle_ratio": settle / bounds.settle_s,
-                "fuel_ratio": np.where(bounds.fuel_kg > 0, fuel / bounds.fuel_kg, np.nan),
-                "fuel_ratio_own_time": np.where(own > 0, fuel / own, np.nan)}
+        out = {"settle_ratio": np.where(bounds.settle_s > 0, settle / bounds.settle_s, np.nan)}
+        if bounds.fuel_kg is None:
+            return out
+        fuel = np.where(ok, fuel_kg, np.nan)
+        own = bounds.fuel_at(np.where(ok, settle, np.nanmax(bounds.settle_s)))
+        out["fuel_ratio"] = np.where(bounds.fuel_kg > 0, fuel / bounds.fuel_kg, np.nan)
+        out["fuel_ratio_own_time"] = np.where(own > 0, fuel / own, np.nan)
+    return out
 
 
 def summary(per_episode: dict, bounds: EpisodeBounds) -> dict:
@@ -117,11 +151,13 @@ def summary(per_episode: dict, bounds: EpisodeBounds) -> dict:
     where an episode has none)."""
     def listed(x):
         return [None if not np.isfinite(v) else float(v) for v in np.asarray(x, float)]
-    out = {"defined": True,
-           "bounds": {"settle_time_s_median": float(np.median(bounds.settle_s)),
-                      "fuel_kg_median": float(np.median(bounds.fuel_kg))},
+    fuel = bounds.fuel_kg
+    out = {"defined": True, "bounds": {
+               "which": bounds.how,
+               "settle_time_s_median": float(np.median(bounds.settle_s)),
+               "fuel_kg_median": None if fuel is None else float(np.median(fuel))},
            "per_episode": {"settle_bound_s": listed(bounds.settle_s),
-                           "fuel_bound_kg": listed(bounds.fuel_kg),
+                           **({} if fuel is None else {"fuel_bound_kg": listed(fuel)}),
                            **{name: listed(v) for name, v in per_episode.items()}}}
     for name, values in per_episode.items():
         v = np.asarray(values, float)

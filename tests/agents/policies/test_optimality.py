@@ -62,8 +62,9 @@ def test_the_baselines_sit_where_docs_bounds_puts_them(pd_and_bangbang):
 
 
 @pytest.mark.parametrize(("env_id", "kwargs", "reason"), [
-    (rbenv.ENV_ID, {"scene": "cubesat-6u-rw"}, "thrusters alone"),
-    (rbenv.DETUMBLE_ID, {}, "the bounds cover reorientation"),
+    (rbenv.TRACK_ID, {}, "the bounds cover reorientation and detumbling"),
+    (rbenv.DESATURATE_ID, {}, "the bounds cover reorientation and detumbling"),
+    (rbenv.ENV_ID, {"scene": "boom-sat"}, "disturbance noise"),
     (rbenv.ENV_ID, {"randomize": {"inertia_scale": 0.1}}, "randomizes the model"),
     (rbenv.ENV_ID, {"scene": "cubesat-12u-dr"}, "randomizes the model"),
 ])
@@ -86,3 +87,13 @@ def test_the_evaluate_json_carries_the_ratios_episode_by_episode(tmp_path, capsy
     assert len(opt["per_episode"]["settle_bound_s"]) == 6
     assert all(v is None or v >= 1.0 for v in opt["per_episode"]["settle_ratio"])
     assert "settle / bound" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("env_id", "scene", "which"), [
+    (rbenv.ENV_ID, "cubesat-6u-rw", "reorient: energy-rate settle bound"),
+    (rbenv.DETUMBLE_ID, "cubesat-12u", "detumble: settle and propellant bounds"),
+])
+def test_wheels_and_detumbling_have_their_settle_bounds(env_id, scene, which):
+    r = evaluate("pd", episodes=4, seed=SEED, env_id=env_id, scene=scene)
+    assert r.optimality["defined"] and r.optimality["bounds"]["which"].startswith(which)
+    assert ("fuel_ratio" in r.optimality_per_episode) == ("propellant" in which)
