@@ -17,6 +17,13 @@ first time after which it stays below 1° to the end (None if it ends above); th
 ``|error(rbenv) − error(flight)|`` over every logged sample. The flight logs its on-board
 estimate, so the simulated error is the sensed one where the scene has sensors as flown
 (``info["sensed_attitude_error_deg"]``), else the true one; the body rates likewise.
+
+A sub-maneuver whose logged commands are all zero (or absent) was flown by no controller: the
+flight computer had switched it off and the satellite drifted. Flying the policy there would
+compare a slew with a drift, so such a piece is replayed open loop with its logged commands
+(all zero: no wheel acceleration and no rod dipole), marked ``"mode": "open_loop"``, and left
+out of the summary, which compares the policy with the flight on the closed-loop pieces only;
+``summary["open_loop"]`` gives the drift pieces' count and median difference.
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ DEFAULT_ENV_KWARGS = {"action_mode": "acceleration"}  # the flight commands whee
 DEFAULT_ENV_ID = "rbenv/SatelliteReorient-v1"  # reorientation (v0 and v1 fly the same)
 WHEEL_CLOCK_PAST_DELAY_S = 1e3  # s since the first command: past any start-up delay
 SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
+CLOSED_LOOP, OPEN_LOOP = "closed_loop", "open_loop"  # how a sub-maneuver is replayed
 
 
 @dataclass(frozen=True)
@@ -54,11 +62,16 @@ class ManeuverReplay:
     flight_deg: np.ndarray
     sim_deg: np.ndarray
 
+    @property
+    def mode(self) -> str:
+        """:data:`OPEN_LOOP` where the flight controller was off, else :data:`CLOSED_LOOP`."""
+        return OPEN_LOOP if self.maneuver.controller_off else CLOSED_LOOP
+
     def record(self) -> dict:
         diff = np.abs(self.sim_deg - self.flight_deg)
         m = self.maneuver
         return {"folder": self.folder, "index": m.index, "t0": m.t0,
-                "duration_s": m.duration_s,
+                "duration_s": m.duration_s, "mode": self.mode,
                 "median_abs_error_diff_deg": _median(diff),
                 "flight": metrics(m.time_s, self.flight_deg),
                 "sim": metrics(m.time_s, self.sim_deg)}
@@ -100,20 +113,29 @@ def replay(root, scene, policy, *, env_id: str | None = None, env_kwargs: dict |
     replays = [ManeuverReplay(m, _folder_name(m.folder, root), m.error_deg, s["error_deg"])
                for m, s in zip(maneuvers, sim, strict=True)]
     records = [r.record() for r in replays]
-    flight = np.concatenate([r.flight_deg for r in replays])
-    rbenv_ = np.concatenate([r.sim_deg for r in replays])
     scene_name = scene.name if isinstance(scene, Scene) else load_scene(scene).name
+    return {"scene": scene_name, "policy": str(label), "maneuvers": records,
+            "summary": summary(replays, records), "replays": replays}
+
+
+def summary(replays: list[ManeuverReplay], records: list[dict]) -> dict:
+    """The policy against the flight over the closed-loop sub-maneuvers, and ``"open_loop"``:
+    the count and median |difference| of the pieces no controller flew (None if none)."""
+    closed = [i for i, r in enumerate(replays) if r.mode == CLOSED_LOOP]
+    drift = [r for r in replays if r.mode == OPEN_LOOP]
+    flight = np.concatenate([replays[i].flight_deg for i in closed] or [np.zeros(0)])
+    sim = np.concatenate([replays[i].sim_deg for i in closed] or [np.zeros(0)])
+    kept = [records[i] for i in closed]
     return {
-        "scene": scene_name, "policy": str(label), "maneuvers": records,
-        "summary": {
-            "median_abs_error_diff_deg": _median(np.abs(rbenv_ - flight)),
-            "flight_steady_deg_mean": _mean([r["flight"]["steady_deg"] for r in records]),
-            "sim_steady_deg_mean": _mean([r["sim"]["steady_deg"] for r in records]),
-            "flight_settle_1deg_s_median": _median_or_none(
-                [r["flight"]["settle_1deg_s"] for r in records]),
-            "sim_settle_1deg_s_median": _median_or_none(
-                [r["sim"]["settle_1deg_s"] for r in records])},
-        "replays": replays}
+        "median_abs_error_diff_deg": _median(np.abs(sim - flight)),
+        "flight_steady_deg_mean": _mean([r["flight"]["steady_deg"] for r in kept]),
+        "sim_steady_deg_mean": _mean([r["sim"]["steady_deg"] for r in kept]),
+        "flight_settle_1deg_s_median": _median_or_none(
+            [r["flight"]["settle_1deg_s"] for r in kept]),
+        "sim_settle_1deg_s_median": _median_or_none([r["sim"]["settle_1deg_s"] for r in kept]),
+        "open_loop": {"maneuvers": len(drift), "median_abs_error_diff_deg": _median(
+            np.concatenate([np.abs(r.sim_deg - r.flight_deg) for r in drift]
+                           or [np.zeros(0)]))}}
 
 
 def simulate(maneuvers: list[SubManeuver], scene, policy, *, env_id: str, env_kwargs: dict,
@@ -121,7 +143,8 @@ def simulate(maneuvers: list[SubManeuver], scene, policy, *, env_id: str, env_kw
     """rbenv at each maneuver's logged time stamps, flying ``policy`` closed loop from its
     logged start (one vector env, one env per maneuver): per maneuver ``{"error_deg": (M,),
     "rate_dps": (M, 3), "wheel_rpm": (M, 3)}`` (NaN after an episode ended early; wheel_rpm
-    only with wheels)."""
+    only with wheels). A maneuver whose controller was off gets its logged commands (all
+    zero) instead of the policy's action."""
     if not maneuvers:
         return []
     n = len(maneuvers)
@@ -143,9 +166,13 @@ def simulate(maneuvers: list[SubManeuver], scene, policy, *, env_id: str, env_kw
         alive = np.ones(n, bool)
         key = envs.unwrapped.task.error_info_key
         state, starts = None, np.ones(n, bool)
+        off = np.array([m.controller_off for m in maneuvers])
         for k in range(1, steps + 1):
             action, state = policy.predict(obs, state=state, episode_start=starts,
                                            deterministic=True)
+            if off.any():
+                action = np.array(action, copy=True)
+                action[off] = 0.0  # the logged commands: none
             obs, _, term, trunc, info = envs.step(action)
             starts = np.zeros(n, bool)
             _record(trace, k, envs, np.asarray(info.get(SENSED_ERROR, info[key])), alive)
@@ -198,22 +225,29 @@ def format_table(result: dict) -> str:
     def fmt(x, spec=".2f"):
         return "—" if x is None else format(x, spec)
     lines = [f"replay of {result['policy']} in scene {result['scene']}",
-             "| folder | # | t0 (s) | duration (s) | median |diff| (deg) | settle<1° flight / "
-             "rbenv (s) | steady flight / rbenv (deg) |",
-             "|---|---|---|---|---|---|---|"]
+             "| folder | # | flown by | t0 (s) | duration (s) | median |diff| (deg) | settle<1° "
+             "flight / rbenv (s) | steady flight / rbenv (deg) |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in result["maneuvers"]:
         flight, sim = r["flight"], r["sim"]
+        mode = "policy" if r["mode"] == CLOSED_LOOP else "nobody: open loop, logged commands 0"
         lines.append(
-            f"| {r['folder']} | {r['index']} | {r['t0']:.0f} | {r['duration_s']:.0f} "
+            f"| {r['folder']} | {r['index']} | {mode} | {r['t0']:.0f} | {r['duration_s']:.0f} "
             f"| {fmt(r['median_abs_error_diff_deg'])} "
             f"| {fmt(flight['settle_1deg_s'], '.0f')} / {fmt(sim['settle_1deg_s'], '.0f')} "
             f"| {fmt(flight['steady_deg'])} / {fmt(sim['steady_deg'])} |")
     s = result["summary"]
     lines.append(
-        f"| all | | | | {fmt(s['median_abs_error_diff_deg'])} "
+        f"| all | | policy | | | {fmt(s['median_abs_error_diff_deg'])} "
         f"| {fmt(s['flight_settle_1deg_s_median'], '.0f')} / "
         f"{fmt(s['sim_settle_1deg_s_median'], '.0f')} (median) "
         f"| {fmt(s['flight_steady_deg_mean'])} / {fmt(s['sim_steady_deg_mean'])} (mean) |")
+    drift = s["open_loop"]
+    if drift["maneuvers"]:
+        lines.append(
+            f"{drift['maneuvers']} sub-maneuver(s) logged only zero commands (the flight "
+            f"controller was off): replayed open loop with those commands and left out of the "
+            f"'all' row; their median |diff| {fmt(drift['median_abs_error_diff_deg'])}°.")
     return "\n".join(lines)
 
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from rbenv.agents.baselines.controllers import applicable_baselines
+from rbenv.agents.baselines.controllers import applicable_baselines, env_parts
 from rbenv.agents.policies.evaluate import evaluate, format_table, plot_episodes
 from rbenv.agents.policies.runfolder import EVAL_LOG, atomic_write, write_json
 from rbenv.agents.training.config import RunConfig
@@ -50,8 +50,7 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
            if (stop := summary.get("stopped_at_success")) else ""),
         *kept_lines(summary.get("kept")),
         f"- evaluation: {cfg.report_episodes} episodes seeded from {cfg.report_seed}, the same "
-        "initial states for every policy; success = error < 1° and |ω| < 0.01 rad/s held "
-        "for the scene's hold time",
+        f"initial states for every policy; {success_rule(cfg)}",
         f"- load the policy with {trained.load}",
         "",
         table,
@@ -65,6 +64,21 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+def success_rule(cfg: RunConfig) -> str:
+    """The success thresholds of the run's task on its scene, in words (the scene's own
+    values: innocube-3u's are not cubesat-12u's)."""
+    import gymnasium as gym
+
+    env = gym.make(cfg.env_id, **{**cfg.env_kwargs,
+                                  **({"scene": cfg.scene} if cfg.scene else {})})
+    plant, task = env_parts(env)
+    ep = plant.scene.episode
+    env.close()
+    return (f"success as task {task.name!r} defines it (docs/tasks.md), with the thresholds "
+            f"of scene {plant.scene.name!r}: attitude error < {ep.success_angle_deg:g}°, "
+            f"|ω| < {ep.success_rate:g} rad/s, held {ep.hold_time:g} s")
 
 
 def duration(seconds: float) -> str:

@@ -73,11 +73,11 @@ def register(spec: TaskSpec) -> TaskSpec:
 
 
 def _sync_table_makers() -> None:
-    """:data:`rbenv.tasks.TABLE_MAKERS` from the entries: each scene table's first maker (a v1
+    """:data:`rbenv.tasks.TABLE_MAKERS` from the entries: each scene table's first entry (a v1
     task reads its v0's table)."""
     tasks.TABLE_MAKERS.clear()
     for spec in _SPECS.values():
-        tasks.TABLE_MAKERS.setdefault(spec.task.table_name(), spec.make)
+        tasks.TABLE_MAKERS.setdefault(spec.task.table_name(), spec)
 
 
 def unregister(env_id: str) -> None:

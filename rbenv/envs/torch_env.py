@@ -48,6 +48,7 @@ the numba ``compiled`` kernels.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import ClassVar
 
 import gymnasium as gym
@@ -133,8 +134,11 @@ def check_supported(plant, task, render_mode, compiled) -> None:
         _refuse("action_mode", "torque", "the thrust allocators are NumPy/SciPy; use "
                 "'throttle' or 'on_off'")
     if plant.randomization is not None:
-        _refuse("randomize", True, "the per-episode model of domain randomization is NumPy; "
-                "pass randomize=False")
+        drawn = {f.name: getattr(plant.randomization, f.name)
+                 for f in dataclasses.fields(plant.randomization)
+                 if getattr(plant.randomization, f.name)}
+        _refuse("randomize", drawn, f"the per-episode model of domain randomization is NumPy "
+                f"(scene {sc.name!r} draws these); pass randomize=False")
     if plant.noisy:
         _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
                 "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
@@ -328,9 +332,15 @@ class TorchVectorEnv(VectorContract):
         return obs, info
 
     def _reset_mask(self, mask) -> torch.Tensor:
+        """The (N,) bool mask of ``options["reset_mask"]`` on the env's device: a torch bool
+        tensor or a NumPy bool array (as Gymnasium users pass it; actions are taken from NumPy
+        too). Another type or dtype -> TypeError; wrong shape or all False -> ValueError."""
         if mask is None:
             return self._mask
-        rule = f"options['reset_mask'] must be a torch bool tensor of shape ({self.num_envs},)"
+        rule = (f"options['reset_mask'] must be a torch bool tensor or a NumPy bool array of "
+                f"shape ({self.num_envs},)")
+        if isinstance(mask, np.ndarray) and mask.dtype == np.bool_:
+            mask = torch.from_numpy(mask.copy())
         if not isinstance(mask, torch.Tensor) or mask.dtype != torch.bool:
             raise TypeError(f"{rule}, got {type(mask).__name__} "
                             f"{getattr(mask, 'dtype', '')}")
@@ -339,7 +349,7 @@ class TorchVectorEnv(VectorContract):
         if not bool(mask.any()):  # a host read, as reset's check() already makes
             raise InvalidParameterError("options['reset_mask'] must contain at least one True "
                                         "(a sub-env to reset), got all False")
-        if self._st is None:
+        if self._st is None and not bool(mask.all()):
             raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
         return mask.to(self.device)
 

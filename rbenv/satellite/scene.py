@@ -442,12 +442,14 @@ class Scene:
             groups = {key: dataclasses.replace(getattr(self, key), **_checked(
                 f"tasks.{task_name}.{key}", value, getattr(self, key)))
                 for key, value in over.items()}
-            rest = {k: v for k, v in table.items() if k not in over}
-            return dataclasses.replace(self, tasks={**self.tasks, task_name: rest}, **groups)
         except RbenvValueError as exc:
             raise type(exc)(f"tasks.{task_name}: {exc}") from None
         except TypeError as exc:
             raise InvalidParameterError(f"tasks.{task_name}: {exc}") from None
+        # Outside the try: the copy checks every task's tables again, and an error there is
+        # another task's, named by that task's own prefix.
+        rest = {k: v for k, v in table.items() if k not in over}
+        return dataclasses.replace(self, tasks={**self.tasks, task_name: rest}, **groups)
 
     def with_physics(self, integrator=None, control_dt=None, substeps=None) -> Scene:
         """A copy with some physics fields replaced (``None`` keeps the scene's value)."""

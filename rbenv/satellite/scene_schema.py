@@ -86,8 +86,10 @@ TABLES: tuple[Table, ...] = (
         Key("inertia", "kg·m²", "spin-axis inertia: one number, or one per wheel", REQUIRED),
         Key("max_torque", "N·m", "motor torque limit: one number, or one per wheel", REQUIRED),
         Key("max_speed_rpm", "rpm", "speed limit: one number, or one per wheel", REQUIRED),
-        Key("viscous", "N·m·s/rad", "viscous friction coefficient", "0.0"),
-        Key("coulomb", "N·m", "Coulomb friction torque", "0.0"),
+        Key("viscous", "N·m·s/rad", "viscous friction coefficient; a number or [low, high] "
+                                    "drawn per episode", "0.0"),
+        Key("coulomb", "N·m", "Coulomb friction torque; a number or [low, high] drawn per "
+                              "episode", "0.0"),
         Key("standby_power", "W", "electrical power of each wheel at rest", "0.0"),
         Key("initial_speed_rpm", "rpm", "speed at the episode start: one, or one per wheel",
             "0.0"),
@@ -204,13 +206,21 @@ TABLES: tuple[Table, ...] = (
     ), "rbenv.satellite.disturbances:SolarPressure"),
     Table("[randomization]", "domain randomization: sizes of the per-episode perturbations, all "
                              "0 = off (rbenv.satellite.randomization; gym.make's randomize= "
-                             "overrides)", (
+                             "overrides). A key that perturbs an actuator the scene lacks "
+                             "(force_scale without [thrusters], say) must be 0", (
         Key("inertia_scale", "fraction", "each principal second moment scaled by 1 ± this"),
         Key("inertia_rotation_deg", "deg", "the mass distribution turned by up to this"),
         Key("com_offset", "m", "centre of mass moved within a ball of this radius"),
         Key("force_scale", "fraction", "each thruster's force scaled by 1 ± this"),
         Key("misalignment_deg", "deg", "each thruster's direction tilted by up to this"),
         Key("delay_probability", "", "probability of a one-step control delay for the episode"),
+        Key("wheel_misalignment_deg", "deg", "each reaction wheel's spin axis tilted by up to "
+                                             "this"),
+        Key("wheel_torque_scale", "fraction", "each wheel's realized motor torque scaled by "
+                                              "1 ± this"),
+        Key("wheel_speed_scale", "fraction", "each wheel's speed reading scaled by 1 ± this "
+                                             "(observation only)"),
+        Key("rod_dipole_scale", "fraction", "each magnetorquer's dipole scaled by 1 ± this"),
     ), "rbenv.satellite.randomization:Randomization"),
 )
 
@@ -307,7 +317,11 @@ def reference_markdown() -> str:
               "Per-task options of the scene, for the tasks that take them (gym.make's "
               "`task_options=` overrides them). `[tasks.<task>.physics]` and "
               "`[tasks.<task>.episode]` override the scene's `[physics]` and `[episode]` keys "
-              "for that task alone (same keys as above).", ""]
+              "for that task alone (same keys as above). Every task's table is checked whichever "
+              "task's env is made on the scene, and an error names the table and its task; a "
+              "table whose task cannot run on the scene (`[tasks.desaturate]` on a scene without "
+              "`[wheels]`) has only its option names checked, so it does not stop another "
+              "task's env.", ""]
     for task, (ref, keys) in TASK_TABLES.items():
         options = resolve(ref).OPTIONS
         lines += [f"`[tasks.{task}]`:", ""]

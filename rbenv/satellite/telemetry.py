@@ -109,6 +109,13 @@ class SubManeuver:
         return float(self.time_s[-1])
 
     @property
+    def controller_off(self) -> bool:
+        """True when no logged command is a finite non-zero value: the flight controller was
+        off (or logged nothing) and the satellite drifted; no policy flew this piece."""
+        c = self.command_rpm_s
+        return not bool(np.any(np.isfinite(c) & (c != 0.0)))
+
+    @property
     def error_deg(self) -> np.ndarray:
         return error_angle_deg(self.q)
 

@@ -7,11 +7,10 @@ Gymnasium id by ``rbenv/__init__.py`` through :mod:`rbenv.envs.registry`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
+from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.plant import Plant, make_plant
 from rbenv.satellite.scene import DEFAULT_SCENE, load_scene
-from rbenv.tasks.base import Task
+from rbenv.tasks.base import Task, option_table
 from rbenv.tasks.detumble import Detumble
 from rbenv.tasks.reorient import Reorient
 from rbenv.tasks.spec import TaskSpec
@@ -19,10 +18,10 @@ from rbenv.tasks.track import Track
 
 __all__ = ["TABLE_MAKERS", "Detumble", "Reorient", "Task", "TaskSpec", "Track", "build"]
 
-# Scene option table name ([tasks.<name>]) -> the maker that reads it, for every registered
-# task: rbenv.envs.registry.register adds each entry's, so a bad value in any task's table fails
-# when an env of any task is made on the scene.
-TABLE_MAKERS: dict[str, Callable] = {}
+# Scene option table name ([tasks.<name>]) -> the entry whose maker reads it, for every
+# registered task: rbenv.envs.registry.register adds each entry's, so a bad value in any task's
+# table fails when an env of any task is made on the scene.
+TABLE_MAKERS: dict[str, TaskSpec] = {}
 
 
 def build(spec: TaskSpec, scene=None, *, integrator=None, control_dt=None, substeps=None,
@@ -46,8 +45,23 @@ def build(spec: TaskSpec, scene=None, *, integrator=None, control_dt=None, subst
 def check_other_task_tables(plant: Plant, own_table: str) -> None:
     """Check the scene's option tables of the other tasks too (``[tasks.<other>]``), with
     their own makers (:data:`TABLE_MAKERS`): a bad value there fails when any env is made on
-    the scene, not only when that task's is. ``own_table``: the table the env's task has read
-    already (a v1 task reads its v0's)."""
+    the scene, not only when that task's is, and the error names the table and its task.
+    ``own_table``: the table the env's task has read already (a v1 task reads its v0's).
+
+    A table whose task cannot run on the scene (it lacks a table the task needs, as
+    ``[wheels]`` for desaturation) is not run through its maker: only its option names are
+    checked, since its values mean nothing here and the env asked for is another task's."""
     for table in plant.scene.tasks:
-        if table != own_table and table in TABLE_MAKERS:
-            TABLE_MAKERS[table](make_plant(plant.scene.for_task(table)))
+        spec = TABLE_MAKERS.get(table)
+        if table == own_table or spec is None:
+            continue
+        try:
+            scene = plant.scene.for_task(table)
+            if spec.runs_on(scene):
+                spec.make(make_plant(scene))
+            else:
+                option_table(scene, spec.task, None)
+        except InvalidParameterError as exc:
+            raise type(exc)(f"scene {plant.scene.name!r}, table [tasks.{table}] (options of "
+                            f"task {spec.name!r}, checked whatever task is made): "
+                            f"{exc}") from None

@@ -149,7 +149,7 @@ def test_float32_runs_and_stays_close_to_float64():
 @pytest.mark.parametrize(("option", "value", "named"), [
     ("integrator", "midpoint", "integrator='midpoint'"),
     ("action_mode", "torque", "action_mode='torque'"),
-    ("randomize", {"inertia_scale": 0.2}, "randomize="),
+    ("randomize", {"inertia_scale": 0.2}, "randomize={'inertia_scale': 0.2}"),
     ("scene", "microsat-100kg", "scene='microsat-100kg'"),
     ("render_mode", "rgb_array", "render_mode='rgb_array'"),
     ("dtype", "float16", "dtype must be one of ['float32', 'float64'] (or the torch dtype), "
@@ -243,8 +243,36 @@ def test_disabled_mode_resets_by_tensor_mask():
     obs, _ = env.reset(options={"reset_mask": mask})
     # Sub-env 0 starts its second episode: another start than its first.
     assert not torch.equal(obs[0], first[0])
-    with pytest.raises(TypeError, match="torch bool tensor"):
-        env.reset(options={"reset_mask": np.ones(3, dtype=bool)})
+    with pytest.raises(TypeError, match=r"torch bool tensor or a NumPy bool array.*list"):
+        env.reset(options={"reset_mask": [True, True, True]})
+    with pytest.raises(TypeError, match=r"NumPy bool array.*int64"):
+        env.reset(options={"reset_mask": np.ones(3, dtype=np.int64)})
+
+
+def test_numpy_reset_mask_resets_as_the_tensor_mask():
+    """Gymnasium users pass a NumPy mask (issue 44, item 5): it resets the same rows, to the
+    same starts, as the equal torch mask, and is refused by name when all False."""
+    kw = {"backend": "torch", "autoreset_mode": "Disabled", "max_episode_steps": 2}
+    outs = []
+    for mask in (torch.tensor([True, False, True]), np.array([True, False, True])):
+        env = gym.make_vec(rbenv.ENV_ID, num_envs=3, **kw)
+        env.reset(seed=4)
+        a = np.zeros(env.action_space.shape)
+        env.step(a)
+        stepped, *_ = env.step(a)
+        obs, _ = env.reset(options={"reset_mask": mask})
+        assert torch.equal(obs[1], stepped[1])  # the row left out keeps its state
+        assert not torch.equal(obs[0], stepped[0])
+        outs.append(obs)
+    assert torch.equal(outs[0], outs[1])
+    with pytest.raises(ValueError, match="at least one True"):
+        env.reset(options={"reset_mask": np.zeros(3, dtype=bool)})
+    first = gym.make_vec(rbenv.ENV_ID, num_envs=3, **kw)
+    with pytest.raises(gym.error.ResetNeeded, match="first reset"):
+        first.reset(seed=0, options={"reset_mask": np.array([True, False, True])})
+    obs, _ = first.reset(seed=4, options={"reset_mask": np.ones(3, dtype=bool)})
+    env = gym.make_vec(rbenv.ENV_ID, num_envs=3, **kw)
+    assert torch.equal(obs, env.reset(seed=4)[0])
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device on this machine")

@@ -266,6 +266,60 @@ def test_a_bad_option_of_another_task_fails_on_any_env_of_the_scene(tmp_path, va
         gym.make(rbenv.ENV_ID, scene=str(path))
 
 
+def _rods_only(tmp_path, extra: str = "") -> str:
+    """cubesat-6u-rw without its [wheels] table: rods only, [tasks.desaturate.*] kept."""
+    text = (Path(rbenv.__file__).parent / "scenes" / "cubesat-6u-rw.toml").read_text()
+    start, end = text.index("[wheels]"), text.index("[magnetorquers]")
+    path = tmp_path / "rods.toml"
+    path.write_text(text[:start] + text[end:] + extra)
+    return str(path)
+
+
+@pytest.mark.parametrize("env_id", [DETUMBLE, "rbenv/SatelliteDetumble-v0"])
+def test_a_task_that_cannot_run_on_the_scene_does_not_refuse_another_tasks_env(tmp_path,
+                                                                               env_id):
+    """Issue 44, item 4: [tasks.desaturate] on a scene without wheels is inert for a detumble
+    env (it failed with "task 'desaturate' unloads reaction wheels"); desaturation itself is
+    still refused by name."""
+    scene = _rods_only(tmp_path)
+    env = gym.make(env_id, scene=scene)
+    env.reset(seed=0)
+    _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+    assert not (terminated or truncated)
+    with pytest.raises(InvalidParameterError, match=r"'desaturate' unloads reaction wheels"):
+        gym.make(rbenv.DESATURATE_ID, scene=scene)
+
+
+def test_an_inapplicable_tables_option_names_are_still_checked_and_named(tmp_path):
+    scene = _rods_only(tmp_path, "\n[tasks.desaturate]\nmomentum_treshold_fraction = 0.1\n")
+    with pytest.raises(InvalidParameterError,
+                       match=r"table \[tasks\.desaturate\] \(options of task 'desaturate'"
+                             r".*unknown option\(s\) \['momentum_treshold_fraction'\]"):
+        gym.make(DETUMBLE, scene=scene)
+
+
+def test_a_bad_value_of_another_task_names_its_table_and_task(tmp_path):
+    text = (Path(rbenv.__file__).parent / "scenes" / "cubesat-6u-rw.toml").read_text()
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace("min_rate_fraction = 0.1", "min_rate_fraction = 2.0"))
+    with pytest.raises(InvalidParameterError,
+                       match=r"table \[tasks\.detumble\] \(options of task 'detumble', "
+                             r"checked whatever task is made\)"):
+        gym.make(rbenv.ENV_ID, scene=str(path))
+
+
+def test_a_bad_per_task_table_is_named_by_its_own_task_only(tmp_path):
+    """A bad [tasks.desaturate.episode] was reported as "tasks.detumble: tasks.desaturate: ..."
+    (the detumble table's copy of the scene re-checked the others under its own prefix)."""
+    scene = _rods_only(tmp_path)
+    path = Path(scene)
+    path.write_text(path.read_text().replace("hold_time = 50.0", "hold_time = 50.0\nbogus = 1"))
+    with pytest.raises(InvalidParameterError) as err:
+        gym.make(rbenv.ENV_ID, scene=scene)
+    assert "tasks.desaturate.episode has unknown field(s) ['bogus']" in str(err.value)
+    assert "tasks.detumble" not in str(err.value)
+
+
 def _noisy_magnetometer_scene(base: str, sigma: float):
     import dataclasses
 

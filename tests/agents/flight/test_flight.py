@@ -36,14 +36,16 @@ def scene_file(tmp_path, name, **wheels) -> str:
     return str(path)
 
 
-def fly(scene: str, starts, seconds: int = 40) -> Telemetry:
+def fly(scene: str, starts, seconds: int = 40, off_after: int | None = None) -> Telemetry:
     """Slews from each (angle deg about axis, rate deg/s) start in turn, the wheels' speeds
-    carried over, logged every 2 s; one Telemetry of all (the target switches between)."""
+    carried over, logged every 2 s; one Telemetry of all (the target switches between). From
+    start ``off_after`` on, the controller is off: zero commands, the satellite drifts."""
     env = gym.make(ENV_ID, scene=scene, action_mode="acceleration")
     pd = InnoCubePD.from_env(env)
     log = {k: [] for k in ("q", "rate_dps", "wheel_rpm", "command_rpm_s")}
     wheel, clock = np.zeros(3), -1.0
-    for angle, axis, rate in starts:
+    for i, (angle, axis, rate) in enumerate(starts):
+        off = off_after is not None and i >= off_after
         half = math.radians(angle) / 2
         q = np.array([math.cos(half), *(math.sin(half) * np.asarray(axis, float))])
         obs, _ = env.reset(seed=0, options={"q": q, "q_target": [1.0, 0, 0, 0],
@@ -52,6 +54,7 @@ def fly(scene: str, starts, seconds: int = 40) -> Telemetry:
         st = env.unwrapped._st
         for k in range(seconds + 1):
             action, _ = pd.predict(obs)
+            action = np.zeros_like(action) if off else action
             if k % 2 == 0:  # the 2 s log
                 log["q"].append(np.asarray(st.q, float))
                 log["rate_dps"].append(np.degrees(np.asarray(st.omega_B, float)))
@@ -96,6 +99,33 @@ def test_replay_of_the_scene_that_flew_follows_the_log(flight):
         "median_abs_error_diff_deg"]  # the check can fail: ideal wheels do not follow
 
 
+def test_a_piece_flown_by_no_controller_is_replayed_open_loop_and_left_out(flight, tmp_path):
+    """Issue 44, item 7: a last piece that logs only zero commands (the controller off, the
+    satellite drifting) is replayed with those commands, not flown by the policy, and the
+    summary compares the policy with the flight on the other pieces only."""
+    _, scene = flight
+    drift = (100.0, (0.0, 0.0, 1.0), (0.4, 0.3, -0.5))
+    write_folder(tmp_path / "log" / "run", fly(scene, [*STARTS, drift], off_after=2))
+    result = replay.replay(tmp_path / "log", scene, "innocube-pd", env_id=ENV_ID)
+    modes = [m["mode"] for m in result["maneuvers"]]
+    assert modes == ["closed_loop", "closed_loop", "open_loop"]
+    last = result["maneuvers"][2]
+    assert last["flight"]["steady_deg"] > 90.0  # it drifted: nobody turned it
+    assert last["median_abs_error_diff_deg"] < 0.05  # the drift is followed, not a slew
+    alone = replay.replay(flight[0] / "log", scene, "innocube-pd", env_id=ENV_ID)
+    assert result["summary"]["open_loop"] == {
+        "maneuvers": 1, "median_abs_error_diff_deg": pytest.approx(
+            float(np.median(np.abs(result["replays"][2].sim_deg
+                                   - result["replays"][2].flight_deg))))}
+    for key, value in alone["summary"].items():
+        if key != "open_loop":
+            assert result["summary"][key] == pytest.approx(value), key
+    assert alone["summary"]["open_loop"]["maneuvers"] == 0
+    table = replay.format_table(result)
+    assert "nobody: open loop, logged commands 0" in table
+    assert "1 sub-maneuver(s) logged only zero commands" in table
+
+
 def test_metrics_against_hand_counts():
     t = np.arange(0.0, 42.0, 2.0)  # 0 ... 40 s
     err = np.where(t < 10.0, 50.0, 0.5)
@@ -117,14 +147,15 @@ def test_the_replay_command_writes_exactly_the_documented_fields(flight, tmp_pat
     data = json.loads(out.read_text())
     assert set(data) == {"scene", "policy", "maneuvers", "summary"}
     assert data["scene"] == "flown" and data["policy"] == "innocube-pd"
-    assert set(data["maneuvers"][0]) == {"folder", "index", "t0", "duration_s",
+    assert set(data["maneuvers"][0]) == {"folder", "index", "t0", "duration_s", "mode",
                                          "median_abs_error_diff_deg", "flight", "sim"}
     assert data["maneuvers"][0]["folder"] == "15.12.2025 21.50-22.05"
     for side in ("flight", "sim"):
         assert set(data["maneuvers"][0][side]) == {"settle_1deg_s", "steady_deg"}
     assert set(data["summary"]) == {"median_abs_error_diff_deg", "flight_steady_deg_mean",
                                     "sim_steady_deg_mean", "flight_settle_1deg_s_median",
-                                    "sim_settle_1deg_s_median"}
+                                    "sim_settle_1deg_s_median", "open_loop"}
+    assert data["summary"]["open_loop"] == {"maneuvers": 0, "median_abs_error_diff_deg": None}
 
 
 def test_replay_plot_draws_one_panel_per_sub_maneuver(flight, tmp_path):
