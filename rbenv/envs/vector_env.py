@@ -84,6 +84,11 @@ class AttitudeVectorEnv(VectorContract):
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
             o, ("rgb_array",))
+        if self.plant.scene.estimator is not None:
+            raise InvalidParameterError(
+                f"scene {self.plant.scene.name!r} has an [estimator]: the attitude estimator "
+                "runs in the single env only yet (gym.make, or gym.make_vec with "
+                "vectorization_mode='sync')")
         self.autoreset_mode = autoreset_mode_of(o["autoreset_mode"])
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}

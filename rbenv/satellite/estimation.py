@@ -1,0 +1,158 @@
+"""The multiplicative extended Kalman filter (MEKF), batched over N satellites in NumPy.
+
+Lefferts, Markley & Shuster (JGCD 1982); Markley & Crassidis, "Fundamentals of Spacecraft
+Attitude Determination and Control" (2014), ch. 6. The state is the attitude estimate q̂ (N, 4,
+scalar-first, body to inertial) and the gyro-bias estimate b̂ (N, 3, rad/s); the filter's
+error state is ``x = (δθ, Δb)`` with ``δq = q̂⁻¹ ⊗ q = exp(δθ)`` (body axes, rad) and
+``Δb = b − b̂`` (rad/s), its covariance P (N, 6, 6).
+
+Propagation with the gyro increment Δθ_m over dt (rbenv.satellite.sensors.gyro_increment):
+``q̂ ← q̂ ⊗ exp(Δθ_m − b̂ dt)``, ``P ← Φ P Φᵀ + Q`` with ``Φ = [[exp(−[ω̂×]dt), −J], [0, I]]``,
+J = ∫₀^dt exp(−[ω̂×]s) ds (closed form), and the gyro's process noise (Markley & Crassidis
+§6.2)::
+
+    Q = [[(σ_v² dt + σ_u² dt³/3) I, −σ_u² dt²/2 I], [−σ_u² dt²/2 I, σ_u² dt I]].
+
+Updates (Joseph form, then ``q̂ ← q̂ ⊗ exp(δθ̂)``, ``b̂ ← b̂ + Δb̂``): a star-tracker quaternion
+(residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and body vectors of known inertial direction
+(magnetometer field, fitted Sun direction: residual ``y − A(q̂)ᵀ r``, H = [[A(q̂)ᵀ r ×] 0]). Rows
+without a measurement this step are left unchanged (a mask, no loop over satellites).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rbenv.core import validation as check
+from rbenv.satellite.sensors import qconj, qexp, qlog, qmul, rotate_inverse, skew
+
+__all__ = ["MEKF", "Estimator", "process_noise", "transition_matrix"]
+
+_DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class Estimator:
+    """``[estimator]``: the MEKF in the loop (needs ``[sensors] attitude = "estimator"``).
+
+    initial_attitude_sigma_deg: 1σ per axis of the first estimate's error (drawn per episode,
+    the filter starts with this covariance); the bias prior is the gyro's
+    ``gyro_bias_sigma_dps``. process_noise_scale: factor on Q (1: the gyro's own model)."""
+
+    initial_attitude_sigma_deg: float = 1.0
+    process_noise_scale: float = 1.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "initial_attitude_sigma_deg", check.number(
+            "estimator.initial_attitude_sigma_deg", self.initial_attitude_sigma_deg, low=0.0,
+            low_open=True, high=60.0))
+        object.__setattr__(self, "process_noise_scale", check.number(
+            "estimator.process_noise_scale", self.process_noise_scale, low=1.0, high=1e6))
+
+
+def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
+    """The 6 × 6 discrete process noise Q of the gyro (σ_v rad/√s, σ_u rad/s/√s, dt s)."""
+    q = np.zeros((6, 6))
+    eye = np.eye(3)
+    q[:3, :3] = (sigma_v ** 2 * dt + sigma_u ** 2 * dt ** 3 / 3.0) * eye
+    q[:3, 3:] = q[3:, :3] = -0.5 * sigma_u ** 2 * dt ** 2 * eye
+    q[3:, 3:] = sigma_u ** 2 * dt * eye
+    return q
+
+
+def transition_matrix(omega_hat: np.ndarray, dt: float) -> np.ndarray:
+    """Φ (N, 6, 6) for the estimated rate ω̂ (N, 3, rad/s) held over dt."""
+    n = omega_hat.shape[0]
+    k = skew(omega_hat)
+    k2 = k @ k
+    w = np.linalg.norm(omega_hat, axis=-1)[:, None, None]
+    a = w * dt
+    small = a < 1e-3
+    ws = np.where(small, 1.0, w)
+    # exp(−K dt) = I − sin(a)/w K + (1 − cos a)/w² K²
+    c1 = np.where(small, dt - a * a * dt / 6.0, np.sin(a) / ws)
+    c2 = np.where(small, dt * dt / 2.0 - a * a * dt * dt / 24.0, (1.0 - np.cos(a)) / ws ** 2)
+    # J = ∫ exp(−K s) ds = I dt − (1 − cos a)/w² K + (dt − sin(a)/w)/w² K²
+    c3 = np.where(small, dt ** 3 / 6.0 - a * a * dt ** 3 / 120.0,
+                  (dt - np.sin(a) / ws) / ws ** 2)
+    eye = np.eye(3)
+    phi = np.zeros((n, 6, 6))
+    phi[:, :3, :3] = eye - c1 * k + c2 * k2
+    phi[:, :3, 3:] = -(eye * dt - c2 * k + c3 * k2)
+    phi[:, 3:, 3:] = eye
+    return phi
+
+
+class MEKF:
+    """The filter's state for N satellites: ``q`` (N, 4), ``bias`` (N, 3, rad/s), ``P``
+    (N, 6, 6); gyro noise σ_v (rad/√s) and σ_u (rad/s/√s) set its process noise."""
+
+    def __init__(self, q: np.ndarray, bias: np.ndarray, P: np.ndarray, sigma_v: float,
+                 sigma_u: float, noise_scale: float = 1.0):
+        self.q = np.array(q, dtype=float)
+        self.bias = np.array(bias, dtype=float)
+        self.P = np.array(P, dtype=float)
+        self.sigma_v, self.sigma_u, self.noise_scale = sigma_v, sigma_u, noise_scale
+
+    def propagate(self, dtheta_m: np.ndarray, dt: float) -> None:
+        """Advance over dt s with the gyro increment Δθ_m (N, 3, rad)."""
+        step = dtheta_m - self.bias * dt
+        phi = transition_matrix(step / dt, dt)
+        self.q = qmul(self.q, qexp(step))
+        self.q /= np.linalg.norm(self.q, axis=-1, keepdims=True)
+        q = self.noise_scale * process_noise(self.sigma_v, self.sigma_u, dt)
+        self.P = phi @ self.P @ np.swapaxes(phi, -1, -2) + q
+        self.P = 0.5 * (self.P + np.swapaxes(self.P, -1, -2))
+
+    def _update(self, residual: np.ndarray, H: np.ndarray, R: np.ndarray,
+                valid: np.ndarray) -> None:
+        """One measurement update for the rows where ``valid`` (N,) bool; residual (N, m),
+        H (N, m, 6), R (m, m) or (N, m, m)."""
+        if not np.any(valid):
+            return
+        P = self.P
+        Ht = np.swapaxes(H, -1, -2)
+        S = H @ P @ Ht + R
+        K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)  # P Hᵀ S⁻¹ (S, P symmetric)
+        x = (K @ residual[..., None])[..., 0]
+        ikh = np.eye(6) - K @ H
+        newP = ikh @ P @ np.swapaxes(ikh, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+        m = valid[:, None]
+        self.P = np.where(valid[:, None, None], 0.5 * (newP + np.swapaxes(newP, -1, -2)), P)
+        q = qmul(self.q, qexp(x[:, :3]))
+        self.q = np.where(m, q / np.linalg.norm(q, axis=-1, keepdims=True), self.q)
+        self.bias = np.where(m, self.bias + x[:, 3:], self.bias)
+
+    def update_attitude(self, q_m: np.ndarray, R: np.ndarray, valid: np.ndarray) -> None:
+        """A star-tracker fix q_m (N, 4) with noise covariance R (3, 3, rad², body axes)."""
+        residual = qlog(qmul(qconj(self.q), q_m))
+        H = np.zeros((self.q.shape[0], 3, 6))
+        H[:, :, :3] = np.eye(3)
+        self._update(residual, H, R, valid)
+
+    def update_vector(self, y_B: np.ndarray, r_N: np.ndarray, R: np.ndarray,
+                      valid: np.ndarray) -> None:
+        """A body vector y_B (N, 3) of the inertial vector r_N (N, 3), noise covariance R
+        ((3, 3) or (N, 3, 3), same unit squared)."""
+        predicted = rotate_inverse(self.q, r_N)
+        H = np.zeros((self.q.shape[0], 3, 6))
+        H[:, :, :3] = skew(predicted)
+        self._update(y_B - predicted, H, R, valid)
+
+    def error(self, q_true: np.ndarray, bias_true: np.ndarray) -> np.ndarray:
+        """The true error state (N, 6): ``log(q̂⁻¹ ⊗ q)`` then ``b − b̂``."""
+        return np.concatenate((qlog(qmul(qconj(self.q), q_true)), bias_true - self.bias), -1)
+
+    def nees(self, q_true: np.ndarray, bias_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(attitude NEES, bias NEES)``, each (N,): eᵀP⁻¹e of the 3-blocks (χ²(3) when
+        consistent)."""
+        e = self.error(q_true, bias_true)
+        out = []
+        for sl in (slice(0, 3), slice(3, 6)):
+            blk = self.P[:, sl, sl]
+            out.append(np.einsum("ni,ni->n", e[:, sl],
+                                 np.linalg.solve(blk, e[:, sl, None])[..., 0]))
+        return out[0], out[1]
