@@ -141,9 +141,7 @@ class EstimatorLoop:
         if self.css is not None:
             s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(self.css, q, sun, lit,
                                                                          rng))
-            # the fitted unit vector's covariance is singular along ŝ: regularize that axis
-            cov = cov + 1e-12 * np.eye(3)
-            f.update_vector(s_B, sun, cov, valid)
+            f.update_vector(s_B, sun, cov, valid, unit=True)
         self.w_est = measured / dt - f.bias
 
     # ------------------------------------------------------------------- outputs

@@ -134,13 +134,23 @@ class MEKF:
         self._update(residual, H, R, valid)
 
     def update_vector(self, y_B: np.ndarray, r_N: np.ndarray, R: np.ndarray,
-                      valid: np.ndarray) -> None:
+                      valid: np.ndarray, unit: bool = False) -> None:
         """A body vector y_B (N, 3) of the inertial vector r_N (N, 3), noise covariance R
-        ((3, 3) or (N, 3, 3), same unit squared)."""
+        ((3, 3) or (N, 3, 3), same unit squared).
+
+        unit: y_B and r_N are unit vectors, R singular along y_B: the residual and R are
+        projected off the predicted direction b̂, which H = [b̂×] cannot see, and R is given
+        the variance trace(R) there, so that direction carries no information."""
         predicted = rotate_inverse(self.q, r_N)
         H = np.zeros((self.q.shape[0], 3, 6))
         H[:, :, :3] = skew(predicted)
-        self._update(y_B - predicted, H, R, valid)
+        residual = y_B - predicted
+        if unit:
+            along = predicted[..., :, None] * predicted[..., None, :]
+            proj = np.eye(3) - along
+            residual = (proj @ residual[..., None])[..., 0]
+            R = proj @ R @ proj + np.trace(R, axis1=-2, axis2=-1)[..., None, None] * along
+        self._update(residual, H, R, valid)
 
     def error(self, q_true: np.ndarray, bias_true: np.ndarray) -> np.ndarray:
         """The true error state (N, 6): ``log(q̂⁻¹ ⊗ q)`` then ``b − b̂``."""

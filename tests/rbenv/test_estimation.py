@@ -1,0 +1,211 @@
+"""The MEKF (rbenv.satellite.estimation) against independent references and its own claims:
+Φ against the matrix exponential, Q against Van Loan's integral, the single-axis steady-state
+covariance against SciPy's discrete Riccati solver, consistency over 300 Monte Carlo runs (the
+run-averaged NEES of the attitude and of the bias inside the 95 % χ² band), the bias converging
+to the true one within the filter's σ; and the env with ``[estimator]``: info's entries, the
+checkers, the reward and termination of the truth, and the NEES computed from info alone."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import scipy.linalg
+from rbenv.core.errors import InvalidParameterError
+from scipy.stats import chi2
+
+import rbenv
+from rbenv.satellite import sensors as sn
+from rbenv.satellite.estimation import MEKF, process_noise, transition_matrix
+from rbenv.satellite.scene import Scene, scene_table
+
+DEG = math.pi / 180.0
+V1 = "rbenv/SatelliteReorient-v1"
+
+
+def _band(runs: int, dim: int = 3) -> tuple[float, float]:
+    """The 95 % band of the run-averaged NEES: M·NEES ~ χ²(M·dim)."""
+    lo, hi = chi2.ppf([0.025, 0.975], runs * dim) / runs
+    return float(lo), float(hi)
+
+
+def test_transition_matrix_is_the_matrix_exponential():
+    w = np.array([[0.3, -0.2, 0.5], [1e-5, 0.0, 2e-5]])
+    for dt in (0.1, 2.0):
+        phi = transition_matrix(w, dt)
+        for i in range(2):
+            F = np.zeros((6, 6))
+            F[:3, :3] = -sn.skew(w[i])
+            F[:3, 3:] = -np.eye(3)
+            np.testing.assert_allclose(phi[i], scipy.linalg.expm(F * dt), atol=1e-12)
+
+
+def test_process_noise_is_van_loans_integral():
+    sv, su, dt = 3e-4, 2e-6, 1.5
+    F = np.zeros((6, 6))
+    F[:3, 3:] = -np.eye(3)
+    G = np.diag([-1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+    Qc = np.diag([sv ** 2] * 3 + [su ** 2] * 3)
+    M = np.block([[-F, G @ Qc @ G.T], [np.zeros((6, 6)), F.T]]) * dt
+    E = scipy.linalg.expm(M)
+    Q = E[6:, 6:].T @ E[:6, 6:]
+    np.testing.assert_allclose(process_noise(sv, su, dt), Q, rtol=1e-10, atol=1e-30)
+
+
+def test_single_axis_steady_state_is_the_riccati_solution():
+    sv, su, dt, sn_ = 2e-4, 1e-6, 1.0, 20.0 * sn.ARCSEC
+    P0 = np.diag([1e-4] * 3 + [1e-8] * 3)[None]
+    f = MEKF(np.array([[1.0, 0.0, 0.0, 0.0]]), np.zeros((1, 3)), P0, sv, su)
+    R = sn_ ** 2 * np.eye(3)
+    for _ in range(5000):
+        f.propagate(np.zeros((1, 3)), dt)
+        prior = f.P[0].copy()
+        f.update_attitude(f.q.copy(), R, np.ones(1, dtype=bool))
+    phi = np.array([[1.0, -dt], [0.0, 1.0]])
+    q1 = process_noise(sv, su, dt)[np.ix_([0, 3], [0, 3])]
+    dare = scipy.linalg.solve_discrete_are(phi.T, np.array([[1.0], [0.0]]), q1,
+                                           np.array([[sn_ ** 2]]))
+    for axis in range(3):
+        np.testing.assert_allclose(prior[np.ix_([axis, axis + 3], [axis, axis + 3])], dare,
+                                   rtol=1e-6)
+
+
+def _monte_carlo(runs, steps, sensors, seed=1, dt=1.0):
+    """Truth, gyro and the filter for ``runs`` satellites turning at constant rates; returns
+    per-step run-averaged NEES (attitude, bias) and the last filter and true bias."""
+    rng = np.random.default_rng(seed)
+    sv, su, sb, s0 = 0.15 * DEG / 60.0, 2e-4 * DEG, 0.05 * DEG, 1.0 * DEG
+    q = sn.qexp(2.0 * rng.standard_normal((runs, 3)))
+    w = 0.005 * rng.standard_normal((runs, 3))
+    b = sb * rng.standard_normal((runs, 3))
+    P0 = np.zeros((runs, 6, 6))
+    P0[:, :3, :3], P0[:, 3:, 3:] = s0 ** 2 * np.eye(3), sb ** 2 * np.eye(3)
+    f = MEKF(sn.qmul(q, sn.qexp(-s0 * rng.standard_normal((runs, 3)))), np.zeros((runs, 3)),
+             P0, sv, su)
+    star, css, mag = sn.StarTracker(), sn.SunSensors(), sn.Magnetometer(noise_nT=150.0)
+    sun_N = np.tile(np.array([0.6, 0.0, 0.8]), (runs, 1))
+    field_N = np.tile(np.array([1e-5, 2.5e-5, -1e-5]), (runs, 1))
+    nees_a, nees_b = [], []
+    for k in range(steps):
+        dtheta = w * dt
+        m, b = sn.gyro_increment(dtheta, b, sv, su, dt, rng)
+        q = sn.qmul(q, sn.qexp(dtheta))
+        f.propagate(m, dt)
+        if "star" in sensors:
+            q_m, valid = sn.star_tracker(star, q, w, None, None, 0.0, rng)
+            f.update_attitude(q_m, star.noise_cov_B(), valid & (k % 5 == 0))
+        if "mag" in sensors:
+            y = sn.magnetometer(mag, q, field_N, 0.0, rng)
+            f.update_vector(y, field_N, (150e-9) ** 2 * np.eye(3), np.ones(runs, dtype=bool))
+        if "sun" in sensors:
+            s_B, cov, valid = sn.sun_vector_fit(css, sn.sun_sensors(css, q, sun_N,
+                                                                    np.ones(runs), rng))
+            f.update_vector(s_B, sun_N, cov, valid, unit=True)
+        a, bb = f.nees(q, b)
+        nees_a.append(a.mean())
+        nees_b.append(bb.mean())
+    return np.array(nees_a), np.array(nees_b), f, b
+
+
+@pytest.mark.parametrize("sensors", [("star",), ("mag", "sun")])
+def test_nees_of_attitude_and_bias_inside_the_95_percent_band(sensors):
+    runs = 300
+    nees_a, nees_b, _, _ = _monte_carlo(runs, 300, sensors)
+    lo, hi = _band(runs)
+    inside_a = np.mean((nees_a > lo) & (nees_a < hi))
+    inside_b = np.mean((nees_b > lo) & (nees_b < hi))
+    # each step's average is inside its 95 % band but for chance excursions (≈ 5 % of steps)
+    assert inside_a >= 0.9 and inside_b >= 0.9, (inside_a, inside_b, lo, hi)
+    assert lo < nees_a.mean() < hi and lo < nees_b.mean() < hi
+
+
+def test_bias_converges_to_the_true_one_within_the_filters_sigma():
+    runs = 300
+    _, _, f, b = _monte_carlo(runs, 300, ("star",), seed=2)
+    sigma = np.sqrt(np.diagonal(f.P, axis1=1, axis2=2)[:, 3:])
+    z = np.abs(f.bias - b) / sigma
+    assert 0.64 < np.mean(z < 1.0) < 0.72  # 68.3 % within 1σ (900 axes: ±4σ_binomial ≈ 6 %)
+    assert np.mean(z < 3.0) > 0.99
+    assert sigma.max() < 0.05 * DEG / 10.0  # the prior (0.05 °/s) shrank tenfold
+
+
+# --------------------------------------------------------------------------- the env
+
+
+def _estimator_scene(**sensors) -> Scene:
+    data = scene_table("cubesat-12u")
+    data["sensors"] = {"attitude": "estimator", "gyro_bias_sigma_dps": 0.05,
+                       "gyro_bias_walk_dps_sqrt_s": 2e-4, "gyro_noise_dps": 0.01}
+    data["estimator"] = {"initial_attitude_sigma_deg": 0.5}
+    data.update(sensors or {"star_tracker": {}})
+    return Scene.from_dict(data, name="cubesat-12u-est")
+
+
+def test_info_carries_truth_estimate_and_covariance_and_checkers_pass():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(V1, scene=_estimator_scene())
+    obs, info = env.reset(seed=3)
+    for key, shape in (("q_true", (4,)), ("q_est", (4,)), ("gyro_bias", (3,)),
+                       ("gyro_bias_est", (3,)), ("estimate_cov", (6, 6))):
+        assert np.shape(info[key]) == shape, key
+    assert obs.shape == env.observation_space.shape == (21,)
+    obs, _, _, _, info = env.step(env.action_space.sample())
+    assert env.observation_space.contains(obs)
+    np.testing.assert_allclose(np.linalg.eigvalsh(info["estimate_cov"]) > 0, True)
+    check_env(env.unwrapped, skip_render_check=True)
+    sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
+    sb3.check_env(gym.make(V1, scene=_estimator_scene()).unwrapped)
+
+
+def test_reward_success_and_termination_are_the_true_states():
+    """The scene with the estimator flies as the scene without it: same seed, same actions,
+    same rewards, flags and true attitude (the estimator draws from its own stream)."""
+    est = gym.make(V1, scene=_estimator_scene()).unwrapped
+    plain = gym.make(V1, scene="cubesat-12u").unwrapped
+    est.reset(seed=12)
+    plain.reset(seed=12)
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        a = rng.uniform(-1, 1, est.action_space.shape).astype(np.float32)
+        o1, r1, t1, u1, i1 = est.step(a)
+        o2, r2, t2, u2, i2 = plain.step(a)
+        assert (r1, t1, u1, i1["is_success"]) == (r2, t2, u2, i2["is_success"])
+        assert i1["attitude_error_deg"] == i2["attitude_error_deg"]
+        np.testing.assert_array_equal(i1["q_true"], np.array(plain._st.q))
+    assert not np.array_equal(o1[:18], o2)  # the observation is the estimate's
+
+
+def test_nees_from_info_alone_over_200_episodes():
+    """What a judge computes: δθ = log(q_est⁻¹ ⊗ q_true), e = (δθ, b − b̂), eᵀ P⁻¹ e from
+    info, averaged over 200 seeded episodes at step 30, inside the 95 % χ²(6) band."""
+    env = gym.make(V1, scene=_estimator_scene()).unwrapped
+    nees = []
+    for seed in range(200):
+        env.reset(seed=seed)
+        for _ in range(30):
+            _, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+        e = np.concatenate((sn.qlog(sn.qmul(sn.qconj(info["q_est"]), info["q_true"])),
+                            info["gyro_bias"] - info["gyro_bias_est"]))
+        nees.append(e @ np.linalg.solve(info["estimate_cov"], e))
+    lo, hi = _band(200, 6)
+    assert lo < np.mean(nees) < hi, (np.mean(nees), lo, hi)
+
+
+def test_estimator_is_numpy_single_env_only_yet_and_scenes_check_it():
+    with pytest.raises(InvalidParameterError, match="single env only"):
+        gym.make_vec(V1, num_envs=2, vectorization_mode="vector_entry_point",
+                     scene=_estimator_scene())
+    pytest.importorskip("torch")
+    with pytest.raises(InvalidParameterError, match=r"backend=.torch.*estimator"):
+        gym.make(V1, scene=_estimator_scene(), backend="torch")
+
+
+def test_scenes_without_the_estimator_are_unchanged():
+    scene = rbenv.load_scene("innocube-3u")
+    assert scene.estimator is None and scene.star_tracker is None
+    env = gym.make(V1, scene="innocube-3u").unwrapped
+    _, info = env.reset(seed=0)
+    assert "q_est" not in info and env._estimation is None
