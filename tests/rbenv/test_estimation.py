@@ -194,10 +194,45 @@ def test_nees_from_info_alone_over_200_episodes():
     assert lo < np.mean(nees) < hi, (np.mean(nees), lo, hi)
 
 
-def test_estimator_is_numpy_single_env_only_yet_and_scenes_check_it():
-    with pytest.raises(InvalidParameterError, match="single env only"):
-        gym.make_vec(V1, num_envs=2, vectorization_mode="vector_entry_point",
-                     scene=_estimator_scene())
+@pytest.mark.parametrize("mode", ["NextStep", "SameStep", "Disabled"])
+def test_vector_env_estimates_every_row_with_the_truths_reward(mode):
+    """The vector env (N = 200) with the estimator: rewards and flags are those of the plain
+    scene's vector env; info's (N, ...) entries give the NEES in the χ²(6) band; autoresets
+    and partial resets restart the rows' filters."""
+    n = 200
+    kw = {"num_envs": n, "vectorization_mode": "vector_entry_point", "autoreset_mode": mode,
+          "max_episode_steps": 25}
+    est = gym.make_vec(V1, scene=_estimator_scene(), **kw)
+    plain = gym.make_vec(V1, scene="cubesat-12u", **kw)
+    obs, info = est.reset(seed=5)
+    plain.reset(seed=5)
+    assert obs.shape == (n, 21) and info["estimate_cov"].shape == (n, 6, 6)
+    a = np.zeros((n, *est.single_action_space.shape), np.float32)
+    for _ in range(24):
+        obs, r1, t1, u1, info = est.step(a)
+        _, r2, t2, u2, _ = plain.step(a)
+        np.testing.assert_array_equal(r1, r2)
+        np.testing.assert_array_equal(t1 | u1, t2 | u2)
+        assert est.observation_space.contains(obs)
+    e = np.concatenate((sn.qlog(sn.qmul(sn.qconj(info["q_est"]), info["q_true"])),
+                        info["gyro_bias"] - info["gyro_bias_est"]), -1)
+    nees = np.einsum("ni,ni->n", e, np.linalg.solve(info["estimate_cov"], e[..., None])[..., 0])
+    lo, hi = _band(n, 6)
+    assert lo < nees.mean() < hi
+    if mode == "Disabled":
+        est.step(a)
+        mask = np.arange(n) < 50
+        _, info = est.reset(options={"reset_mask": mask})
+        prior = (0.5 * DEG) ** 2
+        np.testing.assert_allclose(info["estimate_cov"][:50, 0, 0], prior)
+        assert np.all(info["estimate_cov"][50:] == 0.0) and not info["_q_est"][50:].any()
+    else:  # the rows ended at step 25 and restarted: their filters start again
+        obs, _, _, _, info = est.step(a)
+        obs, _, _, _, info = est.step(a)
+        assert np.all(info["estimate_cov"][:, 0, 0] > 0.0)
+
+
+def test_estimator_is_numpy_only_yet_and_scenes_check_it():
     pytest.importorskip("torch")
     with pytest.raises(InvalidParameterError, match=r"backend=.torch.*estimator"):
         gym.make(V1, scene=_estimator_scene(), backend="torch")
