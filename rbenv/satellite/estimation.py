@@ -27,9 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rbenv.core import validation as check
+from rbenv.satellite import sensors as sn
 from rbenv.satellite.sensors import qconj, qexp, qlog, qmul, rotate_inverse, skew
 
-__all__ = ["MEKF", "Estimator", "process_noise", "transition_matrix"]
+__all__ = ["MEKF", "Estimator", "monte_carlo", "process_noise", "transition_matrix"]
 
 _DEG = math.pi / 180.0
 
@@ -166,3 +167,44 @@ class MEKF:
             out.append(np.einsum("ni,ni->n", e[:, sl],
                                  np.linalg.solve(blk, e[:, sl, None])[..., 0]))
         return out[0], out[1]
+
+
+def monte_carlo(runs, steps, sensors, seed=1, dt=1.0):
+    """The validation harness: ``runs`` satellites turning at constant rates (0.005 rad/s 1σ
+    per axis), a gyro of 0.15 °/√h ARW, 2e-4 °/s/√s RRW and 0.05 °/s bias (1σ), the filter
+    started 1° off; ``sensors`` names what updates it: "star" (a default star tracker, a fix
+    every 5 steps), "mag" (a constant field, 150 nT noise), "sun" (six coarse sun sensors, the
+    Sun fixed). Returns the per-step run-averaged NEES of the attitude and of the bias (each
+    (steps,)), the filter and the true bias at the end."""
+    rng = np.random.default_rng(seed)
+    sv, su, sb, s0 = 0.15 * _DEG / 60.0, 2e-4 * _DEG, 0.05 * _DEG, 1.0 * _DEG
+    q = sn.qexp(2.0 * rng.standard_normal((runs, 3)))
+    w = 0.005 * rng.standard_normal((runs, 3))
+    b = sb * rng.standard_normal((runs, 3))
+    P0 = np.zeros((runs, 6, 6))
+    P0[:, :3, :3], P0[:, 3:, 3:] = s0 ** 2 * np.eye(3), sb ** 2 * np.eye(3)
+    f = MEKF(sn.qmul(q, sn.qexp(-s0 * rng.standard_normal((runs, 3)))), np.zeros((runs, 3)),
+             P0, sv, su)
+    star, css, mag = sn.StarTracker(), sn.SunSensors(), sn.Magnetometer(noise_nT=150.0)
+    sun_N = np.tile(np.array([0.6, 0.0, 0.8]), (runs, 1))
+    field_N = np.tile(np.array([1e-5, 2.5e-5, -1e-5]), (runs, 1))
+    nees_a, nees_b = [], []
+    for k in range(steps):
+        dtheta = w * dt
+        m, b = sn.gyro_increment(dtheta, b, sv, su, dt, rng)
+        q = sn.qmul(q, sn.qexp(dtheta))
+        f.propagate(m, dt)
+        if "star" in sensors:
+            q_m, valid = sn.star_tracker(star, q, w, None, None, 0.0, rng)
+            f.update_attitude(q_m, star.noise_cov_B(), valid & (k % 5 == 0))
+        if "mag" in sensors:
+            y = sn.magnetometer(mag, q, field_N, 0.0, rng)
+            f.update_vector(y, field_N, (150e-9) ** 2 * np.eye(3), np.ones(runs, dtype=bool))
+        if "sun" in sensors:
+            s_B, cov, valid = sn.sun_vector_fit(css, sn.sun_sensors(css, q, sun_N,
+                                                                    np.ones(runs), rng))
+            f.update_vector(s_B, sun_N, cov, valid, unit=True)
+        a, bb = f.nees(q, b)
+        nees_a.append(a.mean())
+        nees_b.append(bb.mean())
+    return np.array(nees_a), np.array(nees_b), f, b

@@ -18,7 +18,7 @@ from scipy.stats import chi2
 
 import rbenv
 from rbenv.satellite import sensors as sn
-from rbenv.satellite.estimation import MEKF, process_noise, transition_matrix
+from rbenv.satellite.estimation import MEKF, monte_carlo, process_noise, transition_matrix
 from rbenv.satellite.scene import Scene, scene_table
 
 DEG = math.pi / 180.0
@@ -72,47 +72,10 @@ def test_single_axis_steady_state_is_the_riccati_solution():
                                    rtol=1e-6)
 
 
-def _monte_carlo(runs, steps, sensors, seed=1, dt=1.0):
-    """Truth, gyro and the filter for ``runs`` satellites turning at constant rates; returns
-    per-step run-averaged NEES (attitude, bias) and the last filter and true bias."""
-    rng = np.random.default_rng(seed)
-    sv, su, sb, s0 = 0.15 * DEG / 60.0, 2e-4 * DEG, 0.05 * DEG, 1.0 * DEG
-    q = sn.qexp(2.0 * rng.standard_normal((runs, 3)))
-    w = 0.005 * rng.standard_normal((runs, 3))
-    b = sb * rng.standard_normal((runs, 3))
-    P0 = np.zeros((runs, 6, 6))
-    P0[:, :3, :3], P0[:, 3:, 3:] = s0 ** 2 * np.eye(3), sb ** 2 * np.eye(3)
-    f = MEKF(sn.qmul(q, sn.qexp(-s0 * rng.standard_normal((runs, 3)))), np.zeros((runs, 3)),
-             P0, sv, su)
-    star, css, mag = sn.StarTracker(), sn.SunSensors(), sn.Magnetometer(noise_nT=150.0)
-    sun_N = np.tile(np.array([0.6, 0.0, 0.8]), (runs, 1))
-    field_N = np.tile(np.array([1e-5, 2.5e-5, -1e-5]), (runs, 1))
-    nees_a, nees_b = [], []
-    for k in range(steps):
-        dtheta = w * dt
-        m, b = sn.gyro_increment(dtheta, b, sv, su, dt, rng)
-        q = sn.qmul(q, sn.qexp(dtheta))
-        f.propagate(m, dt)
-        if "star" in sensors:
-            q_m, valid = sn.star_tracker(star, q, w, None, None, 0.0, rng)
-            f.update_attitude(q_m, star.noise_cov_B(), valid & (k % 5 == 0))
-        if "mag" in sensors:
-            y = sn.magnetometer(mag, q, field_N, 0.0, rng)
-            f.update_vector(y, field_N, (150e-9) ** 2 * np.eye(3), np.ones(runs, dtype=bool))
-        if "sun" in sensors:
-            s_B, cov, valid = sn.sun_vector_fit(css, sn.sun_sensors(css, q, sun_N,
-                                                                    np.ones(runs), rng))
-            f.update_vector(s_B, sun_N, cov, valid, unit=True)
-        a, bb = f.nees(q, b)
-        nees_a.append(a.mean())
-        nees_b.append(bb.mean())
-    return np.array(nees_a), np.array(nees_b), f, b
-
-
 @pytest.mark.parametrize("sensors", [("star",), ("mag", "sun")])
 def test_nees_of_attitude_and_bias_inside_the_95_percent_band(sensors):
     runs = 300
-    nees_a, nees_b, _, _ = _monte_carlo(runs, 300, sensors)
+    nees_a, nees_b, _, _ = monte_carlo(runs, 300, sensors)
     lo, hi = _band(runs)
     inside_a = np.mean((nees_a > lo) & (nees_a < hi))
     inside_b = np.mean((nees_b > lo) & (nees_b < hi))
@@ -123,7 +86,7 @@ def test_nees_of_attitude_and_bias_inside_the_95_percent_band(sensors):
 
 def test_bias_converges_to_the_true_one_within_the_filters_sigma():
     runs = 300
-    _, _, f, b = _monte_carlo(runs, 300, ("star",), seed=2)
+    _, _, f, b = monte_carlo(runs, 300, ("star",), seed=2)
     sigma = np.sqrt(np.diagonal(f.P, axis1=1, axis2=2)[:, 3:])
     z = np.abs(f.bias - b) / sigma
     assert 0.64 < np.mean(z < 1.0) < 0.72  # 68.3 % within 1σ (900 axes: ±4σ_binomial ≈ 6 %)
