@@ -228,3 +228,19 @@ def test_the_innocube_example_with_magnetometer_and_sun_sensors_estimates_within
         assert e @ np.linalg.solve(info["estimate_cov"][:3, :3], e) < chi2.ppf(0.999, 3)
         errors.append(np.degrees(np.linalg.norm(e)))
     assert np.mean(errors) < 0.5
+
+
+@pytest.mark.parametrize("env_id", sorted(rbenv.ENV_IDS))
+def test_every_task_takes_the_estimator_and_passes_the_checker(env_id):
+    from gymnasium.utils.env_checker import check_env
+
+    data = scene_table("cubesat-6u-rw")
+    data.update(sensors={"attitude": "estimator", "gyro_bias_sigma_dps": 0.05,
+                         "gyro_noise_dps": 0.01}, estimator={}, star_tracker={})
+    plain = gym.make(env_id, scene="cubesat-6u-rw")
+    env = gym.make(env_id, scene=Scene.from_dict(data, name="cubesat-6u-rw-est"))
+    assert env.observation_space.shape[0] == plain.observation_space.shape[0] + 6
+    check_env(env.unwrapped, skip_render_check=True)
+    _, info = env.reset(seed=0)
+    _, _, _, _, info = env.step(env.action_space.sample())
+    assert info["estimate_cov"].shape == (6, 6) and info["q_est"].shape == (4,)
