@@ -6,8 +6,10 @@ each step it reads the true attitude and rate, draws the sensors' measurements
 magnetometer, the coarse sun sensors where the scene has them), propagates and updates the
 filter (rbenv.satellite.estimation.MEKF), and builds the observation from the estimate: the
 task's own components with the estimated attitude and the gyro rate less the estimated bias,
-then ``estimate_sigma`` (6): the filter's 1σ of the attitude error per body axis and of the
-bias, each as ``clip((log10 σ − c) / 3, −1, 1)`` with c = −3 (rad) and −5 (rad/s). Reward,
+then the actuators' own (the rods' magnetometer reads the ``[magnetometer]``'s measurement,
+else the field model through the estimate, never the true body field), then
+``estimate_sigma`` (6): the filter's 1σ of the attitude error per body axis and of the bias,
+each as ``clip((log10 σ − c) / 3, −1, 1)`` with c = −3 (rad) and −5 (rad/s). Reward,
 success and termination stay the task's, on the true state. Its draws come from its own
 generator (seeded from the episode's seed), so the plant's draws are those of the same scene
 without it.
@@ -68,6 +70,7 @@ class EstimatorLoop:
             self.mag_R = ((self.mag.noise_nT ** 2 + self.mag.bias_nT ** 2) * 1e-18) * np.eye(3)
         self.rng = np.random.default_rng(0)
         self.filter = None
+        self.field_B = None  # the magnetometer's measurement this step (N, 3), T, or None
 
     # ------------------------------------------------------------------- environment
 
@@ -86,6 +89,7 @@ class EstimatorLoop:
     def reset(self, st, seed, rows=None) -> None:
         """Start the filter for new episodes: all satellites (rows None; ``seed`` seeds the
         generator) or the rows being reset (their truth read from ``st``)."""
+        self.field_B = None  # a reset row has no measurement yet: the estimate's field
         if rows is None:
             self.rng = np.random.default_rng(seed)
         q = _rows(st.q) if rows is None else _rows(st.q)[rows]
@@ -114,6 +118,7 @@ class EstimatorLoop:
     def step(self, st) -> None:
         """After a step of the plant: measure the new truth in ``st`` and update the filter."""
         f, rng, dt = self.filter, self.rng, self.dt
+        self.field_B = None
         q = _rows(st.q)
         n = q.shape[0]
         dtheta = sn.qlog(sn.qmul(sn.qconj(self.q_prev), q))
@@ -138,6 +143,7 @@ class EstimatorLoop:
             field_N = _rows(self.orbit.field_N(t, np))
             y = sn.magnetometer(self.mag, q, field_N, self.mag_bias, rng)
             f.update_vector(y, field_N, self.mag_R, np.ones(n, dtype=bool))
+            self.field_B = y
         if self.css is not None:
             s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(self.css, q, sun, lit,
                                                                          rng))
@@ -159,8 +165,9 @@ class EstimatorLoop:
         if self.single:
             q, w = tuple(float(c) for c in q), tuple(float(c) for c in w)
         obs = self.task.observe(st, q, w, xp)
-        if self.plant.observers:
-            obs = obs + self.plant.observe(st, xp, None)
+        for act, _ in self.plant.observers:
+            obs = obs + act.observe(self._field_view(st) if act.scene_table == "magnetorquers"
+                                    else st, xp, None)
         sigma = np.sqrt(np.diagonal(f.P, axis1=-2, axis2=-1))
         feats = np.concatenate(((np.log10(sigma[:, :3]) + 3.0) / 3.0,
                                 (np.log10(np.maximum(sigma[:, 3:], 1e-30)) + 5.0) / 3.0), -1)
@@ -169,6 +176,21 @@ class EstimatorLoop:
             return np.array((*obs, *feats[0]), dtype=np.float32)
         return np.stack([np.broadcast_to(np.asarray(c, dtype=np.float32), feats.shape[:1])
                          for c in obs] + list(feats.T.astype(np.float32)), -1)
+
+    def _field_view(self, st):
+        """What the rods' magnetometer observation reads instead of the true body field: the
+        [magnetometer]'s measurement this step, else the field model seen through the
+        estimate, A(q̂)ᵀ B_N (the true one would leak the true attitude)."""
+        field = self.field_B
+        if field is None:
+            n = self.filter.q.shape[0]
+            t = np.broadcast_to(np.asarray(st.steps, dtype=float) * self.dt, (n,))
+            field = sn.rotate_inverse(self.filter.q, _rows(self.orbit.field_N(t, np)))
+        view = type("FieldView", (), {})()
+        view.field_B_T = tuple(self._out(field[:, i]) for i in range(3))
+        if self.single:
+            view.field_B_T = tuple(float(c) for c in view.field_B_T)
+        return view
 
     def add_info(self, st, info: dict) -> dict:
         """``info`` with the estimate's entries (the module docstring)."""

@@ -219,11 +219,18 @@ def test_the_innocube_example_with_magnetometer_and_sun_sensors_estimates_within
     assert scene.magnetometer is not None and scene.sun_sensors is not None
     assert scene.star_tracker is None and scene.sensors.gyro_noise_dps == 0.01  # as flown
     env = gym.make(V1, scene=str(path)).unwrapped
+    keys = list(env.observation_structure)
+    start = sum(env.observation_structure[k] for k in keys[:keys.index("field_B")])
     errors = []
     for seed in range(6):
         env.reset(seed=seed)
         for _ in range(100):
-            _, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+            obs, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+        # the rods' field observation is the magnetometer's reading, not the true field
+        true_field = np.array(env._st.field_B_T) / 50e-6
+        seen = obs[start:start + 3]
+        assert not np.array_equal(seen, true_field.astype(np.float32))
+        np.testing.assert_allclose(seen, true_field, atol=5 * 100e-9 / 50e-6)
         e = sn.qlog(sn.qmul(sn.qconj(info["q_est"]), info["q_true"]))
         assert e @ np.linalg.solve(info["estimate_cov"][:3, :3], e) < chi2.ppf(0.999, 3)
         errors.append(np.degrees(np.linalg.norm(e)))
