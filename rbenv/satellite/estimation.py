@@ -13,8 +13,8 @@ J = ∫₀^dt exp(−[ω̂×]s) ds (closed form), and the gyro's process noise (
 
     Q = [[(σ_v² dt + σ_u² dt³/3) I, −σ_u² dt²/2 I], [−σ_u² dt²/2 I, σ_u² dt I]].
 
-Updates (Joseph form, then ``q̂ ← q̂ ⊗ exp(δθ̂)``, ``b̂ ← b̂ + Δb̂``): a star-tracker quaternion
-(residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and body vectors of known inertial direction
+Updates (K = P Hᵀ S⁻¹, P ← P − K S Kᵀ symmetrized, then ``q̂ ← q̂ ⊗ exp(δθ̂)``,
+``b̂ ← b̂ + Δb̂``): a star-tracker quaternion (residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and body vectors of known inertial direction
 (magnetometer field, fitted Sun direction: residual ``y − A(q̂)ᵀ r``, H = [[A(q̂)ᵀ r ×] 0]). Rows
 without a measurement this step are left unchanged (a mask, no loop over satellites).
 """
@@ -52,6 +52,23 @@ class Estimator:
             low_open=True, high=60.0))
         object.__setattr__(self, "process_noise_scale", check.number(
             "estimator.process_noise_scale", self.process_noise_scale, low=1.0, high=1e6))
+
+
+def _inverse3(a: np.ndarray) -> np.ndarray:
+    """Inverses of (N, 3, 3) matrices by the adjugate (NumPy's batched solve costs more)."""
+    c00 = a[:, 1, 1] * a[:, 2, 2] - a[:, 1, 2] * a[:, 2, 1]
+    c01 = a[:, 0, 2] * a[:, 2, 1] - a[:, 0, 1] * a[:, 2, 2]
+    c02 = a[:, 0, 1] * a[:, 1, 2] - a[:, 0, 2] * a[:, 1, 1]
+    c10 = a[:, 1, 2] * a[:, 2, 0] - a[:, 1, 0] * a[:, 2, 2]
+    c11 = a[:, 0, 0] * a[:, 2, 2] - a[:, 0, 2] * a[:, 2, 0]
+    c12 = a[:, 0, 2] * a[:, 1, 0] - a[:, 0, 0] * a[:, 1, 2]
+    c20 = a[:, 1, 0] * a[:, 2, 1] - a[:, 1, 1] * a[:, 2, 0]
+    c21 = a[:, 0, 1] * a[:, 2, 0] - a[:, 0, 0] * a[:, 2, 1]
+    c22 = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    det = a[:, 0, 0] * c00 + a[:, 0, 1] * c10 + a[:, 0, 2] * c20
+    adj = np.stack((np.stack((c00, c01, c02), -1), np.stack((c10, c11, c12), -1),
+                    np.stack((c20, c21, c22), -1)), -2)
+    return adj / det[:, None, None]
 
 
 def process_noise(sigma_v: float, sigma_u: float, dt: float) -> np.ndarray:
@@ -108,19 +125,20 @@ class MEKF:
         self.P = phi @ self.P @ np.swapaxes(phi, -1, -2) + q
         self.P = 0.5 * (self.P + np.swapaxes(self.P, -1, -2))
 
-    def _update(self, residual: np.ndarray, H: np.ndarray, R: np.ndarray,
+    def _update(self, residual: np.ndarray, M: np.ndarray, R: np.ndarray,
                 valid: np.ndarray) -> None:
-        """One measurement update for the rows where ``valid`` (N,) bool; residual (N, m),
-        H (N, m, 6), R (m, m) or (N, m, m)."""
+        """One 3-D measurement update for the rows where ``valid`` (N,) bool; residual (N, 3),
+        H = [M 0] with M (N, 3, 3) (the measurements see the attitude error only), R (3, 3) or
+        (N, 3, 3). K = P Hᵀ S⁻¹ and P ← P − K S Kᵀ (symmetrized), S = M P₁₁ Mᵀ + R."""
         if not np.any(valid):
             return
         P = self.P
-        Ht = np.swapaxes(H, -1, -2)
-        S = H @ P @ Ht + R
-        K = np.swapaxes(np.linalg.solve(S, H @ P), -1, -2)  # P Hᵀ S⁻¹ (S, P symmetric)
+        Mt = np.swapaxes(M, -1, -2)
+        PHt = P[:, :, :3] @ Mt  # (N, 6, 3)
+        S = M @ PHt[:, :3] + R
+        K = PHt @ _inverse3(0.5 * (S + np.swapaxes(S, -1, -2)))
         x = (K @ residual[..., None])[..., 0]
-        ikh = np.eye(6) - K @ H
-        newP = ikh @ P @ np.swapaxes(ikh, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+        newP = P - K @ np.swapaxes(PHt, -1, -2)  # P − K S Kᵀ = P − K (P Hᵀ)ᵀ
         m = valid[:, None]
         self.P = np.where(valid[:, None, None], 0.5 * (newP + np.swapaxes(newP, -1, -2)), P)
         q = qmul(self.q, qexp(x[:, :3]))
@@ -130,9 +148,7 @@ class MEKF:
     def update_attitude(self, q_m: np.ndarray, R: np.ndarray, valid: np.ndarray) -> None:
         """A star-tracker fix q_m (N, 4) with noise covariance R (3, 3, rad², body axes)."""
         residual = qlog(qmul(qconj(self.q), q_m))
-        H = np.zeros((self.q.shape[0], 3, 6))
-        H[:, :, :3] = np.eye(3)
-        self._update(residual, H, R, valid)
+        self._update(residual, np.broadcast_to(np.eye(3), (self.q.shape[0], 3, 3)), R, valid)
 
     def update_vector(self, y_B: np.ndarray, r_N: np.ndarray, R: np.ndarray,
                       valid: np.ndarray, unit: bool = False) -> None:
@@ -143,15 +159,13 @@ class MEKF:
         projected off the predicted direction b̂, which H = [b̂×] cannot see, and R is given
         the variance trace(R) there, so that direction carries no information."""
         predicted = rotate_inverse(self.q, r_N)
-        H = np.zeros((self.q.shape[0], 3, 6))
-        H[:, :, :3] = skew(predicted)
         residual = y_B - predicted
         if unit:
             along = predicted[..., :, None] * predicted[..., None, :]
             proj = np.eye(3) - along
             residual = (proj @ residual[..., None])[..., 0]
             R = proj @ R @ proj + np.trace(R, axis1=-2, axis2=-1)[..., None, None] * along
-        self._update(residual, H, R, valid)
+        self._update(residual, skew(predicted), R, valid)
 
     def error(self, q_true: np.ndarray, bias_true: np.ndarray) -> np.ndarray:
         """The true error state (N, 6): ``log(q̂⁻¹ ⊗ q)`` then ``b − b̂``."""
