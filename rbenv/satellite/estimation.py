@@ -14,9 +14,10 @@ J = ∫₀^dt exp(−[ω̂×]s) ds (closed form), and the gyro's process noise (
     Q = [[(σ_v² dt + σ_u² dt³/3) I, −σ_u² dt²/2 I], [−σ_u² dt²/2 I, σ_u² dt I]].
 
 Updates (K = P Hᵀ S⁻¹, P ← P − K S Kᵀ symmetrized, then ``q̂ ← q̂ ⊗ exp(δθ̂)``,
-``b̂ ← b̂ + Δb̂``): a star-tracker quaternion (residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and body vectors of known inertial direction
-(magnetometer field, fitted Sun direction: residual ``y − A(q̂)ᵀ r``, H = [[A(q̂)ᵀ r ×] 0]). Rows
-without a measurement this step are left unchanged (a mask, no loop over satellites).
+``b̂ ← b̂ + Δb̂``): a star-tracker quaternion (residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and
+body vectors of known inertial direction (magnetometer field, fitted Sun direction: residual
+``y − A(q̂)ᵀ r``, H = [[A(q̂)ᵀ r ×] 0]). Rows without a measurement this step are left
+unchanged (a mask, no loop over satellites).
 """
 
 from __future__ import annotations
