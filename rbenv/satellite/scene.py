@@ -352,6 +352,11 @@ def _check_estimator(scene) -> None:
         raise InvalidParameterError(
             f"sensors.delay_steps = {scene.sensors.delay_steps} is not supported with the "
             "estimator; set it to 0")
+    if scene.sensor_noise.model != "none":
+        raise InvalidParameterError(
+            f"sensor_noise.model = {scene.sensor_noise.model!r} and the estimator both shape "
+            "the observation; the estimator's sensors carry their own noise: set "
+            'sensor_noise.model = "none"')
     if scene.sensors.gyro_noise_dps == 0.0:
         raise InvalidParameterError(
             "sensors.gyro_noise_dps must be > 0 with the estimator (the filter's angle random "

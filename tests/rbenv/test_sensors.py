@@ -171,5 +171,14 @@ def test_sensor_tables_load_and_name_bad_values():
     with pytest.raises(InvalidParameterError, match=r"go\s+together"):
         Scene.from_dict({**{k: v for k, v in base.items() if k != "estimator"},
                          "star_tracker": {}})
+    with pytest.raises(InvalidParameterError, match=r"sensor_noise\.model = 'gaussian'"):
+        Scene.from_dict({**base, "star_tracker": {},
+                         "sensor_noise": {"model": "gaussian", "rate": 1e-4}})
+    with pytest.raises(InvalidParameterError, match=r"sensors\.delay_steps = 1"):
+        Scene.from_dict({**base, "star_tracker": {},
+                         "sensors": {**base["sensors"], "delay_steps": 1}})
+    with pytest.raises(InvalidParameterError, match=r"sensors\.gyro_noise_dps must be > 0"):
+        Scene.from_dict({**base, "star_tracker": {},
+                         "sensors": {"attitude": "estimator"}})
     with pytest.raises(InvalidParameterError, match="unknown field"):
         Scene.from_dict({**base, "star_tracker": {"sigma": 1.0}})
