@@ -251,3 +251,21 @@ def test_every_task_takes_the_estimator_and_passes_the_checker(env_id):
     _, info = env.reset(seed=0)
     _, _, _, _, info = env.step(env.action_space.sample())
     assert info["estimate_cov"].shape == (6, 6) and info["q_est"].shape == (4,)
+
+
+def test_the_sun_sensors_shadow_is_the_srp_models():
+    """With [orbit.srp] the env reports info["eclipse"]; the estimator's Sun and shadow (which
+    darken the coarse sun sensors) agree with it around the orbit, lit and dark both seen."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "innocube" / "innocube-3u-mekf.toml"
+    seen = set()
+    for lat in (0.0, 90.0, 180.0, 270.0):
+        data = scene_table(path)
+        data["orbit"] = {**data["orbit"], "arg_latitude_deg": lat, "srp": {"area_m2": 0.03}}
+        env = gym.make(V1, scene=Scene.from_dict(data, name="srp")).unwrapped
+        env.reset(seed=0)
+        for _ in range(3):
+            _, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
+            _, lit = env._estimation._sun(np.array([env._st.steps * env.plant.control_dt]))
+            assert bool(lit[0] == 0.0) == bool(info["eclipse"])
+            seen.add(bool(info["eclipse"]))
+    assert seen == {True, False}
