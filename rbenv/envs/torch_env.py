@@ -143,6 +143,9 @@ def check_supported(plant, task, render_mode, compiled) -> None:
         _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
                 "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
                 "without it")
+    if sc.estimator is not None:
+        _refuse("scene", sc.name, "the attitude estimator ([estimator], rbenv.envs.estimated) "
+                "is NumPy-only yet; use backend='numpy'")
     if plant.sensors is not None:
         _refuse("scene", sc.name, "sensing as flown ([sensors]: gyro attitude, delay) is "
                 "NumPy-only yet; pick a scene without it")

@@ -153,7 +153,9 @@ class Plant:
             check_applies(values["randomization"], self.scene)
         sensors = self.scene.sensors
         values["sensors"] = sensors if sensors.enabled else None
-        values["gyro_noisy"] = bool(sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
+        # The estimator's gyro (attitude = "estimator") draws from its own stream.
+        values["gyro_noisy"] = sensors.attitude == "gyro" and bool(
+            sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
         values["noisy"] = bool(values["step_uniforms"] or values["dist_noise"]
                                or values["sensor_noise"] is not None or values["gyro_noisy"])
         _check_integrator_supports(self.scene, values["randomization"])

@@ -124,15 +124,49 @@ TABLES: tuple[Table, ...] = (
     Table("[sensors]", "sensing as flown (opt-in): the observed attitude integrated from a "
                        "gyro with bias and noise, and an observation delay "
                        "(rbenv.satellite.scene)", (
-        Key("attitude", "", '"true" (the state, or [sensor_noise]) or "gyro" (integrated from '
-                            "the gyro from the true start, so it drifts)"),
+        Key("attitude", "", '"true" (the state, or [sensor_noise]), "gyro" (integrated from '
+                            'the gyro from the true start, so it drifts) or "estimator" (the '
+                            "[estimator]'s MEKF estimate, fed by this gyro and the attitude "
+                            "sensors; docs/estimation.md)"),
         Key("gyro_bias_sigma_dps", "°/s", "gyro bias drawn per episode, 1σ per axis"),
         Key("gyro_bias_walk_dps_sqrt_s", "°/s/√s", "random walk of the bias: σ of its change "
                                                   "over 1 s"),
-        Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ"),
+        Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ (the angle random "
+                                     "walk is this × √control_dt, °/√s)"),
         Key("delay_steps", "", "0 or 1: the observation shows the previous control step's "
                                "measurement"),
     ), "rbenv.satellite.scene:Sensors"),
+    Table("[star_tracker]", "a star-tracker head for the estimator (rbenv.satellite.sensors; "
+                            "defaults: typical CubeSat-class values, docs/estimation.md)", (
+        Key("boresight_B", "", "the boresight, body axes (normalised)"),
+        Key("sigma_cross_arcsec", "arcsec", "noise across the boresight, 1σ per axis"),
+        Key("sigma_about_arcsec", "arcsec", "noise about the boresight, 1σ"),
+        Key("rate_hz", "Hz", "fixes per second (the filter takes at most one per control step)"),
+        Key("sun_exclusion_deg", "deg", "no fix with the Sun within this of the boresight"),
+        Key("earth_exclusion_deg", "deg", "no fix with the Earth's limb within this of the "
+                                          "boresight"),
+        Key("max_rate_dps", "°/s", "no fix above this body rate"),
+        Key("dropout_probability", "", "probability that a fix is lost at random"),
+    ), "rbenv.satellite.sensors:StarTracker"),
+    Table("[magnetometer]", "a three-axis magnetometer for the estimator, reading the orbit's "
+                            "field model (needs [orbit] magnetic_field = true)", (
+        Key("noise_nT", "nT", "white noise, 1σ per axis"),
+        Key("bias_nT", "nT", "bias drawn per episode, 1σ per axis (not estimated: the filter "
+                             "counts it as noise)"),
+    ), "rbenv.satellite.sensors:Magnetometer"),
+    Table("[sun_sensors]", "coarse sun sensors for the estimator: cosine response, field of "
+                           "view, dark in the Earth's shadow (needs an [orbit])", (
+        Key("normals_B", "", "each cell's normal, body axes (3 to 32)"),
+        Key("fov_deg", "deg", "half-angle off the normal beyond which a cell reads 0"),
+        Key("noise", "", "white noise of each cell, 1σ, fraction of full scale"),
+    ), "rbenv.satellite.sensors:SunSensors"),
+    Table("[estimator]", "the MEKF in the loop (rbenv.satellite.estimation): the observation "
+                         "is its estimate; needs [sensors] attitude = \"estimator\" and an "
+                         "attitude sensor table", (
+        Key("initial_attitude_sigma_deg", "deg", "1σ per axis of the first estimate's error "
+                                                 "(drawn per episode; the filter's prior)"),
+        Key("process_noise_scale", "", "factor ≥ 1 on the gyro's process noise Q"),
+    ), "rbenv.satellite.estimation:Estimator"),
     Table("[physics]", "how the dynamics are integrated", (
         Key("integrator", "", "a name in rbenv.core.INTEGRATORS"),
         Key("substeps", "", "integrator steps per control step"),
