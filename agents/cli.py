@@ -3,7 +3,7 @@
     rbenv train [--engine sb3|sbx|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
                 [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
                 [...]   (one flag per field of rbenv.agents.training.config; see --help)
-    rbenv evaluate --policy pd|bangbang|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
+    rbenv evaluate --policy pd|bangbang|mpc|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
                    [--seed S] [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv export RUN_DIR|policy.pt --format c|onnx --out DIR [--trust-pickle]

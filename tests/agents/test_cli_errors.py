@@ -43,7 +43,7 @@ def one_line_error(argv, capsys) -> str:
 MISTAKES = {
     "missing path": (["evaluate", "--policy", "runs/does-not-exist"],
                      ["argument --policy", "'runs/does-not-exist' does not exist",
-                      "pd, bangbang, innocube-pd, innocube-slew, zero, random"]),
+                      "pd, bangbang, innocube-pd, innocube-slew, mpc, zero, random"]),
     "policy case": (["evaluate", "--policy", "PD"], ["argument --policy", "did you mean 'pd'?"]),
     "policy of another task": (["evaluate", "--policy", "bdot"],
                                ["argument --policy", "rbenv/SatelliteDetumble-v1", "--env-id"]),
