@@ -3,7 +3,7 @@
     rbenv train [--engine sb3|sbx|rllib|torchrl] [--algo ppo|sac|td3|tqc|crossq] [--timesteps N]
                 [--scene NAME] [--env-id ID] [--out DIR] [--resume | --force] [--no-report]
                 [...]   (one flag per field of rbenv.agents.training.config; see --help)
-    rbenv evaluate --policy pd|bangbang|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
+    rbenv evaluate --policy pd|bangbang|mpc|bdot|unload|zero|random|RUN_DIR|policy.pt --episodes N
                    [--seed S] [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv export RUN_DIR|policy.pt --format c|onnx --out DIR [--trust-pickle]
@@ -154,11 +154,12 @@ def _parser() -> Parser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     t = sub.add_parser("train", help="train PPO, SAC, TD3, TQC or CrossQ, then report against "
                                      "the baselines",
-                       description="Every flag but --resume, --force and --no-report is a field "
-                                   "of the run's configuration (rbenv.agents.training.config), "
-                                   "and its help is that field's docstring. Every argument is "
-                                   "checked (and the env made once) before anything is "
-                                   "written.")
+                       description="Every flag but --resume, --force, --no-report and "
+                                   "--dry-run is a field of the run's configuration "
+                                   "(rbenv.agents.training.config), and its help is that "
+                                   "field's docstring. Every argument is checked (and the env "
+                                   "made once) before anything is written; --dry-run stops "
+                                   "there.")
     seen: set[str] = set()
     common = t.add_argument_group("common options (every engine)")
     for fields in COMMON:
@@ -275,11 +276,11 @@ def _train(args) -> int:
             cfg.timesteps = QUICK_TORCHRL_TIMESTEPS if cfg.timesteps is None else cfg.timesteps
             cfg.report_episodes = cfg_fields.get("report_episodes", QUICK_REPORT_EPISODES)
         engine_run(cfg, session, resume=args.resume, force=args.force,
-                   report=not args.no_report)
+                   report=not args.no_report, dry_run=args.dry_run)
         return 0
     if engine == "rllib":
         rllib.run(cfg, rllib.RLlibSession(**flags.given(args, options)), resume=args.resume,
-                  force=args.force, report=not args.no_report)
+                  force=args.force, report=not args.no_report, dry_run=args.dry_run)
         return 0
     from rbenv.agents.training import sb3  # the train extra (SB3, torch)
 
@@ -287,7 +288,7 @@ def _train(args) -> int:
         usage.require("sbx", "rbenv train --engine sbx")
     session = sb3.SBXSession if engine == "sbx" else sb3.SB3Session
     engine_run(cfg, session(**flags.given(args, options)), resume=args.resume,
-               force=args.force, report=not args.no_report)
+               force=args.force, report=not args.no_report, dry_run=args.dry_run)
     return 0
 
 
@@ -298,7 +299,7 @@ def _check_evaluate(args) -> None:
     env_id = _env_id(args)
     usage.check_choice("env_id", env_id, [s.env_id for s in rbenv.envs.registry.specs()],
                        what="a registered rbenv task:")
-    check_policy(args.policy, env_id)
+    check_policy(args.policy, env_id)  # its name; the scene it runs on once that is known
     options = dict(args.env_kwargs)
     if Path(args.policy).exists():
         options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}

@@ -66,8 +66,9 @@ RESULT_VERSION = 1
 def randomize_at(size: float, kinds=tuple(KINDS)) -> dict:
     """The ``randomize`` option of perturbation size ``size`` for ``kinds`` (others zero).
 
-    Every field of :class:`rbenv.satellite.randomization.Randomization` is present, so the dict
-    replaces (not merges with) whatever the scene has.
+    Every field of :class:`rbenv.satellite.randomization.Randomization` that a thruster scene
+    takes is present (the wheel and rod fields are refused on it), so the dict replaces (not
+    merges with) whatever the scene has.
     """
     unknown = sorted(set(kinds) - set(KINDS))
     if unknown:

@@ -75,19 +75,27 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a @ b`` for 2-d a (m, n) and b (n, p), each entry the same bits whatever m and p.
 
     NumPy hands a single row or column to BLAS's matrix–vector product and anything larger to
-    its matrix–matrix product, which add the n terms in different orders. A single row (or
-    column) is therefore multiplied as two equal ones, so that one satellite's wrench is, to the
-    bit, one sub-env's of a batch.
+    its matrix–matrix product, which add the n terms in different orders; and some OpenBLAS
+    kernels (the Haswell/Zen ones on AMD EPYC, for one) compute the last row or column of an
+    odd count with a narrower micro-kernel that adds them in yet another order. So an odd m or
+    p is padded to the next even count (the last row or column repeated, the extra one dropped
+    from the result): one satellite's wrench is, to the bit, one sub-env's of a batch of any
+    size. Where BLAS was already consistent, the padding changes no bit.
     """
-    if a.shape[0] == 1:
-        two = np.empty((2, a.shape[1]), a.dtype)
-        two[...] = a
-        return (two @ b)[:1]
-    if b.shape[1] == 1:
-        two = np.empty((b.shape[0], 2), b.dtype)
-        two[...] = b
-        return (a @ two)[:, :1]
-    return a @ b
+    m, p = a.shape[0], b.shape[1]
+    if m % 2:
+        a = _pad_rows(a)
+    if p % 2:
+        b = _pad_rows(b.T).T
+    return (a @ b)[:m, :p]
+
+
+def _pad_rows(x: np.ndarray) -> np.ndarray:
+    """x (m, n) with its last row repeated once: (m + 1, n), C-contiguous."""
+    out = np.empty((x.shape[0] + 1, x.shape[1]), x.dtype)
+    out[:-1] = x
+    out[-1] = x[-1]
+    return out
 
 
 def row_product(u: np.ndarray, matrix: np.ndarray) -> list:

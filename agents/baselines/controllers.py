@@ -304,13 +304,17 @@ class NotApplicable(InvalidParameterError):
 
 
 def applicable_baselines(env_id: str, scene=None, env_kwargs=None) -> list:
-    """The names of ``env_id``'s registered baselines that run on ``scene``."""
+    """The names of ``env_id``'s registered baselines that run on ``scene``, less those run
+    only when named (a class with ``on_request = True``: the MPC, which needs its extra and
+    far more compute than a scripted law)."""
     if scene is not None and not registry.get(env_id).runs_on(scene):
         return []  # the task itself cannot run there (desaturation without wheels)
     env = gym.make(env_id, scene=scene, **(env_kwargs or {}))
     try:
         names = []
         for name, cls in BASELINES[env.unwrapped.task.name].items():
+            if getattr(cls, "on_request", False):
+                continue
             try:
                 cls.from_env(env)
             except NotApplicable:

@@ -11,6 +11,8 @@ import json
 
 from rbenv.agents.flight import identify, replay
 
+from rbenv.satellite.usage import InvalidChoiceError
+
 
 def add_arguments(sub) -> None:
     """The two subcommands on the ``rbenv`` parser's subparsers ``sub``."""
@@ -51,6 +53,10 @@ def add_arguments(sub) -> None:
 
 
 def run_replay(args) -> int:
+    if "scene" in args.env_kwargs:  # the scene replayed in is --scene, lengthened to the log
+        raise InvalidChoiceError("env_kwargs", args.env_kwargs, (
+            f"must not hold 'scene' (got {args.env_kwargs['scene']!r}): the scene replayed in "
+            "is --scene"))
     result = replay.replay(args.dir, args.scene, args.policy, env_id=args.env_id,
                            env_kwargs=args.env_kwargs, seed=args.seed,
                            trust_pickle=args.trust_pickle)

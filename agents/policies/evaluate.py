@@ -23,6 +23,7 @@ from rbenv.agents.baselines.controllers import (
     baseline,
     env_parts,
 )
+from rbenv.agents.policies import optimality
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
@@ -32,6 +33,8 @@ from rbenv.satellite.scene import DEFAULT_SCENE
 from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id's baselines
+SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
+SENSED_NOTE = "success is judged on the true state, while the policy sees the sensed one"
 
 
 def _baselines(env_id: str) -> tuple[str, ...]:
@@ -66,17 +69,20 @@ def scripted_by_task() -> str:
 
 
 def check_policy(policy: str, env_id: str = rbenv.ENV_ID, options: dict | None = None) -> None:
-    """A scripted policy of ``env_id``'s task that runs on the scene of ``options`` (its
-    ``gym.make`` options), or an existing path; else an :class:`InvalidChoiceError` saying
-    which: the path that does not exist, the scripted names with a did-you-mean, the task a
-    baseline belongs to, or the scenes it runs on."""
+    """A scripted policy of ``env_id``'s task, or an existing path; with ``options`` (its
+    ``gym.make`` options, the scene among them: the ones the policy will run in) also one that
+    can act on that scene. Else an :class:`InvalidChoiceError` saying which: the path that does
+    not exist, the scripted names with a did-you-mean, the task a baseline belongs to, or the
+    scenes it runs on. Without ``options`` the scene is not checked: call it again once the
+    scene is known (``{}``: the task's default scene)."""
     if Path(policy).exists():
         return
     own = scripted(env_id)
     if policy in ANY_TASK:
         return
     if policy in own:
-        _check_runs_on(policy, env_id, dict(options or {}))
+        if options is not None:
+            _check_runs_on(policy, env_id, dict(options))
         return
     elsewhere = [s.env_id for s in rbenv.envs.registry.specs() if policy in _baselines(s.env_id)]
     if elsewhere:
@@ -133,13 +139,23 @@ class EvalResult:
     episode_time_s: np.ndarray
     energy_J: np.ndarray = None  # electrical energy of wheels and rods; NaN without them
     traces: list[dict] = field(default_factory=list)
+    # What the policy sees in place of the true state (:func:`sensed_observation`), or None.
+    observation: str | None = None
+    sensed_final_error_deg: np.ndarray = None  # the error it believes at the end (sensors on)
+    # Achieved / lower bound per episode (:mod:`rbenv.agents.policies.optimality`: settle_ratio,
+    # fuel_ratio, fuel_ratio_own_time) and its JSON summary, or {"defined": False, "reason"}.
+    optimality_per_episode: dict = field(default_factory=dict)
+    optimality: dict = field(default_factory=dict)
 
     @property
     def episodes(self) -> int:
         return len(self.success)
 
     def summary(self) -> dict:
-        """The JSON summary: policy, episodes, success_rate, settle_time_s, fuel, final error."""
+        """The JSON summary: policy, episodes, success_rate, settle_time_s, fuel, final error;
+        where the policy sees a sensed state, ``observation`` says what it sees (success
+        reads the true one) and ``final_error_deg`` adds the sensed error's median."""
+        sensed = self.sensed_error_median
         settled = self.settle_time_s[np.isfinite(self.settle_time_s)]
         def q(p):
             return float(np.percentile(settled, p)) if len(settled) else None
@@ -153,8 +169,19 @@ class EvalResult:
             "fuel": {"mean": float(np.mean(self.fuel_kg)), "unit": "kg"},
             "energy": {"mean": None if self.energy_J is None else float(np.mean(self.energy_J)),
                        "unit": "J"},
-            "final_error_deg": {"median": float(np.median(self.final_error_deg))},
+            "final_error_deg": {"median": float(np.median(self.final_error_deg)),
+                                **({"sensed_median": sensed} if sensed is not None else {})},
+            **({"observation": {"sensed": self.observation, "note": SENSED_NOTE}}
+               if self.observation else {}),
+            **({"optimality": self.optimality} if self.optimality else {}),
         }
+
+    @property
+    def sensed_error_median(self) -> float | None:
+        """Median of the final attitude error the policy believes (deg); None when the scene's
+        info does not carry it (no sensors as flown, or a task without a target)."""
+        e = self.sensed_final_error_deg
+        return None if e is None or not np.isfinite(e).any() else float(np.nanmedian(e))
 
 
 def make_policy(name: str, env, seed: int = 0):
@@ -200,9 +227,33 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
         parts.append(_run_batch(policy, n, seed + start, env_kwargs, record if start == 0 else 0,
                                 env_id))
     cat = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
-           if k not in ("traces", "scene")}
-    return EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
-                      traces=parts[0]["traces"], **cat)
+           if k not in ("traces", "scene", "observation")}
+    result = EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
+                        traces=parts[0]["traces"], observation=parts[0]["observation"], **cat)
+    bounds = optimality.episode_bounds(episodes, seed, env_id, env_kwargs)
+    if isinstance(bounds, str):
+        result.optimality = {"defined": False, "reason": bounds}
+    else:
+        result.optimality_per_episode = optimality.ratios(
+            result.success, result.settle_time_s, result.fuel_kg, bounds)
+        result.optimality = optimality.summary(result.optimality_per_episode, bounds)
+    return result
+
+
+def sensed_observation(plant) -> str | None:
+    """What a policy sees in place of the plant's true attitude and rate, in words ("attitude
+    integrated from the gyro, 1 control step late", "sensor noise"), or None when it sees the
+    true state: the scene's ``[sensors]`` (as flown) and ``[sensor_noise]``. Success and the
+    reward read the true state either way."""
+    seen = []
+    sensors = plant.sensors  # None unless [sensors] is on
+    if sensors is not None and sensors.attitude == "gyro":
+        seen.append("attitude integrated from the gyro")
+    if sensors is not None and sensors.delay_steps:
+        seen.append(f"{sensors.delay_steps} control step late")
+    if plant.sensor_noise is not None:
+        seen.append("sensor noise")
+    return ", ".join(seen) or None
 
 
 def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
@@ -218,7 +269,8 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
     obs, _ = envs.reset(seed=seed)
     alive = np.ones(n, bool)
     out = {k: np.full(n, np.nan) for k in ("settle_time_s", "fuel_kg", "final_error_deg",
-                                           "episode_time_s", "energy_J")}
+                                           "episode_time_s", "energy_J",
+                                           "sensed_final_error_deg")}
     success = np.zeros(n, bool)
     traces = [{"time_s": [], "attitude_error_deg": [], "rate_dps": [], "throttle": []}
               for _ in range(record)]
@@ -247,29 +299,63 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
             if energy:
                 out["energy_J"][idx] = sum(energy[1:], energy[0])
             out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
+            out["sensed_final_error_deg"][idx] = np.asarray(info.get(SENSED_ERROR, nan))[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = settle_time_s(out["episode_time_s"][ok], hold, dt)
             alive[idx] = False
     envs.close()
-    return {"success": success, "traces": traces, "scene": plant.scene.name, **out}
+    return {"success": success, "traces": traces, "scene": plant.scene.name,
+            "observation": sensed_observation(plant), **out}
 
 
 def format_table(results: list[EvalResult]) -> str:
-    """A Markdown table of the summaries."""
+    """A Markdown table of the summaries. Where the scene's lower bounds are defined
+    (:mod:`rbenv.agents.policies.optimality`) it adds settle time and propellant as medians of
+    their per-episode ratios to the bounds, and a line under it with the bounds; where none is,
+    a line says why. Where a policy sees a sensed state (a scene with sensors as flown or
+    sensor noise) the table adds the sensed final error beside the true one, and a line under
+    it says that success reads the true state."""
     summaries = [r.summary() for r in results]
     fuel = any(np.isfinite(s["fuel"]["mean"]) for s in summaries)  # thrusters: propellant
+    sensed = any(r.sensed_error_median is not None for r in results)
+    bounded = any(r.optimality.get("defined") for r in results)
     lines = ["| policy | episodes | success rate | settle time median (s) | settle time p90 (s) "
-             f"| {'fuel mean (g)' if fuel else 'energy mean (J)'} | final error median (deg) |",
-             "|---|---|---|---|---|---|---|"]
+             f"| {'fuel mean (g)' if fuel else 'energy mean (J)'} | final error median (deg) |"
+             + (" settle / bound | fuel / bound |" if bounded else "")
+             + (" final error median, sensed (deg) |" if sensed else ""),
+             "|---|---|---|---|---|---|---|" + ("---|---|" if bounded else "")
+             + ("---|" if sensed else "")]
+    def fmt(x, spec=".1f"):
+        return "—" if x is None else format(x, spec)
     for s in summaries:
-        def fmt(x, spec=".1f"):
-            return "—" if x is None else format(x, spec)
         effort = 1000 * s["fuel"]["mean"] if fuel else s["energy"]["mean"]
+        opt = s.get("optimality", {})
+        ratio = (f" {fmt(opt.get('settle_ratio', {}).get('median'), '.2f')} "
+                 f"| {fmt(opt.get('fuel_ratio', {}).get('median'), '.1f')} |") if bounded else ""
         lines.append(
             f"| {s['policy']} | {s['episodes']} | {100 * s['success_rate']:.1f}% "
             f"| {fmt(s['settle_time_s']['median'])} | {fmt(s['settle_time_s']['p90'])} "
-            f"| {fmt(effort, '.2f')} | {s['final_error_deg']['median']:.3g} |")
+            f"| {fmt(effort, '.2f')} | {s['final_error_deg']['median']:.3g} |" + ratio
+            + (f" {fmt(s['final_error_deg'].get('sensed_median'), '.3g')} |" if sensed else ""))
+    lines += _optimality_notes(results)
+    seen = dict.fromkeys((r.scene, r.observation) for r in results if r.observation)
+    lines += [f"\nNote: {SENSED_NOTE} (scene {scene!r}: {what}; no estimator yet)."
+              for scene, what in seen]
     return "\n".join(lines)
+
+
+def _optimality_notes(results: list[EvalResult]) -> list[str]:
+    """The line under the table on the bounds: their medians, or why there are none."""
+    defined = [r.optimality for r in results if r.optimality.get("defined")]
+    if defined:
+        b = defined[0]["bounds"]
+        fuel = ("no propellant bound" if b["fuel_kg_median"] is None
+                else f"propellant {1000 * b['fuel_kg_median']:.3f} g")
+        return [f"\nOptimality: medians over successful episodes of achieved / lower bound per "
+                f"episode (docs/bounds.md; 1 is the limit; {b['which']}). Bounds here (medians): "
+                f"settle {b['settle_time_s_median']:.1f} s, {fuel}."]
+    reasons = dict.fromkeys(r.optimality["reason"] for r in results if r.optimality)
+    return [f"\nOptimality: no lower bounds here: {why}." for why in reasons]
 
 
 def plot_episodes(results: list[EvalResult], path, episode: int = 0):

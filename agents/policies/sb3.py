@@ -116,6 +116,8 @@ def _load_zip(path: Path, algo: str | None, env):
 
 
 POLICY_ACTIONS = ("auto", "mean_throttle", "mode")
+NO_CONFIG = ("see its config.json; a model without one (a foreign SB3 .zip) needs its task, "
+             "scene and options named (--env-id, --scene, --env-kwargs)")
 
 
 class RunPolicy(TrainedOn):
@@ -158,9 +160,10 @@ class RunPolicy(TrainedOn):
         obs = np.asarray(obs)
         expected = self.model.observation_space.shape
         if obs.shape[-len(expected):] != expected:
-            raise ValueError(f"observation shape {obs.shape} does not match the policy's "
-                             f"{expected} ({self.source}); evaluate it in the env it was "
-                             f"trained on: {self.env_kwargs or 'see its config.json'}")
+            where = self.env_kwargs or NO_CONFIG
+            raise InvalidParameterError(
+                f"observation shape {obs.shape} does not match the policy's {expected} "
+                f"({self.source}); evaluate it in the env it was trained on: {where}")
         return obs if self.vecnormalize is None else self.vecnormalize.normalize_obs(obs)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):

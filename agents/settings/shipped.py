@@ -14,7 +14,9 @@ _CONTROLLERS = "rbenv.agents.baselines.controllers"
 REORIENT_BASELINES = {"pd": f"{_CONTROLLERS}:QuaternionPD",
                       "bangbang": f"{_CONTROLLERS}:EigenaxisBangBang",
                       "innocube-pd": f"{_CONTROLLERS}:InnoCubePD",
-                      "innocube-slew": f"{_CONTROLLERS}:InnoCubeSlew"}
+                      "innocube-slew": f"{_CONTROLLERS}:InnoCubeSlew",
+                      # on request only (the mpc extra; ModelPredictive.on_request)
+                      "mpc": "rbenv.agents.baselines.mpc:ModelPredictive"}
 # innocube-3u: its wheels command accelerations, and slews take 30 s and more, so failing
 # (spinning past the rate limit) must cost more than a slow slew: SAC with the default failure
 # weight learned to end every episode within 16 steps (docs/innocube/learned-policy.md).

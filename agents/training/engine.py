@@ -73,12 +73,14 @@ class Backend(Protocol):
 
 
 def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool = False,
-        report: bool = True) -> Path:
+        report: bool = True, dry_run: bool = False) -> Path:
     """Train (or resume) ``cfg`` with ``backend`` into its run folder; returns the folder.
 
     With ``resume``, the run in ``cfg.out`` defines the experiment; only the fields of
     ``cfg.RESUME_OVERRIDES`` (a new total of timesteps, the threads...) are taken from ``cfg``.
-    Every field is checked, and the env made once, before anything is written.
+    Every field is checked, and the env made once, before anything is written. ``dry_run``:
+    those checks, and what the run folder would refuse (:func:`check_folder`), then return
+    without writing anything.
     """
     out = Path(cfg.out or cfg.default_out())
     if resume:
@@ -88,6 +90,11 @@ def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool =
         cfg.resolve()
         cfg.check_env()
     backend.check(cfg)
+    if dry_run:
+        check_folder(out, resume, force)
+        print(f"dry run: every check passed; nothing written (the run would "
+              f"{'resume' if resume else 'start'} in {str(out)!r})")
+        return out
     out.mkdir(parents=True, exist_ok=True)
     with RunLock(out):
         if resume:
@@ -117,6 +124,32 @@ def add_run_arguments(parser) -> None:
                       help="start a new run in a non-empty --out, deleting the old run's files")
     parser.add_argument("--no-report", action="store_true",
                         help="skip the final evaluation report")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="run every check that runs before anything is written (flags, "
+                             "the config, the env made once, the run folder), then exit "
+                             "without writing anything")
+
+
+def check_folder(out: Path, resume: bool, force: bool) -> None:
+    """What the run folder ``out`` would refuse, read only: a live run holding its lock, or
+    (a new run without ``force``) files of another run in it."""
+    out = Path(out)
+    if (out / LOCK).is_file():
+        fd = os.open(out / LOCK, os.O_RDONLY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(fd, fcntl.LOCK_UN)
+        except BlockingIOError:
+            holder = _lock_record(fd)
+            raise RunLockedError(f"run folder {str(out)!r} is in use by pid "
+                                 f"{holder.get('pid', '?')} (lock {str(out / LOCK)!r}); wait "
+                                 "for it or use another --out") from None
+        finally:
+            os.close(fd)
+    if not resume and not force and out.is_dir():
+        present = _run_files(out)
+        if present:
+            raise _not_empty(out, present)
 
 
 def report_missing_pointer(directory: Path) -> bool:
@@ -244,19 +277,30 @@ def prepare_new_run(run_dir: Path, force: bool) -> None:
     """Refuse a non-empty folder unless ``force``; with ``force`` remove the old run's files."""
     run_dir = Path(run_dir)
     remove_temporaries(run_dir)  # left by a writer killed before the run had a config.json
-    present = sorted(p.name for p in run_dir.iterdir() if p.name != LOCK)
+    present = _run_files(run_dir)
     if not present:
         return
     if not force:
-        shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
-        raise RunFolderError(
-            f"out folder {str(run_dir)!r} is not empty (it holds {shown}); pass --resume to "
-            "continue the run in it, --force to replace it, or choose another --out")
+        raise _not_empty(run_dir, present)
     for name in RUN_FILES:
         (run_dir / name).unlink(missing_ok=True)
     for name in RUN_DIRS:
         if (run_dir / name).is_dir():
             shutil.rmtree(run_dir / name)
+
+
+def _run_files(run_dir: Path) -> list[str]:
+    """The names in ``run_dir`` that a new run would have to replace (not its lock, nor the
+    temporaries a killed writer left)."""
+    return sorted(p.name for p in run_dir.iterdir()
+                  if p.name != LOCK and not p.match(".*.tmp") and not p.match(".*.tmpdir"))
+
+
+def _not_empty(run_dir: Path, present: list[str]) -> RunFolderError:
+    shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
+    return RunFolderError(
+        f"out folder {str(run_dir)!r} is not empty (it holds {shown}); pass --resume to "
+        "continue the run in it, --force to replace it, or choose another --out")
 
 
 def remove_temporaries(run_dir: Path) -> list[Path]:

@@ -233,14 +233,14 @@ def train(cfg: RLlibConfig, *, resume: bool = False, force: bool = False,
 
 
 def run(cfg: RLlibConfig, session: RLlibSession, *, resume: bool = False, force: bool = False,
-        report: bool = True) -> Path:
+        report: bool = True, dry_run: bool = False) -> Path:
     """:func:`train` with the session's options in one object (the command line's way)."""
     if resume and not session.trust_pickle:
         runfolder.require_trust(Path(cfg.out or cfg.default_out()) / runfolder.CHECKPOINTS,
                                 "an RLlib run's checkpoint folder (RLlib pickles its state)",
                                 False, RLLIB_HINT)
     require_ray("--engine rllib")
-    return engine.run(cfg, session, resume=resume, force=force, report=report)
+    return engine.run(cfg, session, resume=resume, force=force, report=report, dry_run=dry_run)
 
 
 def fit(cfg: RLlibConfig, out: Path, resume: bool, progress: bool) -> dict:
@@ -339,7 +339,7 @@ def main(argv: list[str] | None = None) -> Path:
     args = p.parse_args(argv)
     cfg = RLlibConfig(**flags.given(args, RLlibConfig))
     return run(cfg, RLlibSession(**flags.given(args, RLlibSession)), resume=args.resume,
-               force=args.force, report=not args.no_report)
+               force=args.force, report=not args.no_report, dry_run=args.dry_run)
 
 
 if __name__ == "__main__":

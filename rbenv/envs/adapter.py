@@ -143,6 +143,8 @@ class TaskAdapter:
         self.render_mode = render_mode
         self.observation_structure = {**self.task.observation_structure,
                                       **self.plant.observation_structure}
+        if self.plant.scene.estimator is not None:  # the filter's 1σ (rbenv.envs.estimated)
+            self.observation_structure["estimate_sigma"] = 6
         self._layout = transition.layout(self.plant, self.task)
         self._block_slots = {"task": self.task.start_slots, **self.plant.block_slots}
         size = sum(self.observation_structure.values())

@@ -381,3 +381,170 @@ def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = No
             "q_target": target_conj * np.array([1.0, -1.0, -1.0, -1.0]),
             "omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
             "bias_B": np.broadcast_to(bias, (episodes, 3)).astype(float)}
+
+
+# ------------------------------------------------------- any actuator mix: the energy rate
+
+@dataclass(frozen=True)
+class TorqueLimits:
+    """What the energy-rate bounds need from a scene with any actuators (SI units; rad, s).
+
+    inertia_B: (3, 3) kg·m², the matrix that multiplies ω̇ in the equations of motion (the
+    bus ``I − Σ J ĝĝᵀ`` with wheels, else the body); inertia_min/max: its principal moments.
+    rate_gain_control: kg^½·m/s², the largest ``|I^-½ τ|`` over control torques (thrusters,
+    wheel motors with their friction, rods in the strongest field; the groups' maxima added);
+    torque_ext: N·m, a bound on the orbit's and the scene's constant disturbance torques (a
+    per-episode bias is added per episode). The rest as :class:`SceneLimits`.
+    """
+
+    inertia_B: np.ndarray
+    inertia_min: float
+    inertia_max: float
+    rate_gain_control: float
+    torque_ext: float
+    rate_limit: float
+    control_dt: float
+    success_angle: float
+    success_rate: float
+    settle_time_max: float
+
+
+def why_no_torque_limits(scene: Scene) -> str | None:
+    """None when :func:`torque_limits` can bound every torque of ``scene``, else why not."""
+    if scene.randomization.enabled:
+        return f"scene {scene.name!r} randomizes the model; the bounds need the nominal one"
+    if scene.disturbance.model == "random" and scene.disturbance.noise_sigma > 0.0:
+        return f"scene {scene.name!r} has per-step disturbance noise, which no bound covers"
+    orbit = scene.orbit
+    if orbit.enabled and (orbit.drag or orbit.srp):
+        return (f"scene {scene.name!r} has drag or solar radiation pressure, which the bounds "
+                "do not bound yet")
+    return None
+
+
+def field_max(orbit) -> float:
+    """T, the largest magnitude of the orbit's tilted-dipole field: ``|B| = (R/r)³ |3(m·r̂)r̂ −
+    m| ≤ 2 (R/r)³ |m|`` (the maximum over directions, at the dipole's poles)."""
+    from rbenv.satellite.orbit import IGRF14_2025_NT, R_REF
+
+    moment = 1e-9 * math.sqrt(sum(v * v for v in IGRF14_2025_NT))
+    return 2.0 * (R_REF / orbit.radius) ** 3 * moment
+
+
+def torque_limits(scene=None) -> TorqueLimits:
+    """The limits of any scene the energy-rate bounds cover (:func:`why_no_torque_limits`)."""
+    sc = scene if isinstance(scene, Scene) else load_scene(*(() if scene is None else (scene,)))
+    reason = why_no_torque_limits(sc)
+    if reason is not None:
+        raise InvalidParameterError(reason)
+    whole = np.array(sc.body.inertia, float)
+    wheels, rods = sc.actuators.get("wheels"), sc.actuators.get("magnetorquers")
+    inertia = whole if wheels is None else whole - np.asarray(wheels.spin_inertia_B, float)
+    lam, vec = np.linalg.eigh(inertia)
+    inv_half = vec @ np.diag(lam ** -0.5) @ vec.T  # I^-½
+    gain = 0.0
+    if sc.thrusters is not None:
+        gain += max_weighted_torque(np.array(sc.thrusters.torque_matrix_B, float), inv_half)
+    if wheels is not None:  # ḣ = u per rotor, on the bus as −G u: a box of motor torques
+        gain += max_over_symmetric_box(_wheel_torque_columns(wheels), inv_half)
+    field = field_max(sc.orbit) if sc.orbit.enabled and sc.orbit.magnetic_field else 0.0
+    if rods is not None:  # |m × B| ≤ Σ m_i |B|
+        gain += float(np.sum(rods.max_dipole)) * field / math.sqrt(lam[0])
+    ext = float(np.linalg.norm(sc.disturbance.torque)) if sc.disturbance.model == "constant" \
+        else 0.0
+    if sc.orbit.enabled and sc.orbit.gravity_gradient:  # |3n² r̂ × I r̂| ≤ 3n²(λmax − λmin)/2
+        lw = np.linalg.eigvalsh(whole)
+        ext += 1.5 * sc.orbit.mean_motion ** 2 * float(lw[-1] - lw[0])
+    if sc.orbit.enabled and sc.orbit.residual_dipole is not None:
+        from rbenv.satellite.disturbances import ResidualDipole
+
+        dipole = ResidualDipole.parse(sc.orbit.residual_dipole).moment_B_Am2
+        ext += float(np.linalg.norm(dipole)) * field
+    ep, dt = sc.episode, sc.physics.control_dt
+    return TorqueLimits(
+        inertia_B=inertia, inertia_min=float(lam[0]), inertia_max=float(lam[-1]),
+        rate_gain_control=float(gain), torque_ext=ext, rate_limit=float(ep.rate_limit),
+        control_dt=float(dt), success_angle=math.radians(ep.success_angle_deg),
+        success_rate=float(ep.success_rate),
+        settle_time_max=float(ep.duration - ep.hold_time + dt))
+
+
+def _wheel_torque_columns(wheels) -> np.ndarray:
+    """(3, n) N·m: each wheel's axis times its largest net torque on the rotor: the motor
+    limit, times the realized gain where one above 1 can be drawn, plus the largest bearing
+    friction (viscous at top speed, coulomb)."""
+    def top(x):
+        return float(np.max(np.asarray(x, float))) if x is not None else 0.0
+    gain = max(1.0, top(wheels.realized_gain))
+    torque = (np.asarray(wheels.max_torque, float) * gain
+              + top(wheels.viscous) * np.asarray(wheels.max_speed, float) + top(wheels.coulomb))
+    return np.asarray(wheels.axes_B, float).T * torque
+
+
+def max_over_symmetric_box(columns, weight) -> float:
+    """Largest ``|M C σ|`` over σ in [−1, 1]ⁿ (C: (3, n) columns, M: (3, 3)): convex, so at a
+    vertex; every sign vector is checked (n ≤ 16)."""
+    MC = np.asarray(weight, float) @ np.asarray(columns, float)
+    n = MC.shape[1]
+    if n > 16:
+        return float(np.linalg.norm(MC, axis=0).sum())
+    signs = 1.0 - 2.0 * ((np.arange(2 ** n)[:, None] >> np.arange(n)) & 1)
+    return float(np.linalg.norm(signs @ MC.T, axis=1).max())
+
+
+def energy_settle_bound(limits: TorqueLimits, omega0_B, angle0=None, bias_B=None) -> dict:
+    """Per-episode lower bound on the settle time from the energy rate ``s = √(ωᵀIω)``.
+
+    With any internal momentum (wheels) the gyroscopic terms are ``ω × (Iω + Gh)``, normal
+    to ω, so ``d(½ωᵀIω)/dt = ω·τ`` and ``|ṡ| ≤ |I^-½ τ| ≤ A`` (control and external
+    torques). ``|ω| ≤ s/√λmin``; at a settle step ``|ω| < ω_s``, so ``s < √λmax ω_s``; at a
+    control step ``|ω| ≤ L``, so ``s ≤ √λmax L``, and within a step ``s ≤ √λmax L + A dt``.
+
+    Reorientation (``angle0`` (N,) rad): ``∫ s dt ≥ √λmin (θ0 − θ_s)``, the fastest s profile
+    is bang-coast-bang in s (:func:`bang_coast_bang_time`). Detumbling (``angle0`` None): s
+    must fall from s0 to √λmax ω_s, so ``T ≥ (s0 − √λmax ω_s)/A``. omega0_B (N, 3) rad/s,
+    bias_B (N, 3) N·m or None. Returns ``continuous`` and ``sampled`` (N,) s (rounded up to a
+    control step) and ``accel`` (N,) (A, in the units of s per second).
+    """
+    lim = limits
+    w0 = np.atleast_2d(np.asarray(omega0_B, float))
+    s0 = np.sqrt(np.einsum("ni,ij,nj->n", w0, lim.inertia_B, w0))
+    bias = np.zeros_like(w0) if bias_B is None else np.atleast_2d(np.asarray(bias_B, float))
+    accel = lim.rate_gain_control + (lim.torque_ext + np.linalg.norm(bias, axis=-1)) \
+        / math.sqrt(lim.inertia_min)
+    s_end = math.sqrt(lim.inertia_max) * lim.success_rate
+    if angle0 is None:
+        t = np.maximum(s0 - s_end, 0.0) / accel
+    else:
+        cap = math.sqrt(lim.inertia_max) * lim.rate_limit + accel * lim.control_dt
+        dist = math.sqrt(lim.inertia_min) * (np.asarray(angle0, float) - lim.success_angle)
+        t = bang_coast_bang_time(dist, np.minimum(s0, cap), s_end, accel, cap)
+    dt = lim.control_dt
+    return {"continuous": t, "sampled": np.ceil(t / dt - 1e-9) * dt, "accel": accel}
+
+
+def detumble_fuel_bound(limits: SceneLimits, omega0_B, bias_B=None, time_s=None,
+                        kappas=_KAPPA_GRID) -> dict:
+    """Per-episode lower bound on the propellant (kg) a thruster detumble spends by its settle
+    time: each weighted rate ``s = |P^½ ω|`` (:func:`fuel_bound`) must fall from s0 to below
+    s_f = √μmax·ω_s while ``|ṡ| ≤ |W τ_B| + |W τ_d|``, so ``S = ∫|W τ_B| ≥ s0 − s_f − |Wτ_d| T``
+    and the impulse is at least S/k. time_s: the settle time (default the latest a successful
+    episode can settle). Returns ``kg`` (N,), ``impulse_Ns`` (N,) and ``kappa`` (N,)."""
+    lim = limits
+    w0 = np.atleast_2d(np.asarray(omega0_B, float))
+    n = len(w0)
+    T = np.broadcast_to(lim.settle_time_max if time_s is None else np.asarray(time_s, float),
+                        (n,))
+    dist = _disturbance(lim, bias_B, (n,))
+    best, best_kappa = np.zeros(n), np.full(n, np.nan)
+    for t in kappas:
+        f = weighted_rate_forms(lim.inertia_B, t / lim.inertia_max)
+        k = float((np.linalg.norm(f["W"] @ lim.torque_matrix_B, axis=0) / lim.max_force).max())
+        s0 = np.linalg.norm(w0 @ f["P_half"].T, axis=-1)
+        s_f = math.sqrt(f["mu_max"]) * lim.success_rate
+        d_w = np.linalg.norm(dist @ f["W"].T, axis=-1)
+        impulse = np.maximum(s0 - s_f - d_w * T, 0.0) / k
+        better = impulse > best
+        best = np.where(better, impulse, best)
+        best_kappa = np.where(better, t / lim.inertia_max, best_kappa)
+    return {"kg": best * lim.fuel_per_impulse, "impulse_Ns": best, "kappa": best_kappa}

@@ -53,6 +53,11 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._st = None
         self._diverged = False
         self._renderer = None
+        self._estimation = None  # the MEKF in the loop, for scenes with [estimator]
+        if self.plant.scene.estimator is not None:
+            from rbenv.envs.estimated import EstimatorLoop
+
+            self._estimation = EstimatorLoop(self.plant, self.task, single=True)
 
     # ------------------------------------------------------------------- Gymnasium API
 
@@ -75,6 +80,10 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         obs = np.array(transition.observe(self.plant, self.task, st, noise, FLOAT), np.float32)
         info = transition.info(self.plant, self.task, st, transition.zero_terms(self.task),
                                False, FLOAT)
+        if self._estimation is not None:
+            self._estimation.reset(st, (self._seed_key, self._episode, 41))
+            obs = self._estimation.observe(st, FLOAT)
+            info = self._estimation.add_info(st, info)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -102,6 +111,10 @@ class AttitudeEnv(TaskAdapter, gym.Env):
         self._st = st
         if self.render_mode == "human":
             self.render()
+        if self._estimation is not None:
+            self._estimation.step(st)
+            return (self._estimation.observe(st, FLOAT), out.reward, bool(out.terminated),
+                    out.truncated, self._estimation.add_info(st, out.info))
         return (np.array(out.obs, dtype=np.float32), out.reward, bool(out.terminated),
                 out.truncated, out.info)
 

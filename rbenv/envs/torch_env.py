@@ -48,6 +48,7 @@ the numba ``compiled`` kernels.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import ClassVar
 
 import gymnasium as gym
@@ -133,12 +134,18 @@ def check_supported(plant, task, render_mode, compiled) -> None:
         _refuse("action_mode", "torque", "the thrust allocators are NumPy/SciPy; use "
                 "'throttle' or 'on_off'")
     if plant.randomization is not None:
-        _refuse("randomize", True, "the per-episode model of domain randomization is NumPy; "
-                "pass randomize=False")
+        drawn = {f.name: getattr(plant.randomization, f.name)
+                 for f in dataclasses.fields(plant.randomization)
+                 if getattr(plant.randomization, f.name)}
+        _refuse("randomize", drawn, f"the per-episode model of domain randomization is NumPy "
+                f"(scene {sc.name!r} draws these); pass randomize=False")
     if plant.noisy:
         _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
                 "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
                 "without it")
+    if sc.estimator is not None:
+        _refuse("scene", sc.name, "the attitude estimator ([estimator], rbenv.envs.estimated) "
+                "is NumPy-only yet; use backend='numpy'")
     if plant.sensors is not None:
         _refuse("scene", sc.name, "sensing as flown ([sensors]: gyro attitude, delay) is "
                 "NumPy-only yet; pick a scene without it")

@@ -84,6 +84,11 @@ class AttitudeVectorEnv(VectorContract):
         self.num_envs = validation.count("num_envs", num_envs, low=1, high=2**24)
         self.single_action_space, self.single_observation_space = self._setup(
             o, ("rgb_array",))
+        self._estimation = None  # the MEKF in the loop, for scenes with [estimator]
+        if self.plant.scene.estimator is not None:
+            from rbenv.envs.estimated import EstimatorLoop
+
+            self._estimation = EstimatorLoop(self.plant, self.task, single=False)
         self.autoreset_mode = autoreset_mode_of(o["autoreset_mode"])
         self.metadata = {**type(self).metadata, "autoreset_mode": self.autoreset_mode,
                          "render_fps": 1.0 / self.plant.control_dt}
@@ -133,7 +138,16 @@ class AttitudeVectorEnv(VectorContract):
             assign(self._st, self._layout, idx, start)
         terms = transition.zero_terms(self.task, np.zeros(n))
         obs = self._observation()
+        est = self._estimation
+        if est is not None:
+            full = est.filter is None or mask.all()
+            est.reset(self._st, (int(self._seeds[0]), int(self._episodes[0]), n, 41),
+                      rows=None if full else idx)
+            obs = est.observe(self._st, NUMPY)
+        rows = getattr(self, "_info_rows", None)
         info = self._info(terms, np.zeros(n, dtype=bool))
+        if est is not None:
+            info.update(self._own_info(est.add_info(self._st, {}), rows))
         if self._obs is not None and not mask.all():  # a partial reset (DISABLED mode)
             obs = np.where(mask[:, None], obs, self._obs)
             info.update({key: mask for key in info if key.startswith("_")})
@@ -181,6 +195,11 @@ class AttitudeVectorEnv(VectorContract):
         if out.diverged.any():
             transition.raise_diverged(self.plant, st, a)
         self._st = st  # an autoreset writes its rows in place
+        est = self._estimation
+        if est is not None:
+            est.step(st)
+            return Step(st, est.observe(st, NUMPY), out.reward, out.terminated, out.truncated,
+                        out.terms, out.success, self._own_info(est.add_info(st, out.info)))
         return Step(st, self._stack(out.obs), out.reward, out.terminated, out.truncated,
                     out.terms, out.success, self._own_info(out.info))  # the info, built once
 
@@ -207,8 +226,10 @@ class AttitudeVectorEnv(VectorContract):
         view = State()  # the new episodes alone, as a state of len(idx)
         view.__dict__.update({name: start.get(name) for name in self._layout.kinds}, **start)
         noise = self.plant.draw_sensor_noise(self.np_random, len(idx))
-        obs[idx] = self._stack(transition.observe(self.plant, self.task, view, noise, NUMPY),
-                               len(idx))
+        fresh_obs = self._stack(transition.observe(self.plant, self.task, view, noise, NUMPY),
+                                len(idx))
+        if self._estimation is None:  # else the estimate's, below
+            obs[idx] = fresh_obs
         for arr in (*terms, *flags):
             arr[idx] = 0
         k = len(idx)
@@ -217,6 +238,12 @@ class AttitudeVectorEnv(VectorContract):
                                 np.zeros(k, dtype=bool), NUMPY)
         for key, value in fresh.items():
             info[key][idx] = value
+        est = self._estimation
+        if est is not None:
+            est.reset(self._st, None, rows=idx)
+            obs[idx] = est.observe(self._st, NUMPY)[idx]
+            for key, value in est.add_info(self._st, {}).items():
+                info[key][idx] = value[idx]
 
     def _actions(self, actions) -> np.ndarray:
         """Actions as float64 (N, k); TypeError for a non-array or non-real values (None,
@@ -236,7 +263,7 @@ class AttitudeVectorEnv(VectorContract):
         final_info = {}
         for key, value in info.items():
             if not key.startswith("_"):
-                final_info[key] = np.where(done, value, np.zeros_like(value))
+                final_info[key] = np.where(_rowwise(done, value), value, np.zeros_like(value))
                 final_info["_" + key] = done.copy()
         return {"final_obs": final_obs, "_final_obs": done.copy(), "final_info": final_info,
                 "_final_info": done.copy()}
@@ -272,7 +299,8 @@ class AttitudeVectorEnv(VectorContract):
                 value = np.array(np.broadcast_to(value, mask.shape))
             elif id(value) in owned:
                 value = value.copy()
-            out[key] = value if rows is None else np.where(rows, value, np.zeros_like(value))
+            out[key] = value if rows is None else \
+                np.where(_rowwise(rows, value), value, np.zeros_like(value))
             out["_" + key] = mask
         return out
 
@@ -289,6 +317,12 @@ class AttitudeVectorEnv(VectorContract):
         if getattr(self, "_renderer", None) is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def _rowwise(mask: np.ndarray, value) -> np.ndarray:
+    """The (N,) ``mask`` shaped to select rows of ``value`` ((N,) or (N, ...): the estimator's
+    vectors and covariances)."""
+    return mask.reshape(mask.shape + (1,) * (np.ndim(value) - 1))
 
 
 # One class per shipped id (rbenv.envs.registry registers each as the id's vector entry point;

@@ -298,12 +298,14 @@ class OrbitTorque:
                                            ("drag", self.drag_cp is not None),
                                            ("srp", self.srp_cp is not None)) if on)
 
-    def for_step(self, steps, dipole_B, xp) -> _StepTorque:
+    def for_step(self, steps, dipole_B, xp, body=None) -> _StepTorque:
         """The torques of one control step: ``steps`` the control steps taken (int or (N,)
-        ints), ``dipole_B`` the commanded dipole (A·m², body axes, held) or None."""
+        ints), ``dipole_B`` the commanded dipole (A·m², body axes, held) or None; ``body``:
+        the episode's whole body for the gravity gradient (domain randomization), or None for
+        the scene's."""
         if self.residual is not None:
             dipole_B = self.residual if dipole_B is None else k.add(dipole_B, self.residual)
-        return _StepTorque(self, 2 * (steps * self.substeps), dipole_B, xp)
+        return _StepTorque(self, 2 * (steps * self.substeps), dipole_B, xp, body)
 
     def torque_B(self, index, q, dipole_B, xp) -> tuple:
         """Σ orbit torques (N·m, body axes) at half-step ``index`` and attitude ``q`` (the
@@ -313,13 +315,14 @@ class OrbitTorque:
         rows = {name: [self.table.lookup(name, index, xp)] for name in self.names(dipole_B)}
         return self.sum(rows, 0, q, dipole_B)
 
-    def sum(self, rows: dict, m: int, q, dipole_B) -> tuple:
+    def sum(self, rows: dict, m: int, q, dipole_B, body=None) -> tuple:
         """Σ torques at attitude q from entry m of the inertial vectors ``rows`` (name →
-        list of components)."""
+        list of components); ``body``: the gravity gradient's, None for the scene's."""
         tau = None
         if self.gravity_gradient:
             r_B = k.rotate_inverse(q, rows["direction"][m])
-            tau = k.scale(k.cross(r_B, self.body.inertia_times(r_B)), self.gg_scale)
+            tau = k.scale(k.cross(r_B, (self.body if body is None else body).inertia_times(
+                r_B)), self.gg_scale)
         if dipole_B is not None:
             tau = _sum(tau, k.cross(dipole_B, k.rotate_inverse(q, rows["field"][m])))
         if self.drag_cp is not None:
@@ -336,10 +339,10 @@ def _sum(a, b):
 class _StepTorque:
     """One control step's inertial vectors, fetched once (see :class:`OrbitTorque`)."""
 
-    __slots__ = ("dipole", "owner", "rows")
+    __slots__ = ("body", "dipole", "owner", "rows")
 
-    def __init__(self, owner: OrbitTorque, base, dipole, xp):
-        self.owner, self.dipole = owner, dipole
+    def __init__(self, owner: OrbitTorque, base, dipole, xp, body=None):
+        self.owner, self.dipole, self.body = owner, dipole, body
         table, names = owner.table, owner.names(dipole)
         if type(base) is int:  # one satellite: rows of Python floats
             self.rows = {name: [table.lookup(name, base + m, xp) for m in range(owner.span)]
@@ -368,4 +371,4 @@ class _Stage:
 
     def __call__(self, s, q, w):
         step = self.step
-        return step.owner.sum(step.rows, self.offset + int(s + s), q, step.dipole)
+        return step.owner.sum(step.rows, self.offset + int(s + s), q, step.dipole, step.body)

@@ -44,7 +44,7 @@ from rbenv.satellite.actuators import (
 )
 from rbenv.satellite.disturbances import OrbitTorque
 from rbenv.satellite.orbit import OrbitTable
-from rbenv.satellite.randomization import Randomization, draw_episode_model
+from rbenv.satellite.randomization import Randomization, check_applies, draw_episode_model
 from rbenv.satellite.scene import Scene
 
 __all__ = ["NO_NOISE", "PLANT_FIELDS", "Plant", "StepNoise", "make_plant"]
@@ -149,14 +149,13 @@ class Plant:
                                              values["substeps"]) \
             if OrbitTorque.needed(self.scene.orbit, acts) else None
         values["eclipse_known"] = values["orbit"] is not None and values["orbit"].srp is not None
-        if values["randomization"] is not None and values["body"] is not self.scene.body:
-            spinning = [a.scene_table for a in acts if a.spin_inertia_B is not None]
-            raise InvalidParameterError(
-                f"domain randomization of the inertia does not know the spin inertia that the "
-                f"actuators {spinning} carry yet; turn randomization off for this scene")
+        if values["randomization"] is not None:
+            check_applies(values["randomization"], self.scene)
         sensors = self.scene.sensors
         values["sensors"] = sensors if sensors.enabled else None
-        values["gyro_noisy"] = bool(sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
+        # The estimator's gyro (attitude = "estimator") draws from its own stream.
+        values["gyro_noisy"] = sensors.attitude == "gyro" and bool(
+            sensors.gyro_noise_dps or sensors.gyro_bias_walk_dps_sqrt_s)
         values["noisy"] = bool(values["step_uniforms"] or values["dist_noise"]
                                or values["sensor_noise"] is not None or values["gyro_noisy"])
         _check_integrator_supports(self.scene, values["randomization"])
@@ -285,7 +284,7 @@ class Plant:
         h_int, h_dot = c.momentum_B, c.momentum_rate_B
         table = self.orbit_table
         step_torque = None if self.orbit_torque is None else self.orbit_torque.for_step(
-            st.steps, c.dipole_B, xp)
+            st.steps, c.dipole_B, xp, None if st.model is None else st.model.whole_body)
         try:
             for j in range(self.substeps):
                 if st.x is not None:  # actuators without a force push nothing

@@ -108,8 +108,10 @@ from rbenv.core import validation as check
 from rbenv.core.errors import InvalidParameterError, RbenvValueError, describe
 from rbenv.satellite.actuators import ACTUATORS
 from rbenv.satellite.actuators.tables import bounded_array
+from rbenv.satellite.estimation import Estimator
 from rbenv.satellite.orbit import Orbit
 from rbenv.satellite.randomization import Randomization
+from rbenv.satellite.sensors import Magnetometer, StarTracker, SunSensors
 from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 __all__ = [
@@ -256,7 +258,10 @@ class Sensors:
     ``b`` is drawn per episode (``gyro_bias_sigma_dps`` 1σ per axis) and walks
     (``gyro_bias_walk_dps_sqrt_s``: σ of its change over 1 s). ``delay_steps`` (0 or 1): the
     observation shows the measurement of the previous control step. Rewards, success and
-    failure use the true state.
+    failure use the true state. "estimator": the observation is the ``[estimator]``'s MEKF
+    estimate (rbenv.satellite.estimation), fed by this gyro (bias ``gyro_bias_sigma_dps``,
+    angle random walk ``gyro_noise_dps·√control_dt``, rate random walk
+    ``gyro_bias_walk_dps_sqrt_s``) and the scene's attitude sensors.
     """
 
     attitude: str = "true"
@@ -266,10 +271,11 @@ class Sensors:
     delay_steps: int = 0
 
     def __post_init__(self):
-        _choice("sensors.attitude", self.attitude, ("true", "gyro"))
+        _choice("sensors.attitude", self.attitude, ("true", "gyro", "estimator"))
         for name in ("gyro_bias_sigma_dps", "gyro_bias_walk_dps_sqrt_s", "gyro_noise_dps"):
             value = _number(f"sensors.{name}", getattr(self, name), low=0.0, high=100.0)
-            _unused(self.attitude, "gyro", f"sensors.{name}", value != 0.0)
+            if self.attitude != "estimator":
+                _unused(self.attitude, "gyro", f"sensors.{name}", value != 0.0)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "delay_steps", _number("sensors.delay_steps",
                                                          self.delay_steps, low=0, high=1,
@@ -323,6 +329,53 @@ class Episode:
             )
 
 
+ESTIMATION_TABLES = {"star_tracker": StarTracker, "magnetometer": Magnetometer,
+                     "sun_sensors": SunSensors, "estimator": Estimator}
+
+
+def _check_estimator(scene) -> None:
+    """The estimator's tables fit together: [estimator] with sensors.attitude = "estimator"
+    and at least one attitude sensor; each sensor's inputs modelled."""
+    for key, cls in ESTIMATION_TABLES.items():
+        value = getattr(scene, key)
+        if value is not None and not isinstance(value, cls):
+            raise InvalidParameterError(f"{key} must be a {cls.__name__} or None, got "
+                                        f"{type(value).__name__}")
+    on = scene.sensors.attitude == "estimator"
+    if on != (scene.estimator is not None):
+        raise InvalidParameterError(
+            f"sensors.attitude = {scene.sensors.attitude!r} and the [estimator] table go "
+            'together: give both (attitude = "estimator") or neither')
+    if not on:
+        return
+    if scene.sensors.delay_steps:
+        raise InvalidParameterError(
+            f"sensors.delay_steps = {scene.sensors.delay_steps} is not supported with the "
+            "estimator; set it to 0")
+    if scene.sensor_noise.model != "none":
+        raise InvalidParameterError(
+            f"sensor_noise.model = {scene.sensor_noise.model!r} and the estimator both shape "
+            "the observation; the estimator's sensors carry their own noise: set "
+            'sensor_noise.model = "none"')
+    if scene.sensors.gyro_noise_dps == 0.0:
+        raise InvalidParameterError(
+            "sensors.gyro_noise_dps must be > 0 with the estimator (the filter's angle random "
+            "walk), got 0.0")
+    if scene.star_tracker is None and scene.magnetometer is None and scene.sun_sensors is None:
+        raise InvalidParameterError(
+            "[estimator] needs at least one attitude sensor table: [star_tracker], "
+            "[magnetometer] or [sun_sensors]")
+    if scene.magnetometer is not None and not (scene.orbit.enabled and
+                                               scene.orbit.magnetic_field):
+        raise InvalidParameterError(
+            "[magnetometer] reads the orbit's field model: it needs [orbit] with "
+            "magnetic_field = true")
+    if scene.sun_sensors is not None and not scene.orbit.enabled:
+        raise InvalidParameterError(
+            "[sun_sensors] need the Sun's direction and the Earth's shadow: give the scene an "
+            '[orbit] (model = "circular")')
+
+
 def _unused(model: str, needs: str, path: str, is_set) -> None:
     if is_set and model != needs:
         group = path.split(".")[0]
@@ -361,6 +414,12 @@ class Scene:
     # parameters.
     actuators: dict = field(default_factory=dict)
     orbit: Orbit = field(default_factory=Orbit)
+    # Attitude sensors and the estimator (rbenv.satellite.sensors, rbenv.satellite.estimation):
+    # each None when the scene lacks its table.
+    star_tracker: StarTracker | None = None
+    magnetometer: Magnetometer | None = None
+    sun_sensors: SunSensors | None = None
+    estimator: Estimator | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "randomization",
@@ -395,6 +454,7 @@ class Scene:
             raise InvalidParameterError(
                 "sensors (attitude from a gyro, or a delay) and sensor_noise.model = "
                 f"{self.sensor_noise.model!r} both shape the observation; give one of them")
+        _check_estimator(self)
         steps = self.episode.duration / self.physics.control_dt
         if not steps <= MAX_EPISODE_STEPS or round(steps) < 1:
             raise InvalidParameterError(
@@ -471,7 +531,7 @@ class Scene:
         _check_keys("scene", data, {"name", "description", "sources", "body", "physics",
                                     "disturbance", "faults", "sensor_noise", "sensors", "episode",
                                     "randomization", "tasks", "orbit",
-                                    *tables})
+                                    *ESTIMATION_TABLES, *tables})
         scene_name = data.get("name", name)
         if "name" in data and (not isinstance(scene_name, str) or not scene_name):
             raise InvalidParameterError(
@@ -489,6 +549,12 @@ class Scene:
                 table = _table(data, key)
                 _check_keys(key, table, {f.name for f in dataclasses.fields(group) if f.init})
                 groups[key] = group(**table)
+            for key, group in ESTIMATION_TABLES.items():
+                if key in data:
+                    table = _table(data, key)
+                    _check_keys(key, table, {f.name for f in dataclasses.fields(group)
+                                             if f.init})
+                    groups[key] = group(**table)
             return cls(name=scene_name or "unnamed", body=body, actuators=actuators,
                        description=data.get("description", ""),
                        sources=data.get("sources", ()),

@@ -86,8 +86,10 @@ TABLES: tuple[Table, ...] = (
         Key("inertia", "kg·m²", "spin-axis inertia: one number, or one per wheel", REQUIRED),
         Key("max_torque", "N·m", "motor torque limit: one number, or one per wheel", REQUIRED),
         Key("max_speed_rpm", "rpm", "speed limit: one number, or one per wheel", REQUIRED),
-        Key("viscous", "N·m·s/rad", "viscous friction coefficient", "0.0"),
-        Key("coulomb", "N·m", "Coulomb friction torque", "0.0"),
+        Key("viscous", "N·m·s/rad", "viscous friction coefficient; a number or [low, high] "
+                                    "drawn per episode", "0.0"),
+        Key("coulomb", "N·m", "Coulomb friction torque; a number or [low, high] drawn per "
+                              "episode", "0.0"),
         Key("standby_power", "W", "electrical power of each wheel at rest", "0.0"),
         Key("initial_speed_rpm", "rpm", "speed at the episode start: one, or one per wheel",
             "0.0"),
@@ -122,15 +124,49 @@ TABLES: tuple[Table, ...] = (
     Table("[sensors]", "sensing as flown (opt-in): the observed attitude integrated from a "
                        "gyro with bias and noise, and an observation delay "
                        "(rbenv.satellite.scene)", (
-        Key("attitude", "", '"true" (the state, or [sensor_noise]) or "gyro" (integrated from '
-                            "the gyro from the true start, so it drifts)"),
+        Key("attitude", "", '"true" (the state, or [sensor_noise]), "gyro" (integrated from '
+                            'the gyro from the true start, so it drifts) or "estimator" (the '
+                            "[estimator]'s MEKF estimate, fed by this gyro and the attitude "
+                            "sensors; docs/estimation.md)"),
         Key("gyro_bias_sigma_dps", "°/s", "gyro bias drawn per episode, 1σ per axis"),
         Key("gyro_bias_walk_dps_sqrt_s", "°/s/√s", "random walk of the bias: σ of its change "
                                                   "over 1 s"),
-        Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ"),
+        Key("gyro_noise_dps", "°/s", "white noise of each gyro sample, 1σ (the angle random "
+                                     "walk is this × √control_dt, °/√s)"),
         Key("delay_steps", "", "0 or 1: the observation shows the previous control step's "
                                "measurement"),
     ), "rbenv.satellite.scene:Sensors"),
+    Table("[star_tracker]", "a star-tracker head for the estimator (rbenv.satellite.sensors; "
+                            "defaults: typical CubeSat-class values, docs/estimation.md)", (
+        Key("boresight_B", "", "the boresight, body axes (normalised)"),
+        Key("sigma_cross_arcsec", "arcsec", "noise across the boresight, 1σ per axis"),
+        Key("sigma_about_arcsec", "arcsec", "noise about the boresight, 1σ"),
+        Key("rate_hz", "Hz", "fixes per second (the filter takes at most one per control step)"),
+        Key("sun_exclusion_deg", "deg", "no fix with the Sun within this of the boresight"),
+        Key("earth_exclusion_deg", "deg", "no fix with the Earth's limb within this of the "
+                                          "boresight"),
+        Key("max_rate_dps", "°/s", "no fix above this body rate"),
+        Key("dropout_probability", "", "probability that a fix is lost at random"),
+    ), "rbenv.satellite.sensors:StarTracker"),
+    Table("[magnetometer]", "a three-axis magnetometer for the estimator, reading the orbit's "
+                            "field model (needs [orbit] magnetic_field = true)", (
+        Key("noise_nT", "nT", "white noise, 1σ per axis"),
+        Key("bias_nT", "nT", "bias drawn per episode, 1σ per axis (not estimated: the filter "
+                             "counts it as noise)"),
+    ), "rbenv.satellite.sensors:Magnetometer"),
+    Table("[sun_sensors]", "coarse sun sensors for the estimator: cosine response, field of "
+                           "view, dark in the Earth's shadow (needs an [orbit])", (
+        Key("normals_B", "", "each cell's normal, body axes (3 to 32)"),
+        Key("fov_deg", "deg", "half-angle off the normal beyond which a cell reads 0"),
+        Key("noise", "", "white noise of each cell, 1σ, fraction of full scale"),
+    ), "rbenv.satellite.sensors:SunSensors"),
+    Table("[estimator]", "the MEKF in the loop (rbenv.satellite.estimation): the observation "
+                         "is its estimate; needs [sensors] attitude = \"estimator\" and an "
+                         "attitude sensor table", (
+        Key("initial_attitude_sigma_deg", "deg", "1σ per axis of the first estimate's error "
+                                                 "(drawn per episode; the filter's prior)"),
+        Key("process_noise_scale", "", "factor ≥ 1 on the gyro's process noise Q"),
+    ), "rbenv.satellite.estimation:Estimator"),
     Table("[physics]", "how the dynamics are integrated", (
         Key("integrator", "", "a name in rbenv.core.INTEGRATORS"),
         Key("substeps", "", "integrator steps per control step"),
@@ -204,13 +240,21 @@ TABLES: tuple[Table, ...] = (
     ), "rbenv.satellite.disturbances:SolarPressure"),
     Table("[randomization]", "domain randomization: sizes of the per-episode perturbations, all "
                              "0 = off (rbenv.satellite.randomization; gym.make's randomize= "
-                             "overrides)", (
+                             "overrides). A key that perturbs an actuator the scene lacks "
+                             "(force_scale without [thrusters], say) must be 0", (
         Key("inertia_scale", "fraction", "each principal second moment scaled by 1 ± this"),
         Key("inertia_rotation_deg", "deg", "the mass distribution turned by up to this"),
         Key("com_offset", "m", "centre of mass moved within a ball of this radius"),
         Key("force_scale", "fraction", "each thruster's force scaled by 1 ± this"),
         Key("misalignment_deg", "deg", "each thruster's direction tilted by up to this"),
         Key("delay_probability", "", "probability of a one-step control delay for the episode"),
+        Key("wheel_misalignment_deg", "deg", "each reaction wheel's spin axis tilted by up to "
+                                             "this"),
+        Key("wheel_torque_scale", "fraction", "each wheel's realized motor torque scaled by "
+                                              "1 ± this"),
+        Key("wheel_speed_scale", "fraction", "each wheel's speed reading scaled by 1 ± this "
+                                             "(observation only)"),
+        Key("rod_dipole_scale", "fraction", "each magnetorquer's dipole scaled by 1 ± this"),
     ), "rbenv.satellite.randomization:Randomization"),
 )
 
@@ -307,7 +351,11 @@ def reference_markdown() -> str:
               "Per-task options of the scene, for the tasks that take them (gym.make's "
               "`task_options=` overrides them). `[tasks.<task>.physics]` and "
               "`[tasks.<task>.episode]` override the scene's `[physics]` and `[episode]` keys "
-              "for that task alone (same keys as above).", ""]
+              "for that task alone (same keys as above). Every task's table is checked whichever "
+              "task's env is made on the scene, and an error names the table and its task; a "
+              "table whose task cannot run on the scene (`[tasks.desaturate]` on a scene without "
+              "`[wheels]`) has only its option names checked, so it does not stop another "
+              "task's env.", ""]
     for task, (ref, keys) in TASK_TABLES.items():
         options = resolve(ref).OPTIONS
         lines += [f"`[tasks.{task}]`:", ""]

@@ -35,6 +35,7 @@ EXTRAS = {
     "flax": "sbx",
     "ray": "ray",
     "mujoco": "bench",
+    "highspy": "mpc",
 }
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import rbenv.agents.training
 from rbenv.agents import cli
+from rbenv.agents.training.engine import RunLock
 
 TINY = ["--timesteps", "256", "--n-envs", "4", "--hyperparams",
         json.dumps({"n_steps": 32, "batch_size": 64, "n_epochs": 1}),
@@ -42,13 +43,29 @@ def one_line_error(argv, capsys) -> str:
 MISTAKES = {
     "missing path": (["evaluate", "--policy", "runs/does-not-exist"],
                      ["argument --policy", "'runs/does-not-exist' does not exist",
-                      "pd, bangbang, innocube-pd, innocube-slew, zero, random"]),
+                      "pd, bangbang, innocube-pd, innocube-slew, mpc, zero, random"]),
     "policy case": (["evaluate", "--policy", "PD"], ["argument --policy", "did you mean 'pd'?"]),
     "policy of another task": (["evaluate", "--policy", "bdot"],
                                ["argument --policy", "rbenv/SatelliteDetumble-v1", "--env-id"]),
     "baseline not on this scene": (
         ["evaluate", "--policy", "bdot", "--env-id", "rbenv/SatelliteDetumble-v1"],
         ["argument --policy", "cannot act on scene 'cubesat-12u'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene asked for": (
+        ["evaluate", "--policy", "bdot", "--env-id", "rbenv/SatelliteDetumble-v1", "--scene",
+         "cubesat-12u-rw"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene asked for, scene first, v0": (
+        ["evaluate", "--scene", "cubesat-12u-rw", "--env-id", "rbenv/SatelliteDetumble-v0",
+         "--policy", "bdot"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'", "runs on cubesat-6u-rw"]),
+    "baseline not on the scene of --env-kwargs": (
+        ["evaluate", "--env-kwargs", '{"scene": "cubesat-12u-rw"}', "--policy", "bdot",
+         "--env-id", "rbenv/SatelliteDetumble-v1"],
+        ["argument --policy", "cannot act on scene 'cubesat-12u-rw'"]),
+    "replay scene in env options": (
+        ["replay", "telemetry", "--scene", "innocube-3u", "--policy", "innocube-pd",
+         "--env-kwargs", '{"scene": "cubesat-6u-rw"}'],
+        ["argument --env-kwargs", "must not hold 'scene'", "'cubesat-6u-rw'", "--scene"]),
     "env option": (["evaluate", "--policy", "pd", "--env-kwargs", '{"integrater": "rk4"}'],
                    ["argument --env-kwargs", "'integrater' is not an env option",
                     "did you mean 'integrator'?"]),
@@ -96,6 +113,66 @@ def test_a_mistake_is_one_line_naming_the_argument_and_what_is_valid(argv, expec
     for text in expected:
         assert text in err, (text, err)
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+BDOT_ON_6U = {"--policy": "bdot", "--scene": "cubesat-6u-rw"}
+
+
+@pytest.mark.parametrize("version", ["v0", "v1"])
+@pytest.mark.parametrize("order", [("--policy", "--env-id", "--scene"),
+                                   ("--scene", "--policy", "--env-id"),
+                                   ("--env-id", "--scene", "--policy"),
+                                   ("--env-kwargs", "--policy", "--env-id")])
+def test_a_baseline_is_checked_on_the_scene_asked_for_in_any_order(order, version, tmp_path,
+                                                                   capsys):
+    """The README's B-dot command: the policy is checked on --scene (or --env-kwargs' scene),
+    not on the task's default scene, whichever comes first; then its episodes run."""
+    values = {**BDOT_ON_6U, "--env-id": f"rbenv/SatelliteDetumble-{version}",
+              "--env-kwargs": '{"scene": "cubesat-6u-rw"}'}
+    argv = ["evaluate", *(w for flag in order for w in (flag, values[flag])),
+            "--episodes", "1", "--json", str(tmp_path / "bdot.json")]
+    code, _, err = console(argv, capsys)
+    assert code == 0, err
+    summary = json.loads((tmp_path / "bdot.json").read_text())
+    assert summary["policy"] == "bdot" and summary["scene"] == "cubesat-6u-rw"
+    assert summary["episodes"] == 1
+
+
+def test_a_dry_run_checks_the_run_folder_and_writes_nothing(tmp_path, capsys):
+    """--dry-run: a new run into another run's folder is refused as the real start would be,
+    one with --force or into a new folder passes, and nothing is written or removed."""
+    out = tmp_path / "run"
+    code, printed, err = console(["train", "--out", str(out), "--dry-run", *TINY], capsys)
+    assert code == 0 and "dry run: every check passed; nothing written" in printed, err
+    assert not out.exists()
+    assert "--dry-run" in _help(["train"], capsys)
+    out.mkdir()
+    (out / "config.json").write_text("{}")
+    err = one_line_error(["train", "--out", str(out), "--dry-run", *TINY], capsys)
+    assert "is not empty (it holds config.json)" in err and "--force" in err
+    code, printed, err = console(["train", "--out", str(out), "--dry-run", "--force", *TINY],
+                                 capsys)
+    assert code == 0, err
+    assert sorted(p.name for p in out.iterdir()) == ["config.json"]
+
+
+def test_a_dry_run_names_a_live_run_holding_the_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert cli.console(["train", "--out", str(out), *TINY]) == 0
+    capsys.readouterr()
+    before = sorted(p.name for p in out.rglob("*"))
+    lock = RunLock(out).acquire()  # a live run, as another process would hold it
+    try:
+        err = one_line_error(["train", "--out", str(out), "--resume", "--timesteps", "512",
+                              "--dry-run"], capsys)
+    finally:
+        lock.release()
+    assert "is in use by pid" in err and str(os.getpid()) in err
+    code, printed, err = console(["train", "--out", str(out), "--resume", "--timesteps", "512",
+                                  "--dry-run"], capsys)
+    assert code == 0 and "the run would resume in" in printed, err
+    assert sorted(p.name for p in out.rglob("*")) == before
+    assert json.loads((out / "training.json").read_text())["timesteps"] == 256
 
 
 def test_a_typo_in_the_scene_writes_nothing_and_the_retry_then_works(tmp_path, capsys):
@@ -184,3 +261,19 @@ def test_train_help_groups_the_options_by_engine(capsys):
     assert "--quick" not in text[:at[3]].split("usage:")[-1].split("options:")[-1]
     assert "--save-replay-buffer" in text[at[1]:at[2]]
     assert "(default: 'ppo')" in text and "(default: 200000)" in text
+
+
+def test_a_foreign_model_on_another_task_names_the_flags_that_pick_its_env(tmp_path, capsys):
+    """An SB3 .zip without a config.json (RL Zoo's) trained on Reorient-v0 (7 observations),
+    evaluated on the default v1 (15): one line naming --env-id, not a traceback."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+
+    model = tmp_path / "zoo.zip"
+    PPO("MlpPolicy", make_vec_env("rbenv/SatelliteReorient-v0", n_envs=1), n_steps=64,
+        batch_size=64, device="cpu").save(model)
+    with pytest.warns(UserWarning, match="sees raw observations"):
+        err = one_line_error(["evaluate", "--policy", str(model), "--trust-pickle",
+                              "--episodes", "2"], capsys)
+    assert "observation shape (2, 15) does not match the policy's (7,)" in err
+    assert "--env-id" in err

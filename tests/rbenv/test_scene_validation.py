@@ -9,6 +9,7 @@ and info values.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 import os
@@ -252,3 +253,78 @@ def test_mutated_scene_gives_named_error_or_finite_episodes(tmp_path, leaf, new,
         return
     event("loaded and stepped")
     assert _finite(out), out
+
+
+# --------------------------------------------------------------------------- randomization fuzz
+
+# Every shipped actuator mix, as scene TOML: cubesat-12u (thrusters) with cubesat-6u-rw's wheels,
+# rods and the orbit the rods need, each in or out.
+MIXES = ("thrusters", "wheels", "magnetorquers", "thrusters+wheels", "thrusters+magnetorquers",
+         "wheels+magnetorquers", "thrusters+wheels+magnetorquers")
+# One size per [randomization] key (each inside its limit), and all of them at once.
+RANDOMIZE = {"inertia_scale": 0.3, "inertia_rotation_deg": 15.0, "com_offset": 0.01,
+             "force_scale": 0.2, "misalignment_deg": 3.0, "delay_probability": 0.5,
+             "wheel_misalignment_deg": 3.0, "wheel_torque_scale": 0.2,
+             "wheel_speed_scale": 0.1, "rod_dipole_scale": 0.3}
+
+
+def mix_scene(mix: str) -> dict:
+    """A scene dict with exactly the actuators of ``mix`` ("thrusters+wheels", ...)."""
+    tables = mix.split("+")
+    data = copy.deepcopy(SCENES["cubesat-12u"])
+    data["name"] = f"mix-{mix.replace('+', '-')}"
+    if "thrusters" not in tables:
+        del data["thrusters"]
+    rw = SCENES["cubesat-6u-rw"]
+    for table in ("wheels", "magnetorquers"):
+        if table in tables:
+            data[table] = copy.deepcopy(rw[table])
+    if "magnetorquers" in tables:
+        data["orbit"] = copy.deepcopy(rw["orbit"])
+    return data
+
+
+def test_every_actuator_mix_is_covered():
+    from rbenv.satellite.actuators import ACTUATORS
+    from rbenv.satellite.randomization import ACTUATOR_FIELDS, Randomization
+
+    assert {t for m in MIXES for t in m.split("+")} == set(ACTUATORS)
+    assert len(MIXES) == 2 ** len(ACTUATORS) - 1
+    assert set(RANDOMIZE) == {f.name for f in dataclasses.fields(Randomization)}
+    assert set(ACTUATOR_FIELDS) <= set(RANDOMIZE)
+
+
+@pytest.mark.parametrize("mix", MIXES)
+def test_every_randomization_key_steps_or_is_refused_by_name_on_every_mix(tmp_path, mix):
+    """Each key alone, then all keys, on one actuator mix: a few finite steps of the single env
+    (the key in the scene's [randomization] table) and of the vector env (the key as
+    ``randomize=``), or a named refusal exactly when the key perturbs an absent actuator."""
+    from rbenv.satellite.randomization import ACTUATOR_FIELDS
+
+    tables = set(mix.split("+"))
+    plain = write(tmp_path, mix_scene(mix), "mix.toml")
+    assert set(load_scene(plain).actuators) == tables
+    cases = [{key: value} for key, value in RANDOMIZE.items()] + [dict(RANDOMIZE)]
+    for randomize in cases:
+        absent = [k for k in randomize
+                  if k in ACTUATOR_FIELDS and ACTUATOR_FIELDS[k][0] not in tables]
+        table = write(tmp_path, {**mix_scene(mix), "randomization": randomize}, "mix-rnd.toml")
+        for make, kwargs in ((gym.make, {"scene": table}),
+                             (gym.make_vec, {"num_envs": 2, "scene": plain,
+                                             "randomize": randomize})):
+            try:
+                env = make(rbenv.ENV_ID, **kwargs)
+            except RbenvValueError as exc:
+                assert absent, f"{mix} {randomize}: refused {exc}"
+                assert f"randomization.{absent[0]} = " in str(exc), str(exc)
+                assert f"no [{ACTUATOR_FIELDS[absent[0]][0]}]" in str(exc), str(exc)
+                continue
+            assert not absent, f"{mix} {randomize}: accepted {absent}"
+            try:
+                out = [env.reset(seed=3)]
+                env.action_space.seed(3)
+                for _ in range(3):
+                    out.append(env.step(env.action_space.sample()))
+                assert _finite(out), (mix, randomize, out)
+            finally:
+                env.close()

@@ -149,7 +149,7 @@ def test_float32_runs_and_stays_close_to_float64():
 @pytest.mark.parametrize(("option", "value", "named"), [
     ("integrator", "midpoint", "integrator='midpoint'"),
     ("action_mode", "torque", "action_mode='torque'"),
-    ("randomize", {"inertia_scale": 0.2}, "randomize="),
+    ("randomize", {"inertia_scale": 0.2}, "randomize={'inertia_scale': 0.2}"),
     ("scene", "microsat-100kg", "scene='microsat-100kg'"),
     ("render_mode", "rgb_array", "render_mode='rgb_array'"),
     ("dtype", "float16", "dtype must be one of ['float32', 'float64'] (or the torch dtype), "

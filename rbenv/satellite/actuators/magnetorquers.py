@@ -123,10 +123,13 @@ class Magnetorquers(ActuatorDefaults):
         plant evaluates ``m_B × R(q)ᵀ B_N(t)`` at every integrator stage. Sets the mtq_*
         fields."""
         f = fraction  # one component per rod
-        m_B = k.scale(self.dipoles[0], f[0])  # Σ μ_i ĝ_i, A·m², body axes
-        power = abs(f[0]) * self.powers[0]
+        model = st.model  # domain randomization: this episode's dipole scales, or None
+        g = f if model is None or model.rod_dipole_c is None else tuple(
+            [fi * si for fi, si in zip(f, model.rod_dipole_c, strict=True)])
+        m_B = k.scale(self.dipoles[0], g[0])  # Σ μ_i ĝ_i, A·m², body axes
+        power = abs(f[0]) * self.powers[0]  # the coil's power follows its command
         for i in range(1, self.n):
-            m_B = k.add(m_B, self.dipoles[i], f[i])
+            m_B = k.add(m_B, self.dipoles[i], g[i])
             power = power + abs(f[i]) * self.powers[i]
         st.mtq_dipole_B = m_B
         st.mtq_energy_J = st.mtq_energy_J + power * self.control_dt

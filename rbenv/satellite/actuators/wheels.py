@@ -17,7 +17,8 @@ Command, applied in Basilisk's order: the motor torque is clipped to ±u_max; a 
 speeds the wheel up is limited to ``(Ω_max − |Ω|) J/dt``, what brings it to the speed limit at
 the end of the control step, so at the limit the motor cannot accelerate it further (u = 0,
 Basilisk's rule, which checks only at the step's start and so overshoots by up to u·dt/J);
-optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it. Action modes: ``throttle``
+optional viscous and Coulomb friction ``−c_v Ω − τ_c sgn(Ω)`` add to it (each a number, or
+``[low, high]`` drawn per episode as the as-flown effects below). Action modes: ``throttle``
 (default: one entry per wheel, the motor torque as a fraction of u_max in [-1, 1]),
 ``torque`` (a body torque as a fraction of the per-axis authority, distributed by the
 pseudo-inverse of G and scaled down as a whole when a wheel would exceed u_max) and
@@ -94,8 +95,9 @@ class WheelSet:
     rotors: Rotors  # spin axes (n, 3, unit, body frame) and spin-axis inertias J_s (n,) kg·m²
     max_torque: np.ndarray  # (n,) N·m
     max_speed: np.ndarray  # (n,) rad/s
-    viscous: float = 0.0  # N·m·s/rad
-    coulomb: float = 0.0  # N·m
+    # Each of viscous and coulomb: a float, or a (low, high) tuple drawn uniformly per episode.
+    viscous: object = 0.0  # N·m·s/rad
+    coulomb: object = 0.0  # N·m
     standby_power: float = 0.0  # W per wheel
     initial_speed: np.ndarray = None  # (n,) rad/s at the episode start
     random_speed: float = 0.0  # rad/s: ± uniform spread added per episode
@@ -110,6 +112,18 @@ class WheelSet:
     def as_flown(self) -> bool:
         """Whether any command non-ideality is on (deadband, gain or start-up delay)."""
         return bool(self.deadband or self.realized_gain != 1.0 or self.startup_delay_s)
+
+    @property
+    def friction_drawn(self) -> bool:
+        """Whether the friction (viscous or Coulomb) is drawn per episode (a range)."""
+        return isinstance(self.viscous, tuple) or isinstance(self.coulomb, tuple)
+
+    @property
+    def friction_ranges(self) -> tuple:
+        """((low, high) of the viscous coefficient N·m·s/rad, of the Coulomb torque N·m):
+        the per-episode draws' ranges (low == high: fixed)."""
+        return tuple(v if isinstance(v, tuple) else (v, v)
+                     for v in (self.viscous, self.coulomb))
 
     @property
     def deadband_up(self) -> float:
@@ -176,7 +190,8 @@ def parse_wheels(table: dict, com_B=None) -> WheelSet:
             f"{table['initial_speed_rpm']}")
     return WheelSet(rotors=Rotors(axes, per_wheel("inertia", 1e-9, 1e3)),
                     max_torque=per_wheel("max_torque", 1e-9, 1e3), max_speed=speed,
-                    viscous=scalar("viscous", 1e3), coulomb=scalar("coulomb", 1e3),
+                    viscous=_ranged(table, "viscous", 0.0, low=0.0, high=1e3),
+                    coulomb=_ranged(table, "coulomb", 0.0, low=0.0, high=1e3),
                     standby_power=scalar("standby_power", 1e4), initial_speed=start,
                     random_speed=scalar("random_speed_rpm", 1e5) * _RPM,
                     **_as_flown(table))
@@ -265,6 +280,7 @@ class Wheels(ActuatorDefaults):
     state_fields: dict = field(init=False, repr=False)
     observation_structure: dict = field(init=False, repr=False)
     start_slots: int = field(init=False)
+    friction_drawn: bool = field(init=False)  # the friction is drawn per episode (a range)
     # wheel_speed (rad/s, each wheel's speed relative to the body); with wheels as flown
     # wheel_clock_s (s since the first command, −1: not yet commanded, the default), so that
     # a start in mid-run is past the start-up delay.
@@ -311,12 +327,15 @@ class Wheels(ActuatorDefaults):
                   # command above the deadband, −1 before it.
                   # wheel_flown (wheels as flown): this episode's (deadband rad/s², realized
                   # gain, start-up delay s).
+                  # wheel_friction (friction drawn per episode): this episode's (viscous
+                  # N·m·s/rad, Coulomb N·m).
                   # wheel_command (acceleration_lifted only): the last step's command after
                   # the lift, α/α_max per wheel.
                   "state_fields": {"wheel_speed": "cn", "wheel_torque": "cn",
                                    "wheel_momentum": "cn", "wheel_energy_J": "f",
                                    **({"wheel_clock_s": "f", "wheel_flown": "c3"}
                                       if ws.as_flown else {}),
+                                   **({"wheel_friction": "cn"} if ws.friction_drawn else {}),
                                    **({"wheel_command": "cn"} if lifted else {})},
                   # Per-wheel constants as Python floats (components multiply them).
                   "axes": tuple(tuple(float(c) for c in g_i) for g_i in g),
@@ -337,7 +356,9 @@ class Wheels(ActuatorDefaults):
                   "standby": float(ws.n * ws.standby_power),
                   "observation_structure": {"wheel_speed": ws.n,
                                             **({"wheel_command": ws.n} if lifted else {})},
-                  "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0),
+                  "start_slots": (ws.n if ws.random_speed else 0) + (3 if ws.as_flown else 0)
+                  + (2 if ws.friction_drawn else 0),
+                  "friction_drawn": ws.friction_drawn,
                   "reset_options": {"wheel_speed": ws.n,
                                     **({"wheel_clock_s": 1} if ws.as_flown else {})}}
         values["inv_max_power"] = 1.0 / values["max_power"]
@@ -389,6 +410,9 @@ class Wheels(ActuatorDefaults):
             u = self._as_flown(st, u, xp)
         u = tuple([clip(c, -self.max_torque[i], self.max_torque[i]) for i, c in enumerate(u)]) \
             if self.action_mode in ACCELERATION_MODES else u
+        model = st.model  # domain randomization: this episode's axes and motor gains
+        axes = self.axes if model is None or model.wheel_axes_c is None else model.wheel_axes_c
+        gain = None if model is None else model.wheel_torque_c
         power, limited, h = self.standby, [], []
         for i in range(self.n):  # a few wheels; each value a float or an (N,) array
             s, c = speed[i], u[i]
@@ -396,16 +420,22 @@ class Wheels(ActuatorDefaults):
             # of the step (zero at the limit: Basilisk's rule, without its one-step overshoot).
             head = maximum((self.max_speed[i] - abs(s)) * self.headroom[i], 0.0)
             c = where(s * c >= 0.0, clip(c, -head, head), c)
+            if gain is not None:  # the motor realizes this multiple of the firmware's torque
+                c = c * gain[i]
             power = power + abs(c * s)
             limited.append(c)
-            h.append(self.inertia[i] * (s + k.dot(self.axes[i], w)))
+            h.append(self.inertia[i] * (s + k.dot(axes[i], w)))
         u, h = tuple(limited), tuple(h)
-        if ws.viscous or ws.coulomb:
+        if self.friction_drawn:  # this episode's (viscous, Coulomb), drawn at the start
+            viscous, coulomb = st.wheel_friction
+            u = tuple([c - viscous * s - coulomb * xp.sign(s)
+                       for s, c in zip(speed, u, strict=True)])
+        elif ws.viscous or ws.coulomb:
             u = tuple([c - ws.viscous * s - ws.coulomb * xp.sign(s)
                        for s, c in zip(speed, u, strict=True)])
         st.wheel_momentum, st.wheel_torque = h, u
         st.wheel_energy_J = st.wheel_energy_J + power * self.control_dt
-        return _new(Contribution, (_ZERO, None, self._body(h), self._body(u),
+        return _new(Contribution, (_ZERO, None, self._body(h, axes), self._body(u, axes),
                                    power * self.inv_max_power, None))
 
     def _as_flown(self, st, u: tuple, xp) -> tuple:
@@ -427,25 +457,34 @@ class Wheels(ActuatorDefaults):
 
     def account(self, st, contribution: Contribution, dt: float, xp) -> None:
         """After the physics: ``h ← h + u·dt`` (exact: u is held) and Ω = h/J − ĝᵀω."""
-        w = st.omega_B
+        w, model = st.omega_B, st.model
+        axes = self.axes if model is None or model.wheel_axes_c is None else model.wheel_axes_c
         h = tuple([hi + ui * dt for hi, ui in zip(st.wheel_momentum, st.wheel_torque,
                                                   strict=True)])
         st.wheel_momentum = h
-        st.wheel_speed = tuple([h[i] / self.inertia[i] - k.dot(self.axes[i], w)
+        st.wheel_speed = tuple([h[i] / self.inertia[i] - k.dot(axes[i], w)
                                 for i in range(self.n)])
 
-    def _body(self, x: tuple) -> tuple:
-        """``G x``: per-wheel values along their axes, summed: 3 body components."""
-        out = k.scale(self.axes[0], x[0])
+    def _axes(self, st) -> tuple:
+        """The spin axes of this episode (components): the scene's, or the randomized."""
+        model = st.model
+        return self.axes if model is None or model.wheel_axes_c is None else model.wheel_axes_c
+
+    def _body(self, x: tuple, axes: tuple | None = None) -> tuple:
+        """``G x``: per-wheel values along their axes (``axes``, default the scene's),
+        summed: 3 body components."""
+        axes = self.axes if axes is None else axes
+        out = k.scale(axes[0], x[0])
         for i in range(1, self.n):
-            out = k.add(out, self.axes[i], x[i])
+            out = k.add(out, axes[i], x[i])
         return out
 
     # ------------------------------------------------------------------- start, sensing
 
     def sample_start(self, draws) -> dict:
         """Initial speeds (the scene's, plus a uniform ± random_speed spread from stream
-        "wheels"), zero torque and energy."""
+        "wheels"), zero torque and energy; the as-flown draws (3 uniforms) and the friction
+        draws (2 uniforms) follow in the same stream, each block only when on."""
         m, ws = draws.n, self.wheels
         speed = np.broadcast_to(ws.initial_speed, (m, ws.n)).copy()
         if ws.random_speed:
@@ -464,6 +503,12 @@ class Wheels(ActuatorDefaults):
             u = draws.uniform("wheels", 3, offset=ws.n if ws.random_speed else 0)
             out["wheel_flown"] = tuple(lo + (hi - lo) * ui if hi > lo else zero + lo
                                        for (lo, hi), ui in zip(ws.flown_ranges, u, strict=True))
+        if ws.friction_drawn:  # the next two slots, after the speeds' and the flown draws
+            u = draws.uniform("wheels", 2, offset=(ws.n if ws.random_speed else 0)
+                              + (3 if ws.as_flown else 0))
+            out["wheel_friction"] = tuple(lo + (hi - lo) * ui if hi > lo else zero + lo
+                                          for (lo, hi), ui in zip(ws.friction_ranges, u,
+                                                                  strict=True))
         return out
 
     def observe(self, st, xp, sensed=None) -> tuple:
@@ -472,6 +517,8 @@ class Wheels(ActuatorDefaults):
         ``acceleration_lifted``, the last step's command α/α_max per wheel."""
         clip, inv = xp.clip, self.inv_max_speed
         speed, quantum = st.wheel_speed, self.wheels.speed_quantum
+        if st.model is not None and st.model.wheel_speed_c is not None:  # the sensor's scale
+            speed = tuple([s * g for s, g in zip(speed, st.model.wheel_speed_c, strict=True)])
         if quantum:
             speed = tuple([xp.round(s * (1.0 / quantum)) * quantum for s in speed])
         out = tuple([clip(s * inv[i], -1.0, 1.0) for i, s in enumerate(speed)])
@@ -497,7 +544,8 @@ class Wheels(ActuatorDefaults):
     def info(self, st, xp, out: dict) -> None:
         """wheel_energy_J (cumulative) and wheel_momentum_Nms (|G J Ω|, the stored momentum
         relative to the bus)."""
-        h = self._body([self.inertia[i] * s for i, s in enumerate(st.wheel_speed)])
+        h = self._body([self.inertia[i] * s for i, s in enumerate(st.wheel_speed)],
+                       self._axes(st))
         out["wheel_energy_J"] = st.wheel_energy_J
         out["wheel_momentum_Nms"] = xp.sqrt(k.dot(h, h))
 

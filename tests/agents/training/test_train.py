@@ -5,7 +5,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -306,18 +305,3 @@ def test_a_run_saved_before_the_run_defaults_resumes_as_it_trained(tmp_path):
                                                           "stop_success": saved}))
         assert resumed_config(TrainConfig, tmp_path).stop_success == resumed
 
-
-def test_the_report_gives_the_bounds_of_its_episodes_where_they_hold(tmp_path):
-    """report.md's bounds line: the medians of benchmarks/results/bounds (the same 500
-    held-out episodes of cubesat-12u) for the main job; nothing where no bound holds (a
-    detumble task, a wheel scene, a scene with unbounded disturbance noise, a changed plant)."""
-    from rbenv.agents.training.report import bounds_lines
-
-    bounds = json.loads((Path(__file__).resolve().parents[3] / "benchmarks" / "results"
-                         / "bounds" / "bounds.json").read_text())["bounds"]
-    (_, line) = bounds_lines(TrainConfig(out=str(tmp_path)).resolve())
-    assert f"settle time median {bounds['settle_s']['median']:.1f} s" in line
-    assert f"propellant median {bounds['fuel_g']['median']:.3f} g" in line
-    for kwargs in ({"env_id": "rbenv/SatelliteDetumble-v1"}, {"scene": "cubesat-6u-rw"},
-                   {"scene": "boom-sat"}, {"env_kwargs": {"control_dt": 0.25}}):
-        assert bounds_lines(TrainConfig(out=str(tmp_path), **kwargs).resolve()) == []

@@ -1,0 +1,211 @@
+"""Policies on the estimate: the MEKF in the loop of an env whose scene has ``[estimator]``.
+
+:class:`EstimatorLoop` runs beside the plant for N satellites (the single env: N = 1): after
+each step it reads the true attitude and rate, draws the sensors' measurements
+(rbenv.satellite.sensors: the gyro's increment over the step, then a star-tracker fix, the
+magnetometer, the coarse sun sensors where the scene has them), propagates and updates the
+filter (rbenv.satellite.estimation.MEKF), and builds the observation from the estimate: the
+task's own components with the estimated attitude and the gyro rate less the estimated bias,
+then the actuators' own (the rods' magnetometer reads the ``[magnetometer]``'s measurement,
+else the field model through the estimate, never the true body field), then
+``estimate_sigma`` (6): the filter's 1σ of the attitude error per body axis and of the bias,
+each as ``clip((log10 σ − c) / 3, −1, 1)`` with c = −3 (rad) and −5 (rad/s). Reward,
+success and termination stay the task's, on the true state. Its draws come from its own
+generator (seeded from the episode's seed), so the plant's draws are those of the same scene
+without it.
+
+``info`` gains, every step: ``q_true``, ``q_est`` (scalar-first, body to inertial),
+``gyro_bias``, ``gyro_bias_est`` (rad/s, body axes), ``estimate_cov`` (6 × 6: the attitude error
+``δq = q_est⁻¹ ⊗ q_true`` as a rotation vector, body axes, rad; then the bias, rad/s),
+``estimated_attitude_error_deg`` (the error to the target the estimate shows, where the task has
+a target) and ``star_tracker_fix`` (whether a fix was taken this step, where the scene has one).
+Single env: shapes (4,), (3,), (6, 6); vector env: a leading (N,).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rbenv.satellite import sensors as sn
+from rbenv.satellite.disturbances import parse_epoch, sun_direction_N
+from rbenv.satellite.estimation import MEKF
+from rbenv.tasks.base import _DEG
+
+__all__ = ["SIGMA_FEATURES", "EstimatorLoop"]
+
+SIGMA_FEATURES = 6
+_RAD_DEG = math.pi / 180.0
+_DEFAULT_EPOCH = "2025-03-20T12:00:00"  # [orbit.srp]'s default epoch, for the Sun's direction
+
+
+def _rows(components) -> np.ndarray:
+    """(N, k) float array of a state's components (floats or (N,) arrays)."""
+    return np.stack([np.atleast_1d(np.asarray(c, dtype=float)) for c in components], -1)
+
+
+class EstimatorLoop:
+    """Sensors and the MEKF for the plant's satellites (see the module docstring)."""
+
+    def __init__(self, plant, task, single: bool):
+        scene = plant.scene
+        gyro = scene.sensors
+        self.plant, self.task, self.single = plant, task, single
+        self.dt = dt = plant.control_dt
+        self.sigma_v = gyro.gyro_noise_dps * _RAD_DEG * math.sqrt(dt)  # rad/√s
+        self.sigma_u = gyro.gyro_bias_walk_dps_sqrt_s * _RAD_DEG  # rad/s/√s
+        self.sigma_b = gyro.gyro_bias_sigma_dps * _RAD_DEG  # rad/s
+        self.params = scene.estimator
+        self.star, self.mag, self.css = scene.star_tracker, scene.magnetometer, scene.sun_sensors
+        self.orbit = scene.orbit if scene.orbit.enabled else None
+        self.star_R = None if self.star is None else self.star.noise_cov_B()
+        self.star_period = 1 if self.star is None else self.star.period_steps(dt)
+        if self.orbit is not None:
+            srp = self.orbit.srp
+            self.epoch_days = srp.epoch_days if srp is not None else \
+                parse_epoch("epoch", _DEFAULT_EPOCH)
+            self.earth_radius_rad = math.asin(self.orbit.EARTH_RADIUS / self.orbit.radius)
+        if self.mag is not None:  # white noise plus the unestimated bias, counted as noise
+            self.mag_R = ((self.mag.noise_nT ** 2 + self.mag.bias_nT ** 2) * 1e-18) * np.eye(3)
+        self.rng = np.random.default_rng(0)
+        self.filter = None
+        self.field_B = None  # the magnetometer's measurement this step (N, 3), T, or None
+
+    # ------------------------------------------------------------------- environment
+
+    def _sun(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ŝ_N (N, 3), lit (N,)): the Sun's direction and 1.0 outside the cylindrical
+        shadow (as rbenv.satellite.disturbances.sun_and_shadow)."""
+        s = _rows(sun_direction_N(self.epoch_days + t / 86400.0, np))
+        r = self.orbit.radius * _rows(self.orbit.direction_N(t, np))
+        along = np.sum(r * s, -1)
+        perp = r - along[:, None] * s
+        shadow = (along < 0.0) & (np.sum(perp * perp, -1) < self.orbit.EARTH_RADIUS ** 2)
+        return np.broadcast_to(s, r.shape), 1.0 - shadow
+
+    # ------------------------------------------------------------------- episodes
+
+    def reset(self, st, seed, rows=None) -> None:
+        """Start the filter for new episodes: all satellites (rows None; ``seed`` seeds the
+        generator) or the rows being reset (their truth read from ``st``)."""
+        self.field_B = None  # a reset row has no measurement yet: the estimate's field
+        if rows is None:
+            self.rng = np.random.default_rng(seed)
+        q = _rows(st.q) if rows is None else _rows(st.q)[rows]
+        n = q.shape[0]
+        rng, s0 = self.rng, self.params.initial_attitude_sigma_deg * _RAD_DEG
+        bias = self.sigma_b * rng.standard_normal((n, 3))
+        q_hat = sn.qmul(q, sn.qexp(-s0 * rng.standard_normal((n, 3))))
+        P = np.zeros((n, 6, 6))
+        P[:, :3, :3] = s0 * s0 * np.eye(3)
+        P[:, 3:, 3:] = max(self.sigma_b, 1e-12) ** 2 * np.eye(3)
+        mag_bias = (0.0 if self.mag is None else self.mag.bias_nT * 1e-9) * \
+            rng.standard_normal((n, 3))
+        w = _rows(st.omega_B) if rows is None else _rows(st.omega_B)[rows]
+        fix = np.zeros(n, dtype=bool)
+        if rows is None:
+            self.filter = MEKF(q_hat, np.zeros((n, 3)), P, self.sigma_v, self.sigma_u,
+                               self.params.process_noise_scale)
+            self.bias, self.mag_bias, self.q_prev, self.w_est, self.fix = \
+                bias, mag_bias, q, w + bias, fix
+            return
+        f = self.filter
+        f.q[rows], f.bias[rows], f.P[rows] = q_hat, 0.0, P
+        self.bias[rows], self.mag_bias[rows], self.q_prev[rows] = bias, mag_bias, q
+        self.w_est[rows], self.fix[rows] = w + bias, fix
+
+    def step(self, st) -> None:
+        """After a step of the plant: measure the new truth in ``st`` and update the filter."""
+        f, rng, dt = self.filter, self.rng, self.dt
+        self.field_B = None
+        q = _rows(st.q)
+        n = q.shape[0]
+        dtheta = sn.qlog(sn.qmul(sn.qconj(self.q_prev), q))
+        measured, self.bias = sn.gyro_increment(dtheta, self.bias, self.sigma_v, self.sigma_u,
+                                                dt, rng)
+        f.propagate(measured, dt)
+        self.q_prev = q
+        w = _rows(st.omega_B)
+        t = np.broadcast_to(np.asarray(st.steps, dtype=float) * dt, (n,))
+        sun = lit = None
+        if self.orbit is not None and (self.css is not None or self.star is not None):
+            sun, lit = self._sun(t)
+        if self.star is not None:
+            nadir = None if self.orbit is None else -_rows(self.orbit.direction_N(t, np))
+            q_m, valid = sn.star_tracker(self.star, q, w, sun, nadir,
+                                         0.0 if self.orbit is None else self.earth_radius_rad,
+                                         rng)
+            valid &= (np.asarray(st.steps) % self.star_period == 0)
+            f.update_attitude(q_m, self.star_R, valid)
+            self.fix = valid
+        if self.mag is not None:
+            field_N = _rows(self.orbit.field_N(t, np))
+            y = sn.magnetometer(self.mag, q, field_N, self.mag_bias, rng)
+            f.update_vector(y, field_N, self.mag_R, np.ones(n, dtype=bool))
+            self.field_B = y
+        if self.css is not None:
+            s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(self.css, q, sun, lit,
+                                                                         rng))
+            f.update_vector(s_B, sun, cov, valid, unit=True)
+        self.w_est = measured / dt - f.bias
+
+    # ------------------------------------------------------------------- outputs
+
+    def _out(self, x: np.ndarray):
+        """One satellite's row (single env) or the batch."""
+        return x[0] if self.single else x
+
+    def observe(self, st, xp) -> np.ndarray:
+        """The observation: the task's components on the estimate, then estimate_sigma."""
+        f = self.filter
+        q_hat = f.q
+        q = tuple(self._out(q_hat[:, i]) for i in range(4))
+        w = tuple(self._out(self.w_est[:, i]) for i in range(3))
+        if self.single:
+            q, w = tuple(float(c) for c in q), tuple(float(c) for c in w)
+        obs = self.task.observe(st, q, w, xp)
+        for act, _ in self.plant.observers:
+            obs = obs + act.observe(self._field_view(st) if act.scene_table == "magnetorquers"
+                                    else st, xp, None)
+        sigma = np.sqrt(np.diagonal(f.P, axis1=-2, axis2=-1))
+        feats = np.concatenate(((np.log10(sigma[:, :3]) + 3.0) / 3.0,
+                                (np.log10(np.maximum(sigma[:, 3:], 1e-30)) + 5.0) / 3.0), -1)
+        feats = np.clip(feats, -1.0, 1.0)
+        if self.single:
+            return np.array((*obs, *feats[0]), dtype=np.float32)
+        return np.stack([np.broadcast_to(np.asarray(c, dtype=np.float32), feats.shape[:1])
+                         for c in obs] + list(feats.T.astype(np.float32)), -1)
+
+    def _field_view(self, st):
+        """What the rods' magnetometer observation reads instead of the true body field: the
+        [magnetometer]'s measurement this step, else the field model seen through the
+        estimate, A(q̂)ᵀ B_N (the true one would leak the true attitude)."""
+        field = self.field_B
+        if field is None:
+            n = self.filter.q.shape[0]
+            t = np.broadcast_to(np.asarray(st.steps, dtype=float) * self.dt, (n,))
+            field = sn.rotate_inverse(self.filter.q, _rows(self.orbit.field_N(t, np)))
+        view = type("FieldView", (), {})()
+        view.field_B_T = tuple(self._out(field[:, i]) for i in range(3))
+        if self.single:
+            view.field_B_T = tuple(float(c) for c in view.field_B_T)
+        return view
+
+    def add_info(self, st, info: dict) -> dict:
+        """``info`` with the estimate's entries (the module docstring)."""
+        f = self.filter
+        out = self._out
+        info["q_true"] = out(_rows(st.q))
+        info["q_est"] = out(f.q.copy())
+        info["gyro_bias"] = out(self.bias.copy())
+        info["gyro_bias_est"] = out(f.bias.copy())
+        info["estimate_cov"] = out(f.P.copy())
+        if self.star is not None:
+            info["star_tracker_fix"] = out(self.fix.copy())
+        target = getattr(st, "q_target_conj", None)
+        if target is not None:
+            e = sn.qmul(_rows(target), f.q)  # q_target⁻¹ ⊗ q_est
+            angle = 2.0 * np.arctan2(np.linalg.norm(e[:, 1:], axis=-1), np.abs(e[:, 0])) * _DEG
+            info["estimated_attitude_error_deg"] = float(angle[0]) if self.single else angle
+        return info

@@ -1,0 +1,311 @@
+"""Attitude sensors for the estimator, batched over N satellites in NumPy: their scene tables
+and error models.
+
+Every model takes (N, ...) arrays and a :class:`numpy.random.Generator`; quaternions are
+scalar-first, body to inertial (as the state). The tables (``[star_tracker]``, ``[magnetometer]``,
+``[sun_sensors]``) are opt-in; the gyro is ``[sensors]`` (:class:`rbenv.satellite.scene.Sensors`)
+with ``attitude = "estimator"``. Each default quotes a typical CubeSat-class value (the ranges of
+docs/estimation.md, "typical") or is marked an assumption there.
+
+* Gyro (:func:`gyro_increment`): an integrating rate gyro that outputs the attitude increment
+  over a control step (coning-compensated) plus the integrated bias and the angle random walk::
+
+      Δθ_m = Δθ + ∫ b dt + σ_v W_v(dt),    b(t) = b_k + σ_u W_u(t),
+
+  with σ_v the angle random walk (rad/√s) and σ_u the rate random walk (rad/s/√s); the pair
+  (W_u(dt), ∫W_u) is drawn exactly (covariance [[dt, dt²/2], [dt²/2, dt³/3]]), so the Allan
+  variance of Δθ_m/τ is σ_v²/τ + σ_u² τ/3 exactly (slopes −½ and +½).
+* Star tracker (:func:`star_tracker`): ``q_m = q ⊗ exp(v)`` with v in body axes, 1σ
+  ``sigma_cross_arcsec`` across the boresight and ``sigma_about_arcsec`` about it; no fix when
+  the Sun is within ``sun_exclusion_deg`` of the boresight, the Earth's limb within
+  ``earth_exclusion_deg``, the body rate above ``max_rate_dps``, or a dropout (probability per
+  fix) happens.
+* Magnetometer (:func:`magnetometer`): ``B_m = Aᵀ B_N + b + σ n`` (T), b a per-episode bias.
+* Coarse sun sensors (:func:`sun_sensors`): one photocell per face normal n_i, output
+  ``max(0, n_i·ŝ_B)`` inside the field of view (zero beyond ``fov_deg`` off the normal and in
+  eclipse) plus σ noise (fraction of full scale); :func:`sun_vector_fit` fits ŝ_B by least
+  squares over the lit cells (Basilisk's ``cssWlsEst`` does the same).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rbenv.core import validation as check
+from rbenv.core.errors import InvalidParameterError
+
+__all__ = [
+    "Magnetometer",
+    "StarTracker",
+    "SunSensors",
+    "gyro_increment",
+    "magnetometer",
+    "qconj",
+    "qexp",
+    "qlog",
+    "qmul",
+    "rotate",
+    "rotate_inverse",
+    "star_tracker",
+    "sun_sensors",
+    "sun_vector_fit",
+]
+
+ARCSEC = math.pi / (180.0 * 3600.0)
+_DEG = math.pi / 180.0
+
+
+# --------------------------------------------------------------------------- quaternions (N, 4)
+
+
+def qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of (..., 4) scalar-first quaternions."""
+    a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+    out[..., 1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+    out[..., 2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+    out[..., 3] = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+    return out
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b of (..., 3) vectors (np.cross's result, without its axis handling)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def qconj(q: np.ndarray) -> np.ndarray:
+    """The conjugate (the inverse of a unit quaternion)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def qexp(v: np.ndarray) -> np.ndarray:
+    """The unit quaternion of the rotation vector v (..., 3), rad."""
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(a/2)/a, with its series below 1e-4 rad (relative error < 1e-17)
+    small = angle < 1e-4
+    ratio = np.where(small, 0.5 - angle * angle / 48.0,
+                     np.sin(half) / np.where(small, 1.0, angle))
+    return np.concatenate((np.cos(half), ratio * v), axis=-1)
+
+
+def qlog(q: np.ndarray) -> np.ndarray:
+    """The rotation vector (..., 3, rad, |·| ≤ π) of a unit quaternion (sign taken positive)."""
+    q = np.where(q[..., :1] < 0.0, -q, q)
+    s = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., :1])
+    small = s < 1e-8
+    return np.where(small, 2.0 * q[..., 1:] / np.maximum(q[..., :1], 1e-300),
+                    q[..., 1:] * angle / np.where(small, 1.0, s))
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """A(q) v: a body vector v (..., 3) in inertial axes."""
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * cross(u, v)
+    return v + w * t + cross(u, t)
+
+
+def rotate_inverse(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """A(q)ᵀ v: an inertial vector v (..., 3) in body axes."""
+    return rotate(qconj(q), v)
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """[v×] (..., 3, 3)."""
+    out = np.zeros((*v.shape, 3))
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -w, y, -x
+    out[..., 1, 0], out[..., 2, 0], out[..., 2, 1] = w, -y, x
+    return out
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def _num(path, value, **rule) -> float:
+    return check.number(path, value, **rule)
+
+
+def _vector3(path, value) -> tuple:
+    arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)) or \
+            np.linalg.norm(arr) < 1e-9:
+        raise InvalidParameterError(f"{path} must be a nonzero finite [x, y, z], got {value!r}")
+    return tuple(float(x) for x in arr / np.linalg.norm(arr))
+
+
+@dataclass(frozen=True)
+class StarTracker:
+    """``[star_tracker]``: one camera head. Noise 1σ across the boresight and about it (arcsec),
+    fix rate (Hz; the filter takes the newest fix at each control step, so rates above
+    1/control_dt act as 1/control_dt), Sun and Earth-limb exclusion half-angles (deg), the
+    largest body rate with a fix (deg/s), and the probability that a fix drops out."""
+
+    boresight_B: tuple = (0.0, 0.0, 1.0)
+    sigma_cross_arcsec: float = 10.0
+    sigma_about_arcsec: float = 70.0
+    rate_hz: float = 1.0
+    sun_exclusion_deg: float = 40.0
+    earth_exclusion_deg: float = 25.0
+    max_rate_dps: float = 3.0
+    dropout_probability: float = 0.0
+
+    def __post_init__(self):
+        p = "star_tracker"
+        object.__setattr__(self, "boresight_B", _vector3(f"{p}.boresight_B", self.boresight_B))
+        for name in ("sigma_cross_arcsec", "sigma_about_arcsec"):
+            object.__setattr__(self, name, _num(f"{p}.{name}", getattr(self, name), low=0.0,
+                                                low_open=True, high=3600.0))
+        object.__setattr__(self, "rate_hz", _num(f"{p}.rate_hz", self.rate_hz, low=0.0,
+                                                 low_open=True, high=1000.0))
+        for name in ("sun_exclusion_deg", "earth_exclusion_deg"):
+            object.__setattr__(self, name, _num(f"{p}.{name}", getattr(self, name), low=0.0,
+                                                high=90.0))
+        object.__setattr__(self, "max_rate_dps", _num(f"{p}.max_rate_dps", self.max_rate_dps,
+                                                      low=0.0, low_open=True))
+        object.__setattr__(self, "dropout_probability", _num(
+            f"{p}.dropout_probability", self.dropout_probability, low=0.0, high=1.0))
+
+    def noise_cov_B(self) -> np.ndarray:
+        """(3, 3) covariance of v (rad²), body axes."""
+        b = np.array(self.boresight_B)
+        cross = (self.sigma_cross_arcsec * ARCSEC) ** 2
+        about = (self.sigma_about_arcsec * ARCSEC) ** 2
+        return cross * np.eye(3) + (about - cross) * np.outer(b, b)
+
+    def period_steps(self, control_dt: float) -> int:
+        """Control steps between fixes (≥ 1)."""
+        return max(1, round(1.0 / (self.rate_hz * control_dt)))
+
+
+@dataclass(frozen=True)
+class Magnetometer:
+    """``[magnetometer]``: white noise (nT, 1σ per axis) and a bias drawn per episode (nT, 1σ
+    per axis, held all episode; the filter does not estimate it and counts it as noise)."""
+
+    noise_nT: float = 100.0
+    bias_nT: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "noise_nT", _num("magnetometer.noise_nT", self.noise_nT,
+                                                  low=0.0, low_open=True, high=1e5))
+        object.__setattr__(self, "bias_nT", _num("magnetometer.bias_nT", self.bias_nT,
+                                                 low=0.0, high=1e5))
+
+
+@dataclass(frozen=True)
+class SunSensors:
+    """``[sun_sensors]``: coarse sun sensors (photocells), one per face normal (body axes), a
+    field-of-view half-angle off the normal (deg) and white noise (fraction of the full-scale
+    output, 1σ)."""
+
+    normals_B: tuple = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
+                        (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
+    fov_deg: float = 80.0
+    noise: float = 0.02
+
+    def __post_init__(self):
+        normals = self.normals_B
+        if isinstance(normals, str) or not hasattr(normals, "__len__") or \
+                not 3 <= len(normals) <= 32:
+            raise InvalidParameterError(
+                f"sun_sensors.normals_B must be a list of 3 to 32 [x, y, z], got {normals!r}")
+        object.__setattr__(self, "normals_B", tuple(
+            _vector3(f"sun_sensors.normals_B[{i}]", n) for i, n in enumerate(normals)))
+        object.__setattr__(self, "fov_deg", _num("sun_sensors.fov_deg", self.fov_deg, low=0.0,
+                                                 low_open=True, high=90.0))
+        object.__setattr__(self, "noise", _num("sun_sensors.noise", self.noise, low=0.0,
+                                               low_open=True, high=1.0))
+
+
+# --------------------------------------------------------------------------- models
+
+
+def gyro_increment(dtheta: np.ndarray, bias: np.ndarray, sigma_v: float, sigma_u: float,
+                   dt: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``(Δθ_m, b_next)``: the gyro's measured increment (N, 3, rad) over ``dt`` s for the true
+    increment ``dtheta`` (N, 3, rad) and the bias ``bias`` (N, 3, rad/s) at the interval's
+    start; sigma_v: angle random walk, rad/√s; sigma_u: rate random walk, rad/s/√s."""
+    n = rng.standard_normal((3, *dtheta.shape))
+    w_end = math.sqrt(dt) * n[1]  # W_u(dt) and ∫W_u, jointly Gaussian (exact Cholesky)
+    w_int = 0.5 * dt * w_end + math.sqrt(dt ** 3 / 12.0) * n[2]
+    measured = dtheta + bias * dt + sigma_u * w_int + sigma_v * math.sqrt(dt) * n[0]
+    return measured, bias + sigma_u * w_end
+
+
+def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
+                 sun_N: np.ndarray | None, nadir_N: np.ndarray | None, earth_radius_rad: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``(q_m, valid)``: the measured attitude (N, 4) and whether there is a fix (N,) bool.
+
+    sun_N, nadir_N: unit vectors (N, 3) from the satellite to the Sun and to the Earth's centre,
+    or None (no orbit: no exclusion); earth_radius_rad: the Earth's angular radius seen from
+    the orbit."""
+    n = q_BN.shape[0]
+    chol = np.linalg.cholesky(params.noise_cov_B())
+    v = rng.standard_normal((n, 3)) @ chol.T
+    drop = rng.random(n) < params.dropout_probability
+    q_m = qmul(q_BN, qexp(v))
+    bore_N = rotate(q_BN, np.broadcast_to(np.array(params.boresight_B), (n, 3)))
+    valid = ~drop & (np.linalg.norm(omega_B, axis=-1) <= params.max_rate_dps * _DEG)
+    if sun_N is not None:
+        valid &= np.sum(bore_N * sun_N, -1) < math.cos(params.sun_exclusion_deg * _DEG)
+    if nadir_N is not None:
+        limit = min(math.pi, earth_radius_rad + params.earth_exclusion_deg * _DEG)
+        valid &= np.sum(bore_N * nadir_N, -1) < math.cos(limit)
+    return q_m, valid
+
+
+def magnetometer(params: Magnetometer, q_BN: np.ndarray, field_N_T: np.ndarray,
+                 bias_T: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The measured field (N, 3, T, body axes): ``A(q)ᵀ B_N + bias + σ n``."""
+    noise = params.noise_nT * 1e-9 * rng.standard_normal(field_N_T.shape)
+    return rotate_inverse(q_BN, field_N_T) + bias_T + noise
+
+
+def sun_sensors(params: SunSensors, q_BN: np.ndarray, sun_N: np.ndarray, lit: np.ndarray,
+                rng: np.random.Generator) -> np.ndarray:
+    """Cell outputs (N, M, fraction of full scale): ``cos`` of the Sun's angle off each normal
+    inside the field of view and in sunlight (lit: (N,) 1.0 or 0.0), else 0; plus noise on
+    the cells that see the Sun."""
+    normals = np.array(params.normals_B)
+    cos = rotate_inverse(q_BN, sun_N) @ normals.T
+    seen = (cos >= math.cos(params.fov_deg * _DEG)) & (cos > 0.0) & (lit[:, None] > 0.5)
+    out = cos + params.noise * rng.standard_normal(cos.shape)
+    return np.where(seen, out, 0.0)
+
+
+def sun_vector_fit(params: SunSensors, output: np.ndarray,
+                   threshold: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(s_B, cov, valid)``: the least-squares Sun direction (N, 3, unit) from the cells whose
+    output exceeds ``threshold``, its covariance (N, 3, 3) as a unit vector (σ²(HᵀH)⁻¹
+    projected off s_B), and whether it is determined (N,) (three lit cells spanning 3-D)."""
+    normals = np.array(params.normals_B)
+    use = output > threshold  # (N, M)
+    h = normals[None] * use[..., None]  # rows of the lit cells, zero elsewhere
+    hth = np.einsum("nmi,nmj->nij", h, h)
+    det = np.linalg.det(hth)
+    valid = det > 1e-6
+    hth = np.where(valid[:, None, None], hth, np.eye(3))
+    s = np.linalg.solve(hth, np.einsum("nmi,nm->ni", h, output * use)[..., None])[..., 0]
+    norm = np.linalg.norm(s, axis=-1, keepdims=True)
+    valid &= norm[:, 0] > 0.3
+    s_hat = s / np.maximum(norm, 1e-12)
+    proj = np.eye(3) - s_hat[..., :, None] * s_hat[..., None, :]
+    scale = params.noise ** 2 / np.maximum(norm, 1e-12)[..., None] ** 2
+    cov = scale * proj @ np.linalg.inv(hth) @ proj
+    return s_hat, cov, valid
