@@ -7,14 +7,14 @@ vector env (its ``vector_entry_point``)::
     import gymnasium as gym
     import rbenv
 
-    env = gym.make("rbenv/SatelliteReorient-v1", scene="cubesat-12u")
+    env = gym.make("rbenv/SatelliteReorient-v2", scene="cubesat-12u")
     envs = gym.make_vec("rbenv/SatelliteDetumble-v1", num_envs=1024)
     env = gym.make("rbenv/SatelliteTrack-v1", randomize={"inertia_scale": 0.2})
     env = gym.make("rbenv/SatelliteDesaturate-v0")  # a wheel scene: cubesat-6u-rw
 
 The v0 ids of reorient, detumble and track stay registered (their episodes are v1's; their
 observation and reward are the first release's), and Gymnasium calls them out of date.
-Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v1"``, which makes
+Tools that take only an id string can use ``"rbenv:rbenv/SatelliteReorient-v2"``, which makes
 Gymnasium import rbenv first. Scenes: :func:`list_scenes`, :func:`load_scene`, :class:`Scene`.
 
 The package in layers, each importing only those below it (docs/design.md, "Layers"):
@@ -101,7 +101,7 @@ from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
 # The shipped tasks: one registry entry each (rbenv.envs.registry). A new task adds its line here.
 for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC,
-              reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1):
+              reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1, reorient.SPEC_V2):
     registry.register(_spec)
 
 goal.register()  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
@@ -133,9 +133,10 @@ __all__ = [
     "scene_variant",
 ]
 
-# The current version of each task (v1: v0's episodes, a new observation and reward); the v0
-# ids stay registered, and Gymnasium calls them out of date.
-ENV_ID = reorient.SPEC_V1.env_id
+# The current version of each task (v1: v0's episodes, a new observation and reward; Reorient
+# v2: v1's with a reward that prices time and propellant); the older ids stay registered, and
+# Gymnasium calls them out of date.
+ENV_ID = reorient.SPEC_V2.env_id
 DETUMBLE_ID = detumble.SPEC_V1.env_id
 TRACK_ID = track.SPEC_V1.env_id
 DESATURATE_ID = desaturate.SPEC.env_id

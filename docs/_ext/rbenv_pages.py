@@ -168,8 +168,8 @@ def _env_index(env_ids: list[str]) -> str:
     return f"""# Environments
 
 Every id that `import rbenv` registers, generated from the registry and each env's docstring.
-The `-v0` ids stay registered and bit-identical for their committed results; `-v1` is the
-current version of each task.
+The older ids stay registered and bit-identical for their committed results; the highest
+version of each task is its current one (`rbenv.ENV_ID`: Reorient-v2).
 
 {chr(10).join(rows)}
 

@@ -181,8 +181,12 @@ def _box(n: int) -> gym.spaces.Box:
 
 
 def make_goal_env(**kwargs) -> GoalReorientEnv:
-    """``gym.make(GOAL_ID, **kwargs)``: the v1 reorientation env's options."""
-    return GoalReorientEnv(gym.make("rbenv/SatelliteReorient-v1", **kwargs).unwrapped)
+    """``gym.make(GOAL_ID, **kwargs)``: the v1 reorientation env's options. The v1 env is
+    built from its class, not through ``gym.make``: the registry would call v1 out of date
+    (Reorient-v2 exists) on every goal env made, though the goal form is v1's on purpose."""
+    from rbenv.envs.env import SatelliteReorientV1Env
+
+    return GoalReorientEnv(SatelliteReorientV1Env(**kwargs))
 
 
 def register() -> None:

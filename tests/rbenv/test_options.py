@@ -139,7 +139,7 @@ def test_the_backend_options_are_the_torch_envs_defaults():
     declared = {f.name: f.default for f in dataclasses.fields(options.BackendOptions)}
     assert declared["backend"] == "numpy"
     assert type(gym.make_vec(rbenv.ENV_ID, num_envs=2).unwrapped).__name__ == \
-        "SatelliteReorientV1VectorEnv"
+        "SatelliteReorientV2VectorEnv"
     pytest.importorskip("torch", reason="torch is not installed (train extra)")
     env = gym.make_vec(rbenv.ENV_ID, num_envs=2, backend="torch", integrator="rk4").unwrapped
     assert (str(env.device), str(env.dtype).removeprefix("torch."), env.check_every) == \

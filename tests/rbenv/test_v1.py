@@ -33,6 +33,8 @@ def test_both_checkers_pass_with_warnings_as_errors(env_id):
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # Reorient-v1 has a v2: Gymnasium's registry calls it out of date (its convention).
+        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
         check_env(gym.make(env_id).unwrapped, skip_render_check=True)
         sb3 = pytest.importorskip("stable_baselines3.common.env_checker")
         sb3.check_env(gym.make(env_id), warn=True)

@@ -89,6 +89,26 @@ def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
     assert settings.zoo_hyperparams("ppo")["rbenv/SatelliteReorient-v0"]["n_epochs"] == 7
 
 
+def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_keeps_its_settings():
+    """``rbenv train`` with no arguments: Reorient-v2 (rbenv.ENV_ID), v1's PPO updates to
+    2 M steps, no early stop; Reorient-v1's own entry is unchanged."""
+    from rbenv.agents.settings import shipped
+    from rbenv.agents.training.config import TrainConfig
+
+    import rbenv
+
+    assert rbenv.ENV_ID == "rbenv/SatelliteReorient-v2"
+    cfg = TrainConfig().resolve()
+    assert (cfg.env_id, cfg.algo, cfg.timesteps) == (rbenv.ENV_ID, "ppo", 2_000_000)
+    assert cfg.stop_success == 0.0 and "reward_weights" not in cfg.env_kwargs
+    assert cfg.hyperparams["policy_kwargs"] == shipped.REORIENT_V1_PPO["policy_kwargs"]
+    assert {k: cfg.hyperparams[k] for k in ("n_steps", "batch_size", "n_epochs", "gamma")} \
+        == {k: shipped.REORIENT_V1_PPO[k] for k in ("n_steps", "batch_size", "n_epochs",
+                                                      "gamma")}
+    v1 = TrainConfig(env_id="rbenv/SatelliteReorient-v1").resolve()
+    assert (v1.timesteps, v1.stop_success) == (600_000, 1.0)
+
+
 def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     """Reorient-v1's own PPO values (its fast path, docs/performance.md) are what `rbenv train`
     and the RL Zoo file use on that id; the keys it does not set are the shared dict's."""

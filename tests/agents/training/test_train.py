@@ -298,9 +298,10 @@ def test_a_run_saved_before_the_run_defaults_resumes_as_it_trained(tmp_path):
 
     from rbenv.agents.training.config import resumed_config
 
-    cfg = TrainConfig(out=str(tmp_path)).resolve()
+    cfg = TrainConfig(env_id="rbenv/SatelliteReorient-v1", out=str(tmp_path)).resolve()
     assert cfg.stop_success == 1.0  # the id's run default for a new run
     for saved, resumed in ((None, 0.0), (1.0, 1.0)):
         (tmp_path / "config.json").write_text(json.dumps({**asdict(cfg),
                                                           "stop_success": saved}))
         assert resumed_config(TrainConfig, tmp_path).stop_success == resumed
+
