@@ -86,7 +86,7 @@ def _compute(episodes: int, seed: int, env_id: str, kwargs: dict):
     reason = why_undefined(scene, table)
     if reason is not None:
         return reason
-    start = _starts(episodes, seed, env_id, kwargs)
+    start = rb.episode_starts(episodes, seed, env_id=env_id, **kwargs)
     angle = start["angle"] if table == "reorient" else None
     settle = rb.energy_settle_bound(rb.torque_limits(scene), start["omega_B"], angle,
                                     start["bias_B"])["sampled"]
@@ -103,30 +103,6 @@ def _compute(episodes: int, seed: int, env_id: str, kwargs: dict):
             return rb.detumble_fuel_bound(lim, w0, bias, time_s=t)["kg"]
     return EpisodeBounds(settle, fuel_at(None), fuel_at,
                          f"{table}: settle and propellant bounds (thrusters alone)")
-
-
-def _starts(episodes: int, seed: int, env_id: str, kwargs: dict) -> dict:
-    """The starts of episodes ``seed + i`` as the vector env draws them: omega_B (N, 3) rad/s,
-    bias_B (N, 3) N·m, and angle (N,) rad where the task has a target."""
-    from rbenv.envs import transition
-    from rbenv.satellite.draws import EpisodeDraws
-
-    envs = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
-                        **kwargs)
-    try:
-        env = envs.unwrapped
-        seeds = np.arange(seed, seed + episodes, dtype=np.uint64)
-        start = transition.start(env.plant, env.task,
-                                 EpisodeDraws(seeds, np.zeros(episodes, dtype=np.uint64)))
-    finally:
-        envs.close()
-    bias = start["bias"]
-    out = {"omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
-           "bias_B": np.zeros((episodes, 3)) if bias is None
-           else np.broadcast_to(np.stack(bias, axis=-1), (episodes, 3)).astype(float)}
-    if "angle" in start:
-        out["angle"] = np.asarray(start["angle"], float)
-    return out
 
 
 def ratios(success, settle_time_s, fuel_kg, bounds: EpisodeBounds) -> dict:

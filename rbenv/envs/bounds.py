@@ -348,12 +348,13 @@ def fuel_bound(limits: SceneLimits, angle0, omega0_B, bias_B=None, time_s=None,
 
 def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = None,
                    **env_kwargs) -> dict:
-    """The starts of episodes ``seed + i`` of the reorientation vector env, as evaluated
-    (``env_id``: a reorientation id, default ``rbenv.ENV_ID``).
+    """The starts of episodes ``seed + i`` of a vector env, as evaluated (``env_id``: default
+    the reorientation id of :mod:`rbenv.tasks.reorient`).
 
-    Returns ``angle`` (N,) rad, ``q`` and ``q_target`` (N, 4) (scalar first, body → world),
-    ``omega_B`` (N, 3) rad/s, ``bias_B`` (N, 3) N·m (zeros when the scene has no random bias):
-    the same values the env draws at ``reset(seed=seed)``.
+    Returns ``q`` (N, 4) (scalar first, body → world), ``omega_B`` (N, 3) rad/s, ``bias_B``
+    (N, 3) N·m (zeros when the scene has no random bias) and, where the task has a target,
+    ``angle`` (N,) rad and ``q_target`` (N, 4): the values the env draws at
+    ``reset(seed=seed)``.
     """
     import gymnasium as gym
 
@@ -375,12 +376,14 @@ def episode_starts(episodes: int, seed: int, scene=None, env_id: str | None = No
         envs.close()
     bias = start["bias"]
     bias = np.zeros((episodes, 3)) if bias is None else np.stack(bias, axis=-1)
-    target_conj = np.stack(start["q_target_conj"], axis=-1).astype(float)
-    return {"angle": np.asarray(start["angle"], float),
-            "q": np.stack(start["q"], axis=-1).astype(float),
-            "q_target": target_conj * np.array([1.0, -1.0, -1.0, -1.0]),
-            "omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
-            "bias_B": np.broadcast_to(bias, (episodes, 3)).astype(float)}
+    out = {"q": np.stack(start["q"], axis=-1).astype(float),
+           "omega_B": np.stack(start["omega_B"], axis=-1).astype(float),
+           "bias_B": np.broadcast_to(bias, (episodes, 3)).astype(float)}
+    if "angle" in start:  # a task with a target
+        target_conj = np.stack(start["q_target_conj"], axis=-1).astype(float)
+        out["angle"] = np.asarray(start["angle"], float)
+        out["q_target"] = target_conj * np.array([1.0, -1.0, -1.0, -1.0])
+    return out
 
 
 # ------------------------------------------------------- any actuator mix: the energy rate
