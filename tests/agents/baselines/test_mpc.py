@@ -139,6 +139,18 @@ def test_evaluate_runs_it_on_a_vector_env():
     result = evaluate("mpc", episodes=4, seed=1000000, record=0)
     assert result.success.all()
     assert np.all(result.settle_time_s < 25.0)
+    # An optimised trajectory flown in the env never beats a lower bound (issue 40).
+    assert np.nanmin(result.optimality_per_episode["settle_ratio"]) >= 1.0
+    assert np.nanmin(result.optimality_per_episode["fuel_ratio_own_time"]) >= 1.0
+
+
+def test_on_wheels_it_stays_above_the_energy_rate_bound():
+    """The wheel scenes' settle bound (rbenv.envs.bounds.energy_settle_bound) held against
+    the MPC, the fastest controller rbenv has for wheels."""
+    result = evaluate("mpc", episodes=4, seed=1000000, record=0, scene="cubesat-6u-rw")
+    assert result.success.all()
+    ratio = result.optimality_per_episode["settle_ratio"]
+    assert np.isfinite(ratio).all() and ratio.min() >= 1.0
 
 
 def test_without_highspy_the_error_names_the_extra(env, monkeypatch, capsys):
