@@ -128,26 +128,29 @@ def quartiles(x) -> dict:
 
 
 def ratios(result, bounds: dict, limits) -> dict:
-    """Per-episode achieved / bound for one EvalResult, successful episodes only."""
+    """Per-episode achieved / bound for one EvalResult, successful episodes only (the ratios
+    of :func:`rbenv.agents.policies.optimality.ratios`, which every evaluation reports)."""
+    from rbenv.agents.policies.optimality import EpisodeBounds
+    from rbenv.agents.policies.optimality import ratios as per_episode
+
     from rbenv.envs.bounds import fuel_bound
+
+    def fuel_at(t):  # propellant needed to settle by t (valid for each episode)
+        return fuel_bound(limits, bounds["angle"], bounds["omega_B"], bounds["bias_B"],
+                          time_s=t)["kg"]
 
     ok = np.asarray(result.success, bool)
     settle = np.where(ok, result.settle_time_s, np.nan)
     fuel = np.where(ok, result.fuel_kg, np.nan)
-    # Propellant needed to settle as early as this policy did (valid for this episode).
-    at_own = fuel_bound(limits, bounds["angle"], bounds["omega_B"], bounds["bias_B"],
-                        time_s=np.where(ok, settle, limits.settle_time_max))["kg"]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_settle = settle / bounds["settle_s"]
-        r_fuel = np.where(bounds["fuel_kg"] > 0, fuel / bounds["fuel_kg"], np.nan)
-        r_own = np.where(at_own > 0, fuel / at_own, np.nan)
+    r = per_episode(ok, result.settle_time_s, result.fuel_kg,
+                    EpisodeBounds(bounds["settle_s"], bounds["fuel_kg"], fuel_at, "thrusters"))
     return {"success_rate": float(ok.mean()), "successes": int(ok.sum()),
             "settle_time_s": quartiles(settle), "fuel_g": quartiles(1000 * fuel),
-            "settle_ratio": quartiles(r_settle), "fuel_ratio": quartiles(r_fuel),
-            "fuel_ratio_own_time": quartiles(r_own),
+            "settle_ratio": quartiles(r["settle_ratio"]), "fuel_ratio": quartiles(r["fuel_ratio"]),
+            "fuel_ratio_own_time": quartiles(r["fuel_ratio_own_time"]),
             "per_episode": {"success": ok, "settle_time_s": settle, "fuel_g": 1000 * fuel,
-                            "settle_ratio": r_settle, "fuel_ratio": r_fuel,
-                            "fuel_ratio_own_time": r_own}}
+                            "settle_ratio": r["settle_ratio"], "fuel_ratio": r["fuel_ratio"],
+                            "fuel_ratio_own_time": r["fuel_ratio_own_time"]}}
 
 
 def spot_checks(seed: int, count: int, maxiter: int, quick: bool,
