@@ -13,7 +13,9 @@ A task class declares:
 * ``observation_structure``: name → width, in observation order (Gymnasium MuJoCo's habit),
   and ``observation_scale``: name → the physical unit of one observation unit (e.g. the rate
   limit in rad/s), so controllers decode observations by name (:meth:`Task.decode`);
-* ``Terms``: a NamedTuple of reward terms (``info["reward_<name>"]``; they sum to the reward);
+* ``WeightsType``: its reward weights, a frozen :class:`Weights` dataclass whose fields name
+  the reward terms in order (``info["reward_<name>"]``; they sum to the reward); the terms
+  type ``Terms`` (a namedtuple of the same names) is derived from it, never declared;
 * ``state_fields``: its per-episode state, name → :data:`rbenv.satellite.state` kind;
 * ``reset_options``: the names accepted in ``reset(options=...)`` and their widths;
 * ``error_info_key``: the info entry that measures how far from the goal it is (reports).
@@ -24,7 +26,9 @@ and implements :meth:`sample_start`, :meth:`complete_start`, :meth:`observe`,
 
 from __future__ import annotations
 
+import functools
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field, fields
 from typing import ClassVar
 
@@ -38,12 +42,41 @@ _DEG = 180.0 / math.pi
 MAX_WEIGHT = 1e6  # a reward weight above this only risks overflow in the return
 
 
+@functools.cache
+def terms_type(weights_cls: type) -> type:
+    """The namedtuple of one step's reward terms of a :class:`Weights` dataclass: its field
+    names, in field order (built once per class). A subclass that adds no field shares its
+    parent's type; the type is reachable as ``weights_cls.Terms`` (so it pickles)."""
+    names = tuple(f.name for f in fields(weights_cls))
+    parent = weights_cls.__mro__[1]
+    if parent is not Weights and issubclass(parent, Weights) \
+            and tuple(f.name for f in fields(parent)) == names:
+        return terms_type(parent)
+    terms = namedtuple("Terms", names)
+    terms.__module__ = weights_cls.__module__
+    terms.__qualname__ = f"{weights_cls.__qualname__}.Terms"
+    terms.__doc__ = (f"Reward terms of one step ({weights_cls.__name__}'s fields); they sum, "
+                     "left to right, to the reward.")
+    return terms
+
+
+class _DerivedTerms:
+    """Class attribute ``Terms`` of every :class:`Weights` subclass: :func:`terms_type`."""
+
+    def __get__(self, instance, owner):
+        return terms_type(owner)
+
+
 @dataclass(frozen=True)
 class Weights:
     """Base of every task's reward weights: each a finite number ≥ 0 (the sign is in the term).
 
-    ``from_mapping`` takes a dict overriding the defaults; unknown names are errors.
+    The fields are the task's reward terms, in order: ``Terms`` is the namedtuple of one
+    step's terms with the same names (:func:`terms_type`). ``from_mapping`` takes a dict
+    overriding the defaults; unknown names are errors.
     """
+
+    Terms = _DerivedTerms()  # not a field: no annotation
 
     def __post_init__(self):
         for f in fields(self):
@@ -75,7 +108,7 @@ class Task:
 
     name: ClassVar[str]
     observation_structure: ClassVar[dict]
-    Terms: ClassVar[type]
+    Terms: ClassVar[type]  # WeightsType.Terms, set by __init_subclass__; never declared
     state_fields: ClassVar[dict]
     reset_options: ClassVar[dict] = {}
     OPTIONS: ClassVar[dict] = {}
@@ -87,6 +120,14 @@ class Task:
     scene_table: ClassVar[str | None] = None  # the scene's [tasks.<x>] table read (None: name)
 
     plant: object  # rbenv.satellite.plant.Plant
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "Terms" in cls.__dict__:
+            raise TypeError(
+                f"{cls.__name__} declares Terms; the reward terms are the fields of its "
+                f"WeightsType ({cls.WeightsType.__name__}), from which Terms is derived")
+        cls.Terms = cls.WeightsType.Terms
 
     @classmethod
     def table_name(cls) -> str:

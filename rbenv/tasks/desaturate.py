@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 
@@ -61,17 +61,6 @@ class DesaturateWeights(Weights):
     failure: float = 25.0
 
 
-class DesaturateTerms(NamedTuple):
-    """Reward terms of one step; they sum, left to right, to the reward."""
-
-    attitude: object
-    momentum: object
-    progress: object
-    effort: object
-    hold: object
-    failure: object
-
-
 @dataclass(frozen=True, eq=False)
 class Desaturate(Reorient):
     """Hold a fixed attitude and unload the wheels (see the module docstring). Its
@@ -79,7 +68,6 @@ class Desaturate(Reorient):
 
     name: ClassVar[str] = "desaturate"
     start_slots: ClassVar[int] = 24 + 32
-    Terms: ClassVar[type] = DesaturateTerms
     WeightsType: ClassVar[type] = DesaturateWeights
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
                                     "rate": "f", "momentum": "f", "hold": "i"}
@@ -157,7 +145,7 @@ class Desaturate(Reorient):
         st.hold = xp.where(inside, st.hold + 1, 0)
         failure = (rate > self.rate_limit) | (angle > self.max_error)
         inv_h = 1.0 / self.momentum_scale
-        terms = tuple.__new__(DesaturateTerms, (
+        terms = tuple.__new__(self.Terms, (
             -wt.attitude * xp.minimum(angle * (1.0 / self.max_error), 1.0),
             -wt.momentum * xp.minimum(momentum * inv_h, 1.0),
             wt.progress * inv_h * (st.momentum - momentum),

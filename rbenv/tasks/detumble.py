@@ -10,7 +10,7 @@ the rate limit. Fuel counts: its weight is ten times the reorientation task's.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 from rbenv.core import kernels as k
 from rbenv.core import validation
@@ -34,16 +34,6 @@ class DetumbleWeights(Weights):
     failure: float = 25.0
 
 
-class DetumbleTerms(NamedTuple):
-    """Reward terms of one step; they sum, left to right, to the reward."""
-
-    rate: object
-    progress: object
-    fuel: object
-    hold: object
-    failure: object
-
-
 @dataclass(frozen=True, eq=False)
 class Detumble(Task):
     """Bring |ω| below the success rate and keep it there (see the module docstring)."""
@@ -52,7 +42,6 @@ class Detumble(Task):
     observation_structure: ClassVar[dict] = {"omega_B": 3}
     start_slots: ClassVar[int] = 15
     error_info_key: ClassVar[str] = "rate_dps"
-    Terms: ClassVar[type] = DetumbleTerms
     WeightsType: ClassVar[type] = DetumbleWeights
     state_fields: ClassVar[dict] = {"rate": "f", "hold": "i"}
     reset_options: ClassVar[dict] = {"q": 4, "omega_B": 3}
@@ -107,7 +96,7 @@ class Detumble(Task):
         wt = self.weights
         rate, inside, failure = self.measure(st, xp)
         inv_limit = self.inv_rate_limit
-        terms = tuple.__new__(DetumbleTerms, (
+        terms = tuple.__new__(self.Terms, (
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
             wt.progress * inv_limit * (st.rate - rate),
             -wt.fuel * effort,
@@ -138,7 +127,6 @@ class DetumbleV1(Detumble):
     name: ClassVar[str] = "detumble_v1"
     scene_table: ClassVar[str] = "detumble"
     observation_structure: ClassVar[dict] = {"omega_B": 3, "omega_fine": 3}
-    Terms: ClassVar[type] = v1.V1Terms
     WeightsType: ClassVar[type] = DetumbleV1Weights
 
     weights: DetumbleV1Weights = DetumbleV1Weights()

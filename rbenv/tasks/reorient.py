@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 from rbenv.core import kernels as k
 from rbenv.core import validation
@@ -52,18 +52,6 @@ class ReorientWeights(Weights):
     precision: float = 0.0
 
 
-class ReorientTerms(NamedTuple):
-    """Reward terms of one step; they sum, left to right, to the reward."""
-
-    attitude: object
-    rate: object
-    fuel: object
-    progress: object
-    hold: object
-    failure: object
-    precision: object
-
-
 def initial_ranges(scene, max_angle_deg=None, max_rate=None) -> tuple[float, float]:
     """Validated (max initial angle in rad, max initial rate in rad/s); None: scene default."""
     ep = scene.episode
@@ -83,7 +71,6 @@ class Reorient(Task):
     observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3}
     start_slots: ClassVar[int] = 24
     error_info_key: ClassVar[str] = "attitude_error_deg"
-    Terms: ClassVar[type] = ReorientTerms
     WeightsType: ClassVar[type] = ReorientWeights
     state_fields: ClassVar[dict] = {"q_target_conj": "c4", "q_err": "c4", "angle": "f",
                                     "rate": "f", "hold": "i"}
@@ -157,7 +144,7 @@ class Reorient(Task):
         """Reward terms, success (thresholds held) and failure (|ω| > rate limit)."""
         wt = self.weights
         angle, rate, inside, failure = self.measure(st, xp)
-        terms = tuple.__new__(ReorientTerms, (
+        terms = tuple.__new__(self.Terms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate * self.inv_rate_limit, 1.0),
             -wt.fuel * effort,
@@ -192,7 +179,6 @@ class ReorientV1(v1.V1Decode, Reorient):
     scene_table: ClassVar[str] = "reorient"
     observation_structure: ClassVar[dict] = {"rot6_err": 6, "attitude_fine": 3, "omega_B": 3,
                                              "omega_fine": 3}
-    Terms: ClassVar[type] = v1.V1Terms
     WeightsType: ClassVar[type] = v1.V1Weights
 
     weights: v1.V1Weights = v1.V1Weights()
@@ -250,24 +236,11 @@ class ReorientV2Weights(Weights):
     time: float = 0.1
 
 
-class ReorientV2Terms(NamedTuple):
-    """Reorient-v2 reward terms of one step; they sum, left to right, to the reward."""
-
-    error: object
-    rate: object
-    fuel: object
-    progress: object
-    success: object
-    failure: object
-    time: object
-
-
 @dataclass(frozen=True, eq=False)
 class ReorientV2(ReorientV1):
     """Reorient, v1 observation, v1 reward plus a time cost (:class:`ReorientV2Weights`)."""
 
     name: ClassVar[str] = "reorient_v2"
-    Terms: ClassVar[type] = ReorientV2Terms
     WeightsType: ClassVar[type] = ReorientV2Weights
 
     weights: ReorientV2Weights = ReorientV2Weights()
@@ -276,7 +249,7 @@ class ReorientV2(ReorientV1):
         """v1's terms and success/failure, then the time cost ``−w_time`` of the step."""
         terms, success, failure = super().evaluate(st, effort, xp)
         time = 0.0 * st.angle - self.weights.time
-        return tuple.__new__(ReorientV2Terms, (*terms, time)), success, failure
+        return tuple.__new__(self.Terms, (*terms, time)), success, failure
 
 
 def _make(cls, plant, reward_weights, max_initial_angle_deg, max_initial_rate, task_options):

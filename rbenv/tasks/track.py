@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 import numpy as np
 
@@ -65,17 +65,6 @@ class TrackWeights(Weights):
     failure: float = 25.0
 
 
-class TrackTerms(NamedTuple):
-    """Reward terms of one step; they sum, left to right, to the reward."""
-
-    attitude: object
-    rate: object
-    fuel: object
-    progress: object
-    on_target: object
-    failure: object
-
-
 @dataclass(frozen=True, eq=False)
 class Track(Task):
     """Follow a target turning at a constant rate (see the module docstring)."""
@@ -84,7 +73,6 @@ class Track(Task):
     observation_structure: ClassVar[dict] = {"q_err": 4, "omega_err_B": 3, "omega_target_B": 3}
     start_slots: ClassVar[int] = 29
     error_info_key: ClassVar[str] = "attitude_error_deg"
-    Terms: ClassVar[type] = TrackTerms
     WeightsType: ClassVar[type] = TrackWeights
     success_terminates: ClassVar[bool] = False
     moving_target: ClassVar[bool] = True
@@ -197,7 +185,7 @@ class Track(Task):
     def evaluate(self, st, effort, xp):
         wt = self.weights
         angle, rate_err, on, failure, success = self.measure(st, xp)
-        terms = tuple.__new__(TrackTerms, (
+        terms = tuple.__new__(self.Terms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
             -wt.fuel * effort,
@@ -258,7 +246,6 @@ class TrackV1(v1.V1Decode, Track):
     observation_structure: ClassVar[dict] = {"rot6_err": 6, "attitude_fine": 3,
                                              "omega_err_B": 3, "omega_err_fine": 3,
                                              "omega_target_B": 3}
-    Terms: ClassVar[type] = v1.V1Terms
     WeightsType: ClassVar[type] = TrackV1Weights
 
     weights: TrackV1Weights = TrackV1Weights()

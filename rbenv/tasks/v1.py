@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
@@ -57,15 +56,7 @@ class V1Weights(Weights):
     failure: float = 25.0
 
 
-class V1Terms(NamedTuple):
-    """v1 reward terms of one step; they sum, left to right, to the reward."""
-
-    error: object
-    rate: object
-    fuel: object
-    progress: object
-    success: object
-    failure: object
+_TERMS = V1Weights.Terms  # looked up once: terms() runs every step
 
 
 def log_scale(x, x_s: float, x_max: float, xp):
@@ -79,11 +70,11 @@ def log_scale_drop(x_prev, x, x_s: float, x_max: float, xp):
     return xp.log1p((x_prev - x) / (x_s + x)) * (1.0 / math.log1p(x_max / x_s))
 
 
-def terms(wt: V1Weights, drop, psi, psi_rate, effort, success, failure) -> V1Terms:
-    """The reward terms from the error's ψ drop over the step (:func:`log_scale_drop`) and ψ
-    after it, the rate's ψ, the actuators' effort (fraction of full rate) and the
-    success/failure flags of the step."""
-    return tuple.__new__(V1Terms, (
+def terms(wt: V1Weights, drop, psi, psi_rate, effort, success, failure) -> tuple:
+    """The reward terms (``V1Weights.Terms``) from the error's ψ drop over the step
+    (:func:`log_scale_drop`) and ψ after it, the rate's ψ, the actuators' effort (fraction of
+    full rate) and the success/failure flags of the step."""
+    return tuple.__new__(_TERMS, (
         -wt.error * psi,
         -wt.rate * psi_rate,
         -wt.fuel * effort,

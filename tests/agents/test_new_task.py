@@ -13,7 +13,7 @@ import math
 import re
 import warnings
 from dataclasses import dataclass
-from typing import ClassVar, NamedTuple
+from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -36,15 +36,11 @@ _AXIS_B = (1.0, 0.0, 0.0)  # the body axis that must point at the Sun (a panel n
 
 @dataclass(frozen=True)
 class SunWeights(Weights):
-    """Reward weights: pointing error ``−w·θ/π`` and ``+w`` per step on target."""
+    """Reward weights, one per reward term (their names and order; ``SunWeights.Terms`` is
+    derived from them): pointing error ``−w·θ/π`` and ``+w`` per step on target."""
 
     pointing: float = 1.0
     on_target: float = 1.0
-
-
-class SunTerms(NamedTuple):
-    pointing: object
-    on_target: object
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,7 +50,6 @@ class PointSun(Task):
     name: ClassVar[str] = "point_sun"
     observation_structure: ClassVar[dict] = {"sun_B": 3, "omega_B": 3}
     error_info_key: ClassVar[str] = "sun_angle_deg"
-    Terms: ClassVar[type] = SunTerms
     WeightsType: ClassVar[type] = SunWeights
     state_fields: ClassVar[dict] = {"sun_W": "c3", "sun_angle": "f", "on_target": "i"}
 
@@ -86,7 +81,7 @@ class PointSun(Task):
         inside = (angle < self.success_angle) & (rate < self.success_rate)
         st.on_target = xp.where(inside, st.on_target + 1, 0)
         st.sun_angle = angle
-        terms = SunTerms(-self.weights.pointing * angle / math.pi,
+        terms = self.Terms(-self.weights.pointing * angle / math.pi,
                          self.weights.on_target * inside)
         return terms, st.on_target >= self.hold_steps, rate > self.rate_limit
 

@@ -16,7 +16,7 @@ from rbenv.core.errors import InvalidParameterError, NonFiniteError
 import rbenv
 from rbenv.satellite.scene import load_scene
 from rbenv.tasks.base import restricted_haar_angle
-from rbenv.tasks.reorient import ReorientTerms
+from rbenv.tasks.reorient import ReorientWeights
 
 ID = "rbenv/SatelliteReorient-v0"  # this file checks the first release: its observation, reward
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
@@ -103,14 +103,14 @@ def test_step_types_info_keys_and_reward_terms_sum_exactly():
     obs, info = env.reset(seed=3)
     assert obs.dtype == np.float32 and obs.shape == (7,)
     assert info["is_success"] is False and all(info[f"reward_{t}"] == 0.0
-                                               for t in ReorientTerms._fields)
+                                               for t in ReorientWeights.Terms._fields)
     rng = np.random.default_rng(0)
     for _ in range(50):
         obs, reward, terminated, truncated, info = env.step(rng.uniform(-1, 1, 12))
         assert type(reward) is float and type(terminated) is bool and type(truncated) is bool
         assert env.observation_space.contains(obs)
         total = 0.0
-        for t in ReorientTerms._fields:
+        for t in ReorientWeights.Terms._fields:
             total += info[f"reward_{t}"]
         assert total == reward
         for key in ("attitude_error_deg", "rate_dps", "fuel_kg", "impulse_Ns", "time_s"):

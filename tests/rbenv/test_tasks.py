@@ -240,3 +240,52 @@ def test_a_task_is_one_module_and_one_registry_line():
             task.table_name() == "reorient"
     with pytest.raises(ValueError, match="bangbang"):
         baseline(gym.make(rbenv.DETUMBLE_ID), "bangbang")
+
+
+# Each task's reward terms, in order, as released: the names of the info["reward_<term>"] keys.
+RELEASED_TERMS = {
+    "Detumble": ("rate", "progress", "fuel", "hold", "failure"),
+    "DetumbleV1": ("error", "rate", "fuel", "progress", "success", "failure"),
+    "Reorient": ("attitude", "rate", "fuel", "progress", "hold", "failure", "precision"),
+    "ReorientV1": ("error", "rate", "fuel", "progress", "success", "failure"),
+    "ReorientV2": ("error", "rate", "fuel", "progress", "success", "failure", "time"),
+    "Desaturate": ("attitude", "momentum", "progress", "effort", "hold", "failure"),
+    "Track": ("attitude", "rate", "fuel", "progress", "on_target", "failure"),
+    "TrackV1": ("error", "rate", "fuel", "progress", "success", "failure"),
+}
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_reward_terms_are_the_weights_fields_in_their_released_order(env_id):
+    import pickle
+    from dataclasses import fields
+
+    task = gym.make(env_id).unwrapped.task
+    names = tuple(f.name for f in fields(task.WeightsType))
+    assert task.Terms._fields == names == RELEASED_TERMS[type(task).__name__]
+    assert task.Terms is task.WeightsType.Terms is type(task.weights).Terms
+    assert task.reward_keys == tuple(f"reward_{t}" for t in names)
+    terms = task.Terms(*range(len(names)))
+    assert pickle.loads(pickle.dumps(terms)) == terms
+
+
+def test_a_task_cannot_declare_its_own_terms():
+    from typing import ClassVar
+
+    from rbenv.tasks.base import Task
+    from rbenv.tasks.reorient import ReorientWeights
+
+    with pytest.raises(TypeError, match="declares Terms; the reward terms are the fields"):
+        class Stray(Task):
+            WeightsType: ClassVar[type] = ReorientWeights
+            Terms: ClassVar[type] = tuple
+
+
+def test_a_weights_subclass_without_new_fields_shares_its_parents_terms():
+    from rbenv.tasks.detumble import DetumbleV1Weights
+    from rbenv.tasks.reorient import ReorientV2Weights
+    from rbenv.tasks.v1 import V1Weights
+
+    assert DetumbleV1Weights.Terms is V1Weights.Terms
+    assert ReorientV2Weights.Terms is not V1Weights.Terms
+    assert ReorientV2Weights.Terms._fields[-1] == "time"

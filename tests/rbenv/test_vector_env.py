@@ -13,11 +13,11 @@ from gymnasium.vector.utils import batch_space
 from rbenv.core import quaternion
 
 import rbenv
-from rbenv.tasks.reorient import ReorientTerms
+from rbenv.tasks.reorient import ReorientWeights
 
 ID = "rbenv/SatelliteReorient-v0"  # this file checks the first release's vector env
 KEYS = ("attitude_error_deg", "rate_dps", "fuel_kg", "impulse_Ns", "time_s", "is_success",
-        *(f"reward_{t}" for t in ReorientTerms._fields))
+        *(f"reward_{t}" for t in ReorientWeights.Terms._fields))
 
 
 def make_vec(n=4, **kwargs):
