@@ -7,7 +7,7 @@
                    [--seed S] [--scene NAME] [--env-kwargs JSON] [--json OUT] [--plot OUT.png]
                    [--video OUT.gif] [--out DIR] [--trust-pickle]
     rbenv export RUN_DIR|policy.pt --format c|onnx --out DIR [--trust-pickle]
-    rbenv bench NAME [--out DIR]
+    rbenv bench NAME [--out DIR]   (in a source checkout only: benchmarks/ is not installed)
     rbenv replay DIR --scene S --policy P [--json OUT] [--plot PNG]   (flight telemetry)
     rbenv identify DIR --scene S [--out SCENE.toml]
 
@@ -65,11 +65,18 @@ BENCH_OUT = "bench-results"
 CHECKOUT = Path(__file__).resolve().parent.parent  # the repository root, in a source checkout
 
 
+NO_BENCH = ("rbenv bench runs the benchmarks of a source checkout, and this rbenv is an "
+            "install without them (benchmarks/ is not in the wheel): clone the repository, "
+            "install it with `pip install -e .` and run `python -m rbenv bench NAME` there "
+            "(or `python -m benchmarks.NAME`)")
+
+
 def benchmarks() -> list[str]:
     """Benchmark modules (each runnable as ``python -m benchmarks.NAME``) of a source checkout.
 
     benchmarks/ is not installed (other wheels, torchrl among them, install a top-level
-    ``benchmarks``), so a wheel install lists none. The modules are listed, not imported.
+    ``benchmarks``), so a wheel install lists none, and its command line has no ``bench``
+    (:data:`NO_BENCH` says why). The modules are listed, not imported.
     """
     folder = CHECKOUT / "benchmarks"
     if not (folder / "__init__.py").is_file():
@@ -217,11 +224,13 @@ def _parser() -> Parser:
                    help="int8: dense weights as int8 with a scale per row (4x less flash; "
                         "its difference from the run is measured and printed)")
     names = benchmarks()
-    b = sub.add_parser("bench", help="run a benchmark, writing NAME.json and NAME.png")
-    b.add_argument("name", choices=names or None, help=", ".join(names))
-    b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
-                   help=f"results folder (default ./{BENCH_OUT} in the current directory; "
-                        "pass benchmarks/results in a checkout to refresh the committed ones)")
+    if names:  # a source checkout; an install has no benchmarks to run (NO_BENCH)
+        b = sub.add_parser("bench", help="run a benchmark of this checkout, writing NAME.json "
+                                         "and NAME.png")
+        b.add_argument("name", choices=names, help=", ".join(names))
+        b.add_argument("--out", default=BENCH_OUT, metavar="DIR",
+                       help=f"results folder (default ./{BENCH_OUT} in the current directory; "
+                            "pass benchmarks/results to refresh the committed ones)")
     tune.add_arguments(suite.add_arguments(sub.add_parser(
         "suite", help="learning suite: algorithm x task x scene x seed beside the baselines")))
     flight.add_arguments(sub)  # replay, identify: flight telemetry
@@ -415,6 +424,8 @@ def parse(argv: list[str] | None = None, parser: Parser | None = None) -> argpar
     commands = parser._subparsers._group_actions[0].choices
     words = list(sys.argv[1:] if argv is None else argv)
     name = next((w for w in words if not w.startswith("-")), None)
+    if name == "bench" and name not in commands:
+        parser.error(NO_BENCH)
     if name in commands and name != "bench":  # a misspelt option first, before what it hides
         command = commands[name]
         options = [o for a in command._actions for o in a.option_strings]

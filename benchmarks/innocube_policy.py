@@ -180,6 +180,9 @@ def main(argv=()) -> dict:
                    help="JSON of gym.make options over each policy's own")
     p.add_argument("--out", default="innocube_policy", help="JSON name under results")
     p.add_argument("--plot", help="PNG of the first episodes' sensed error")
+    p.add_argument("--detail", action="store_true",
+                   help="also write every episode's figures (episodes_detail; about 130 bytes "
+                        "an episode), not only their summary")
     args = p.parse_args(argv)
     results = [run(name, args.episodes, args.seed, args.scene, args.env_kwargs)
                for name in args.policy]
@@ -195,6 +198,8 @@ def main(argv=()) -> dict:
         plot(results, args.plot)
     for r in results:
         r.pop("trace")
+        if not args.detail:
+            r.pop("episodes_detail")
     common.write_json(args.out, {"command": command, "load_average": os.getloadavg(),
                                  "results": results})
     return {r["policy"]: r["summary"] for r in results}

@@ -116,6 +116,12 @@ def test_the_wheel_runs_the_quick_start_and_a_training_run_away_from_the_checkou
                           env={"PATH": "/usr/bin:/bin", "MPLBACKEND": "Agg"})
     assert done.returncode == 0, done.stderr[-3000:]
     assert (run / "policy.pt").exists() and (run / "report.md").exists()
+    # benchmarks/ is not in the wheel: its command line has no bench, and says so.
+    done = subprocess.run([str(python), "-m", "rbenv", "bench", "inertia"], cwd=work,
+                          capture_output=True, text=True, timeout=300,
+                          env={"PATH": "/usr/bin:/bin"})
+    assert done.returncode == 2 and "benchmarks of a source checkout" in done.stderr, \
+        done.stderr[-3000:]
 
 
 def _readme_quick_start() -> str:

@@ -435,7 +435,8 @@ def plot_curves(results: list[dict], rows: list[dict], path: Path) -> Path | Non
 
 def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None = None
               ) -> dict:
-    """Write ``suite.json``, ``suite.md`` and ``learning_curves.png`` in ``out``; return the JSON.
+    """Write ``suite.json``, ``suite.md`` and ``learning_curves.png`` in ``out``; return the
+    JSON's data, with each cell's summary and curves in ``cells`` where the file has its name.
 
     ``expected``: the whole grid, so that cells without a result are listed as missing.
     """
@@ -460,7 +461,8 @@ def aggregate(results: list[dict], out: Path, *, expected: Iterable[Cell] | None
                                          "policy", "final", "final_clip_mean", "baselines",
                                          "learning_curve", "training_curve")}
                       for r in results]}
-    write_json(out / "suite.json", data)
+    # The file names the cells; each cell's figures are in cells/<name>/result.json already.
+    write_json(out / "suite.json", {**data, "cells": [r["name"] for r in results]})
     (out / "suite.md").write_text(format_markdown(rows, missing_md,
                                                   {**info, "missing": len(missing)}))
     plot_curves(results, rows, out / "learning_curves.png")

@@ -72,6 +72,21 @@ def test_bench_writes_under_out(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "res" / "fake_bench.json").read_text())["value"] == 1
 
 
+def test_an_install_without_benchmarks_has_no_bench_command_and_says_why(tmp_path,
+                                                                        monkeypatch, capsys):
+    monkeypatch.setattr(cli, "CHECKOUT", tmp_path)  # an install: no benchmarks/ beside rbenv
+    assert cli.benchmarks() == []
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["bench", "inertia"])
+    err = " ".join(capsys.readouterr().err.split())
+    assert exit_.value.code == 2 and "benchmarks of a source checkout" in err
+    assert "python -m benchmarks.NAME" in err
+    with pytest.raises(SystemExit):
+        cli.main(["--help"])
+    listed = capsys.readouterr().out.split("{", 1)[1].split("}", 1)[0].split(",")
+    assert "evaluate" in listed and "bench" not in listed
+
+
 def test_help_states_where_files_go(capsys):
     for command in ("evaluate", "bench", "train"):
         with pytest.raises(SystemExit):

@@ -1,7 +1,7 @@
 """PPO's settings have one source, rbenv.agents.settings.tuned (the training entries point at
 it):
-`rbenv train` (SB3), `rbenv train --engine rllib`, the RL Zoo file and the SAC ablation's PPO
-row read it; none keeps a copy (issue 21 item 2)."""
+`rbenv train` (SB3), `rbenv train --engine rllib` and the RL Zoo file read it; none keeps a
+copy (issue 21 item 2)."""
 
 from __future__ import annotations
 
@@ -13,15 +13,14 @@ from rbenv.agents import settings
 from rbenv.agents.settings import tuned
 
 ROOT = Path(__file__).resolve().parents[3]
-# Settings only PPO has, under SB3's and RLlib's names; the readers that train nothing else
-# must not hold the shared ones either (the SAC ablation keeps its own off-policy variants).
+# Settings only PPO has, under SB3's and RLlib's names; the readers must not hold the shared
+# ones either.
 PPO_ONLY = {"n_epochs", "num_epochs", "gae_lambda", "lambda_", "clip_range", "clip_param",
             "minibatch_size", "train_batch_size_per_learner", "fcnet_hiddens"}
 SHARED = {"learning_rate", "lr", "ent_coef", "entropy_coeff", "log_std_init"}
 READERS = {"agents/training/config.py": PPO_ONLY | SHARED,
            "agents/training/sb3.py": PPO_ONLY | SHARED,
-           "agents/training/rllib.py": PPO_ONLY | SHARED,
-           "benchmarks/rl/sac_ablation.py": PPO_ONLY}
+           "agents/training/rllib.py": PPO_ONLY | SHARED}
 
 
 def _literal_keys(tree: ast.AST, keys: set) -> set:
