@@ -59,6 +59,7 @@ def test_the_layer_contracts_hold(tmp_path):
     ("rbenv/satellite/plant.py", "from rbenv.tasks import build"),  # plant -> tasks
     ("rbenv/envs/registry.py", "from rbenv.agents import settings"),  # env package -> training
 ])
+@pytest.mark.slow
 def test_an_upward_import_breaks_a_contract(tmp_path, module, line):
     """The check can fail: one upward import, even inside a function, is reported."""
     layout = installed_layout(tmp_path)

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # builds the wheel and installs it (CI runs it)
+
 try:
     import tomllib
 except ImportError:  # Python 3.10: the tomli dependency

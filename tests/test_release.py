@@ -22,6 +22,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # builds the wheel and installs it in a new venv (CI runs it)
+
 try:
     import tomllib
 except ImportError:  # Python 3.10: the tomli dependency

@@ -25,6 +25,7 @@ def test_evaluate_out_folder_gets_the_summary_and_the_plot(tmp_path):
     assert (out / "episodes.png").stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_evaluating_a_baseline_imports_no_torch_sb3_or_matplotlib():
     code = ("import sys; from rbenv.agents.cli import main; "
             "main(['evaluate', '--policy', 'pd', '--episodes', '4']); "
@@ -36,6 +37,7 @@ def test_evaluating_a_baseline_imports_no_torch_sb3_or_matplotlib():
     assert done.stdout.strip().splitlines()[-1] == "[]"
 
 
+@pytest.mark.slow
 def test_a_documented_error_is_printed_without_a_traceback(tmp_path):
     done = subprocess.run([sys.executable, "-m", "rbenv.agents.cli", "train", "--resume", "--out",
                            str(tmp_path)], capture_output=True, text=True, timeout=120)

@@ -303,6 +303,7 @@ RUNS = [item for item in COMMANDS
         if shlex.split(item[1])[0] in ("evaluate", "export", "replay", "train")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("page", "command"), RUNS, ids=[_id(c) for c in RUNS])
 def test_a_documented_command_runs(page, command, world, tmp_path, monkeypatch, capsys):
     """The line with its own arguments (evaluate: 2 episodes; train: --dry-run), in the shared

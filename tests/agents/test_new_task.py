@@ -155,6 +155,7 @@ def test_both_checkers_pass_on_the_new_task():
     sb3.check_env(gym.make(SUN_ID), warn=True)
 
 
+@pytest.mark.slow
 def test_rbenv_train_runs_on_the_new_task_and_reports_its_baseline(tmp_path):
     pytest.importorskip("stable_baselines3", reason="stable-baselines3 is not installed "
                         "(train extra)")

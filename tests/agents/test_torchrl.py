@@ -51,6 +51,7 @@ def test_partial_reset_restarts_only_the_masked_sub_envs():
     assert torch.equal(out["observation"][1], td["observation"][1])
 
 
+@pytest.mark.slow
 def test_quick_cli_writes_a_run_folder_that_loads_as_a_policy(tmp_path):
     out = tmp_path / "run"
     assert cli.main(["train", "--engine", "torchrl", "--device", "cpu", "--quick",
@@ -109,6 +110,7 @@ def test_the_saved_policy_acts_values_and_normalises_as_the_trained_modules(tmp_
                                atol=1e-5)
 
 
+@pytest.mark.slow
 def test_resume_restores_the_learner_and_goes_on_counting(tmp_path):
     out = tmp_path / "run"
     args = ["train", "--engine", "torchrl", "--out", str(out), "--hyperparams", json.dumps(
@@ -173,6 +175,7 @@ def test_cli_refuses_device_without_torchrl():
         cli.main(["train", "--device", "cuda", "--timesteps", "10"])
 
 
+@pytest.mark.slow
 def test_bench_env_speed_torch_quick_writes_json_and_png(tmp_path):
     """CI's form of ``rbenv bench env_speed --backend torch``: eager torch against NumPy at
     two sizes, memory, float32's cost, training throughput; JSON and PNG written."""
@@ -189,6 +192,7 @@ def test_bench_env_speed_torch_quick_writes_json_and_png(tmp_path):
     assert data["training"]["samples"] >= 16_384
 
 
+@pytest.mark.slow
 def test_checkpoints_and_evaluations_leave_the_training_as_it_is(tmp_path):
     """A run's weights do not depend on how often it is checkpointed or evaluated (saving the
     SB3 policy draws SB3's initial weights, outside the run's random numbers)."""

@@ -17,6 +17,7 @@ MODULES = sorted(p.stem for p in (ROOT / "benchmarks").glob("*.py")
                  if '__name__ == "__main__"' in p.read_text())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", MODULES)
 def test_an_unknown_argument_is_an_error_not_a_run(module):
     done = subprocess.run([sys.executable, "-m", f"benchmarks.{module}", "--no-such-option"],

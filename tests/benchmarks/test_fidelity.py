@@ -11,6 +11,8 @@ import pytest
 from benchmarks import fidelity
 from benchmarks.fidelity import CHECK, QUICK, REFERENCE, Setting
 
+pytestmark = pytest.mark.slow  # trains and evaluates (CI runs it)
+
 
 def test_parse_setting_reads_integrator_and_substeps_and_names_bad_input():
     assert fidelity.parse_setting("euler_seedx8") == Setting("euler_seed", 8)
@@ -59,7 +61,6 @@ def test_quick_form_writes_every_file_and_a_row_per_setting(quick):
             assert row[key]["fuel_g"]["mean"] > 0.0  # an untrained policy fires thrusters
 
 
-@pytest.mark.slow
 def test_quick_form_evaluates_everyone_on_the_same_held_out_episodes(quick):
     _, data = quick
     episodes = QUICK["episodes"]
@@ -74,7 +75,6 @@ def test_quick_form_evaluates_everyone_on_the_same_held_out_episodes(quick):
             assert (summary["episodes"], summary["seed"]) == (episodes, 1_000_000)
 
 
-@pytest.mark.slow
 def test_reference_physics_is_converged_and_differs_from_the_cheap_settings(quick):
     _, data = quick
     check = data["reference_check"]
@@ -95,7 +95,6 @@ def test_reference_physics_is_converged_and_differs_from_the_cheap_settings(quic
     assert drift["rk4x1"]["max"] < 1e-3
 
 
-@pytest.mark.slow
 def test_a_finished_run_is_read_back_not_trained_again(quick):
     out, _ = quick
     setting = QUICK["settings"][0]

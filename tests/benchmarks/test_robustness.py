@@ -14,6 +14,8 @@ from rbenv.satellite.draws import EpisodeDraws
 from rbenv.satellite.plant import make_plant
 from rbenv.satellite.randomization import ACTUATOR_FIELDS, Randomization, draw_episode_model
 
+pytestmark = pytest.mark.slow  # trains and evaluates (CI runs it)
+
 EPISODES = 20
 
 
@@ -117,7 +119,6 @@ def test_quick_run_writes_every_policy_and_condition(quick):
     assert json.loads((out / "robustness.json").read_text())["conditions"] == data["conditions"]
 
 
-@pytest.mark.slow
 def test_quick_run_resumes_from_its_json_without_training_or_evaluating(quick, monkeypatch):
     _, args, data = quick
 

@@ -34,6 +34,7 @@ CASES = [("rk4", kind, torques) for kind in ("diagonal", "full", "isotropic")
 CASES += [(name, "full", "both") for name in ("euler_seed", "euler", "semi_implicit")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "kind", "torques"), CASES)
 def test_compiled_step_equals_the_float_path_bit_for_bit(name, kind, torques):
     pytest.importorskip("numba")

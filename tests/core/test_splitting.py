@@ -41,6 +41,7 @@ def test_momentum_conserved_to_round_off_at_any_step(h_omega):
     assert np.isfinite(energy).all()
 
 
+@pytest.mark.slow
 def test_energy_error_bounded_over_a_long_run():
     # Symplectic: the energy error oscillates and does not grow. Over 1e5 steps at
     # h·|ω| = 0.3 (about 4500 turns of the body, through hundreds of flips) the largest error

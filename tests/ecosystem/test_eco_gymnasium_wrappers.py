@@ -139,6 +139,7 @@ def test_both_id_forms_work_as_cleanrl_passes_them(tmp_path):
 
 
 # moviepy (under RecordVideo) leaves its ffmpeg pipes for the garbage collector to close.
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 @pytest.mark.filterwarnings("ignore:unclosed file:ResourceWarning")
 def test_record_video_around_gym_make_writes_an_mp4(tmp_path):

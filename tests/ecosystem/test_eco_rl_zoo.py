@@ -75,6 +75,7 @@ def _zoo(module: str, *args: str, cwd) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
     pytest.importorskip("rl_zoo3", reason="rl_zoo3 is not installed (ecosystem extra)")
     yaml = pytest.importorskip("yaml", reason="PyYAML comes with rl_zoo3")
@@ -102,6 +103,7 @@ def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
     assert enjoy.returncode == 0, enjoy.stderr[-3000:]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", ["sac", "td3", "tqc", "crossq"])
 def test_zoo_trains_off_policy_with_the_shipped_file(tmp_path, algo):
     """The zoo reads each off-policy module: its env options (torque actions), its n_envs and

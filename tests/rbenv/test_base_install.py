@@ -12,6 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import rbenv
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,6 +38,7 @@ sys.exit(code or (3 if loaded else 0))
 """
 
 
+@pytest.mark.slow
 def test_check_env_and_the_passive_checker_pass_on_every_id_and_scene_without_extras():
     pairs = sum(rbenv.envs.registry.get(i).runs_on(s) for i in rbenv.ENV_IDS
                 for s in rbenv.list_scenes())

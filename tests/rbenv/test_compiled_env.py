@@ -12,6 +12,7 @@ import rbenv
 pytest.importorskip("numba", reason="the compiled path needs the extra rbenv[fast] (numba)")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", [rbenv.ENV_ID, rbenv.TRACK_ID])
 def test_compiled_vector_env_equals_the_numpy_one(env_id):
     plain = gym.make_vec(env_id, num_envs=32)
@@ -28,6 +29,7 @@ def test_compiled_vector_env_equals_the_numpy_one(env_id):
         np.testing.assert_array_equal(te_p | tr_p, te_f | tr_f)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("env_id", sorted(i for i in rbenv.ENV_IDS  # rigid bodies only
                                            if rbenv.envs.registry.get(i).runs_on("cubesat-12u")))
 @pytest.mark.parametrize(("scene", "integrator"), [("cubesat-12u", None),

@@ -55,6 +55,7 @@ def test_process_noise_is_van_loans_integral():
     np.testing.assert_allclose(process_noise(sv, su, dt), Q, rtol=1e-10, atol=1e-30)
 
 
+@pytest.mark.slow
 def test_single_axis_steady_state_is_the_riccati_solution():
     sv, su, dt, sn_ = 2e-4, 1e-6, 1.0, 20.0 * sn.ARCSEC
     P0 = np.diag([1e-4] * 3 + [1e-8] * 3)[None]
@@ -142,6 +143,7 @@ def test_reward_success_and_termination_are_the_true_states():
     assert not np.array_equal(o1[:18], o2)  # the observation is the estimate's
 
 
+@pytest.mark.slow
 def test_nees_from_info_alone_over_200_episodes():
     """What a judge computes: δθ = log(q_est⁻¹ ⊗ q_true), e = (δθ, b − b̂), eᵀ P⁻¹ e from
     info, averaged over 200 seeded episodes at step 30, inside the 95 % χ²(6) band."""

@@ -83,6 +83,7 @@ def test_reaching_the_goal_pays_success_once_and_the_observation_ignores_the_goa
     assert paid[-1] > u.task.weights.success - 1.0 > max(paid[:-1])
 
 
+@pytest.mark.slow
 def test_her_sac_learns_on_it_for_a_few_steps(request):
     sb3 = pytest.importorskip("stable_baselines3")
     import torch

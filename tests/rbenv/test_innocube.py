@@ -115,6 +115,7 @@ def test_both_checkers_pass_in_the_lifted_mode():
                                action_mode="acceleration_lifted").unwrapped)
 
 
+@pytest.mark.slow
 def test_slew_law_holds_where_the_flight_pd_stalls():
     from rbenv.agents.policies.evaluate import evaluate
 

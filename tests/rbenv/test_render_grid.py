@@ -114,6 +114,7 @@ def test_the_legend_names_every_drawn_element():
         assert words in LEGEND
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", WHEEL_SCENES)
 def test_evaluate_video_on_a_wheel_scene(tmp_path, scene):
     pytest.importorskip("imageio")

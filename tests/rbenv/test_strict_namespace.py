@@ -161,6 +161,7 @@ CASES = [(env_id, scene, mode, integ)
 
 # The explicit integrators blow up on some scenes under these actions, on purpose: both
 # backends must flag the same divergence, and NumPy reports the overflow on the way.
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:(overflow|invalid value) encountered:RuntimeWarning")
 @pytest.mark.parametrize(("env_id", "scene", "mode", "integrator"), CASES)
 def test_the_step_runs_under_a_strict_namespace_bit_for_bit(env_id, scene, mode, integrator):

@@ -72,6 +72,7 @@ def test_torch_tensors_dispatch_to_the_torch_namespace():
     assert namespace(np.zeros(3)) is NUMPY
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("env_id", "scene", "mode"), CASES)
 def test_the_step_on_torch_equals_the_numpy_step(env_id, scene, mode):
     kwargs = {"scene": scene, "action_mode": mode}

@@ -85,6 +85,7 @@ NEXT_STEP_CASES = [(env_id, "cubesat-12u", "throttle", AutoresetMode.NEXT_STEP)
                    for env_id in sorted(rbenv.ENV_IDS) if env_id not in UNSUPPORTED_TASKS]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("restart", ["index", "mask"])
 @pytest.mark.parametrize(("env_id", "scene", "mode", "autoreset"),
                          [(*case, AutoresetMode.SAME_STEP) for case in CASES] + NEXT_STEP_CASES)
@@ -288,6 +289,7 @@ def test_cuda_episodes_are_reproducible():  # pragma: no cover (needs a GPU)
     assert torch.equal(outs[0], outs[1])
 
 
+@pytest.mark.slow
 def test_compiled_step_is_one_graph_and_matches_eager():
     """compile=True: one graph for the step and one for the autoreset, across steps and
     autoresets (no recompilation, no graph break: fullgraph=True would raise and fall back
@@ -335,6 +337,7 @@ def _single_kwargs(scene, scene_path) -> dict:
     return kwargs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("env_id", "scene"), SINGLE_CASES)
 def test_the_torch_env_passes_gymnasiums_and_sb3s_checkers(env_id, scene, scene_path):
     """Both checkers on the torch backend's single form, warnings as errors."""
@@ -351,6 +354,7 @@ def test_the_torch_env_passes_gymnasiums_and_sb3s_checkers(env_id, scene, scene_
             sb3_checker.check_env(env.unwrapped)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("env_id", "scene"), SINGLE_CASES)
 def test_the_torch_single_env_equals_the_numpy_single_env(env_id, scene, scene_path):
     """Same seed, same actions, a whole episode: rewards, flags and info to 1e-12, and the

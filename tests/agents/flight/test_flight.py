@@ -166,6 +166,7 @@ def test_replay_plot_draws_one_panel_per_sub_maneuver(flight, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_identify_recovers_the_realized_gain_and_writes_a_scene(flight, tmp_path):
     """From a data sheet that says gain 0.8, the fit finds the 0.7 that flew, within its 3σ
     and 0.02; the scene it writes loads and carries the value."""
@@ -183,6 +184,7 @@ def test_identify_recovers_the_realized_gain_and_writes_a_scene(flight, tmp_path
     assert "realized_gain" in data["sources"][-1]
 
 
+@pytest.mark.slow
 def test_identify_profiles_the_start_up_delay(flight, tmp_path):
     folder, _ = flight
     sheet = scene_file(tmp_path, "sheet", **{**FLOWN, "startup_delay_s": 9.0})

@@ -29,6 +29,7 @@ def test_tanh_is_torchs_to_one_unit_in_the_last_place(dtype):
     assert torch.isnan(act.Tanh()(torch.tensor([float("nan")], dtype=dtype))).all()
 
 
+@pytest.mark.slow
 def test_tanh_gradient_is_torchs():
     x = torch.randn(64, 64, dtype=torch.float64, requires_grad=True)
     assert torch.autograd.gradcheck(act.Tanh(), (x,))

@@ -62,6 +62,7 @@ def test_sensor_noise_is_named_and_the_plain_scene_summary_is_unchanged():
     assert "Note" not in format_table([plain]) and "sensed" not in format_table([plain])
 
 
+@pytest.mark.slow
 def test_one_note_for_a_report_of_several_policies():
     kwargs = {"episodes": 2, "scene": "innocube-3u", "env_kwargs": LIFTED}
     table = format_table([evaluate("innocube-slew", **kwargs),
@@ -69,6 +70,7 @@ def test_one_note_for_a_report_of_several_policies():
     assert table.count("Note: ") == 1
 
 
+@pytest.mark.slow
 def test_rbenv_evaluate_of_the_shipped_innocube_policy_says_why_it_fails(tmp_path, capsys):
     pytest.importorskip("torch")
     out = tmp_path / "innocube.json"
@@ -81,6 +83,7 @@ def test_rbenv_evaluate_of_the_shipped_innocube_policy_says_why_it_fails(tmp_pat
     assert summary["final_error_deg"]["sensed_median"] < summary["final_error_deg"]["median"]
 
 
+@pytest.mark.slow
 def test_a_run_report_on_the_gyro_scene_carries_the_note(tmp_path):
     """report.md of a run (rbenv train's report) shows the same table, note included."""
     pytest.importorskip("matplotlib")

@@ -77,6 +77,7 @@ def _strict_library(folder, tmp_path):
     return lib
 
 
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("algo", ALGOS)
 def test_c_and_onnx_reproduce_the_runs_predict(algo, runs, observations, tmp_path):
@@ -106,6 +107,7 @@ def test_c_and_onnx_reproduce_the_runs_predict(algo, runs, observations, tmp_pat
         assert name in header
 
 
+@pytest.mark.slow
 @needs_onnx
 def test_onnx_passes_the_checker_and_keeps_a_dynamic_batch(runs, tmp_path):
     import onnx
@@ -121,6 +123,7 @@ def test_onnx_passes_the_checker_and_keeps_a_dynamic_batch(runs, tmp_path):
     assert props["env_id"] == load_policy(runs["sac"]).env_id
 
 
+@pytest.mark.slow
 @needs_cc
 def test_ppo_mode_action_is_the_clipped_mean(runs, observations, tmp_path):
     """PPO exported as it acts with --action mode: clip(mu, low, high), no libm beyond tanhf."""
@@ -136,6 +139,7 @@ def test_ppo_mode_action_is_the_clipped_mean(runs, observations, tmp_path):
     assert "erfcf" not in (tmp_path / "policy.c").read_text()
 
 
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_the_object_holds_no_mutable_global_and_calls_only_libm(algo, runs, tmp_path):
@@ -159,6 +163,7 @@ def test_the_object_holds_no_mutable_global_and_calls_only_libm(algo, runs, tmp_
     assert undefined <= counted and "malloc" not in undefined, (undefined, kinds)
 
 
+@pytest.mark.slow
 def test_footprint_counts_the_networks_arithmetic(runs, tmp_path):
     """Multiply-adds and bytes from the weights themselves: sum of n_in n_out over the dense
     layers, plus one per observation entry for the normalisation."""
@@ -177,6 +182,7 @@ def test_footprint_counts_the_networks_arithmetic(runs, tmp_path):
     assert json.loads((tmp_path / "footprint.json").read_text()) == fp
 
 
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_the_c_policy_flies_the_env_with_the_runs_success_and_propellant(algo, runs, tmp_path,
@@ -195,6 +201,7 @@ def test_the_c_policy_flies_the_env_with_the_runs_success_and_propellant(algo, r
     np.testing.assert_allclose(summary["fuel"]["mean"], np.mean(run.fuel_kg[:4]), rtol=1e-4)
 
 
+@pytest.mark.slow
 def test_cli_prints_and_writes_the_footprint(runs, tmp_path, capsys):
     assert cli_main(["export", str(runs["td3"]), "--format", "c", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
@@ -245,6 +252,7 @@ def test_a_scripted_baseline_needs_no_export(tmp_path):
         ex.export(make_policy("zero", env), "c", tmp_path)
 
 
+@pytest.mark.slow
 def test_a_missing_export_extra_is_named(runs, tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "onnx", None)
     with pytest.raises(ex.MissingExportExtraError, match=r"rbenv\[export\]"):
@@ -255,6 +263,7 @@ def test_a_missing_export_extra_is_named(runs, tmp_path, monkeypatch, capsys):
     assert "rbenv[export]" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_wrong_format_is_named(runs, tmp_path):
     with pytest.raises(ValueError, match="format must be one of"):
         ex.export(runs["ppo"], "tflite", tmp_path)
@@ -265,6 +274,7 @@ def test_a_wrong_format_is_named(runs, tmp_path):
 ARM = shutil.which("arm-none-eabi-gcc")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(ARM is None, reason="no arm-none-eabi-gcc (Debian: gcc-arm-none-eabi "
                                         "libnewlib-arm-none-eabi)")
 def test_cross_compiles_for_a_cortex_m4_with_fpu(runs, tmp_path):
@@ -289,6 +299,7 @@ def test_a_c_file_without_its_manifest_is_named(tmp_path):
         load_policy(tmp_path / "policy.c")
 
 
+@pytest.mark.slow
 @needs_cc
 def test_int8_weights_are_written_exactly_and_their_error_is_measured(runs, observations,
                                                                      tmp_path):

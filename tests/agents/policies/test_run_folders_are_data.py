@@ -89,12 +89,14 @@ def _no_pickle_anywhere(out):
             torch.load(path, weights_only=True)
 
 
+@pytest.mark.slow
 def test_a_run_folder_holds_no_pickle(ppo_run, sac_run):
     for out in (ppo_run, sac_run):
         _no_pickle_anywhere(out)
     assert (sac_run / "checkpoints" / "replay_buffer_256.npz").is_file()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_weights_round_trip_restores_every_state_a_resume_needs(algo, ppo_run, sac_run,
                                                                 tmp_path):
@@ -212,6 +214,7 @@ def _loaders(out):
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("way", list(_loaders(Path("unused"))))
 def test_nothing_planted_runs_without_the_flag(copy, tmp_path, way):
     marker = tmp_path / "marker"
@@ -221,6 +224,7 @@ def test_nothing_planted_runs_without_the_flag(copy, tmp_path, way):
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_refusals_name_the_trust_flag(copy, tmp_path):
     marker = tmp_path / "marker"
     for name in ("policy.pt", "policy.json", "obs_stats.npz"):  # only the old final files
@@ -236,6 +240,7 @@ def test_refusals_name_the_trust_flag(copy, tmp_path):
     assert not marker.exists()
 
 
+@pytest.mark.slow
 def test_a_resume_over_only_pickled_checkpoints_names_the_flag(copy, tmp_path):
     marker = tmp_path / "marker"
     ckpt = copy / "checkpoints"
@@ -276,6 +281,7 @@ def _as_old_format(out):
     return out
 
 
+@pytest.mark.slow
 def test_an_old_format_folder_loads_and_resumes_with_the_flag(copy, ppo_run, capsys):
     expected = load_policy(ppo_run, action="mode")
     _as_old_format(copy)
@@ -296,6 +302,7 @@ def test_an_old_format_folder_loads_and_resumes_with_the_flag(copy, ppo_run, cap
 
 # --- item 3: the checkpoint is the truth ----------------------------------------------------------
 
+@pytest.mark.slow
 def test_a_pointer_that_disagrees_with_its_checkpoint_is_named_and_skipped(copy, capsys):
     ckpt = copy / "checkpoints"
     claim = 1_000_000_000
@@ -311,6 +318,7 @@ def test_a_pointer_that_disagrees_with_its_checkpoint_is_named_and_skipped(copy,
     assert summary["session_steps_per_s"] > 0
 
 
+@pytest.mark.slow
 def test_a_checkpoint_whose_name_disagrees_with_its_model_is_skipped(copy, capsys):
     ckpt = copy / "checkpoints"
     (ckpt / runs.LATEST).unlink()

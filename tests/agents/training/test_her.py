@@ -78,6 +78,7 @@ def test_reached_buffer_ends_relabelled_transitions_whose_goal_is_reached():
     assert 0 < virtual.mean() < 1  # reached after the hold, not before
 
 
+@pytest.mark.slow
 def test_the_documented_recipe_trains_and_relabels_with_the_buffer(request):
     """The module docstring's model, shrunk (2 envs, small nets, 300 steps): it trains, its
     buffer is the reached one, and its features are observation + 9."""

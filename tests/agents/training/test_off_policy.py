@@ -28,6 +28,7 @@ def shipped(algo: str) -> dict:
         "rbenv/SatelliteReorient-v0"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", OFF_POLICY)
 def test_short_run_uses_the_shipped_settings_and_reports(tmp_path, algo):
     out = tmp_path / algo
@@ -86,6 +87,7 @@ def _evaluations(out) -> list[tuple[float, float, int]]:
                 for s, r, t in zip(d["successes"], d["results"], d["timesteps"], strict=True)]
 
 
+@pytest.mark.slow
 def test_keep_best_ends_on_the_best_validated_policy(tmp_path):
     out = tmp_path / "sac"
     cfg = TrainConfig(algo="sac", timesteps=3072, out=str(out), hyperparams=dict(SHORT),

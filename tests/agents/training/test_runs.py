@@ -154,6 +154,7 @@ CORRUPTIONS = {
 NAMED = {"model": "policy_512.pt", "stats": "obs_stats_512.npz", "config": "policy_512.json"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("corrupt", CORRUPTIONS, ids=list(CORRUPTIONS))
 def test_resume_falls_back_past_a_corrupt_checkpoint_and_names_the_file(copy, capsys, corrupt):
     CORRUPTIONS[corrupt](copy / "checkpoints")
@@ -321,6 +322,7 @@ def _train_command(out, *, timesteps: int, checkpoint_every: int, eval_every: in
             "--env-kwargs", json.dumps(SHORT), "--no-report", "--no-progress"]
 
 
+@pytest.mark.slow
 def test_two_concurrent_runs_on_one_folder_one_refused(tmp_path):
     out = tmp_path / "shared"
     cmd = _train_command(out, timesteps=2048, checkpoint_every=256, eval_every=100000)
@@ -538,6 +540,7 @@ def test_kill_9_at_any_moment_then_resume_finishes_the_run(tmp_path, when):
     assert policy.predict(np.zeros(n_obs, np.float32))[0].shape == (12,)
 
 
+@pytest.mark.slow
 def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path, capsys):
     out = tmp_path / "sac"
     hyper = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000}
@@ -557,6 +560,7 @@ def test_sac_resumes_with_its_replay_buffer_and_survives_a_corrupt_one(tmp_path,
     assert summary(out)["timesteps"] == 512 and summary(out)["trained"]
 
 
+@pytest.mark.slow
 def test_an_off_policy_run_keeps_no_replay_buffer_unless_asked_and_resumes_without(tmp_path,
                                                                                    capsys):
     out = tmp_path / "sac"
@@ -601,6 +605,7 @@ def test_max_minutes_says_when_and_why_it_stopped_and_a_larger_limit_trains_on(t
     assert summary(out)["timesteps"] >= 512 and summary(out)["stopped_by_time_limit"] is False
 
 
+@pytest.mark.slow
 def test_td3_resumes_with_its_action_noise(tmp_path, capsys):
     """TD3's shipped settings name its exploration noise in the zoo's words (noise_type,
     noise_std); a resume builds the model from them as a new run does, with the noise."""

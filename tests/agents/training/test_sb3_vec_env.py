@@ -83,6 +83,7 @@ def test_monitor_and_evaluate_policy_read_episodes():
     assert len(rewards) == 4 and all(n == 5 for n in lengths)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", [PPO, SAC])
 def test_algorithms_train_through_the_adapter(algo, tmp_path):
     env = VecNormalize(VecMonitor(SB3VecEnv(native(8))))

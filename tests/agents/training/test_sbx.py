@@ -41,6 +41,7 @@ def trained(algo: str, steps: int = 256):
     return cfg, env, model
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algo", ["sac", "td3"])
 def test_saved_policy_loads_as_sb3_and_acts_as_the_jax_one(tmp_path, algo):
     _, env, model = trained(algo)
@@ -57,6 +58,7 @@ def test_saved_policy_loads_as_sb3_and_acts_as_the_jax_one(tmp_path, algo):
     assert json.loads(weights.config_path(path).read_text())["engine"] == "sbx"
 
 
+@pytest.mark.slow
 def test_resume_restores_every_array_of_the_jax_state(tmp_path):
     cfg, env, model = trained("sac")
     path = tmp_path / "policy.pt"
@@ -71,6 +73,7 @@ def test_resume_restores_every_array_of_the_jax_state(tmp_path):
     assert fresh.num_timesteps == model.num_timesteps and fresh._n_updates == model._n_updates
 
 
+@pytest.mark.slow
 def test_a_state_that_does_not_fit_is_refused_naming_file_and_array(tmp_path):
     cfg, env, model = trained("td3", steps=128)
     path = tmp_path / "policy.pt"
@@ -96,6 +99,7 @@ def train_cli(out, *extra):
                      "2", "--no-progress", "--out", str(out), *extra])
 
 
+@pytest.mark.slow
 def test_cli_run_folder_resume_and_evaluation(tmp_path, capsys):
     out = tmp_path / "run"
     assert train_cli(out, "--timesteps", "256", "--no-report") == 0

@@ -32,6 +32,7 @@ def run_dir(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_run_directory_has_everything(run_dir):
     for name in ("config.json", "policy.pt", "policy.json", "obs_stats.npz", "training.json",
                  "report.md",
@@ -103,6 +104,7 @@ def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
         SB3Policy(run_dir / "policy.pt", action="mean")
 
 
+@pytest.mark.slow
 def test_resume_after_a_real_kill(tmp_path, capsys):
     out = tmp_path / "killed"
     cmd = [sys.executable, "-m", "rbenv.agents.cli", "train", "--timesteps", "10000000",
