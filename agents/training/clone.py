@@ -2,7 +2,7 @@
 
     python -m rbenv.agents.training.clone RUN --expert innocube-slew [--rollouts 4]
         [--epochs 40] [--log-std -2.0] [--noise 0.05] [--expert-kwargs JSON]
-        [--dagger 0] [--dagger-epochs 20]
+        [--dagger 0] [--dagger-epochs 20] [--lr 1e-3]
 
 ``RUN`` is an SB3 PPO run folder with a checkpoint (``rbenv train --algo ppo ... --timesteps
 8192`` makes one in a few seconds). From its latest checkpoint the scripted ``--expert`` (a
@@ -205,6 +205,7 @@ def main(argv=None) -> dict:
     p.add_argument("--epochs", type=int, default=40)
     p.add_argument("--log-std", type=float, default=-2.0)
     p.add_argument("--noise", type=float, default=0.05, help="action noise while flying")
+    p.add_argument("--lr", type=float, default=1e-3, help="Adam's learning rate of the fit")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--expert-kwargs", type=json.loads, default=None,
                    help="JSON of the expert's fields, e.g. '{\"rate_gain\": 1.2}'")
@@ -213,8 +214,8 @@ def main(argv=None) -> dict:
     p.add_argument("--dagger-epochs", type=int, default=20, help="passes per DAgger round")
     args = p.parse_args(argv)
     record = clone(args.run, args.expert, rollouts_per_env=args.rollouts, epochs=args.epochs,
-                   log_std=args.log_std, noise=args.noise, seed=args.seed,
-                   expert_kwargs=args.expert_kwargs, dagger=args.dagger,
+                   log_std=args.log_std, noise=args.noise, lr=args.lr,
+                   seed=args.seed, expert_kwargs=args.expert_kwargs, dagger=args.dagger,
                    dagger_epochs=args.dagger_epochs)
     print(json.dumps(record, indent=2))
     return record
