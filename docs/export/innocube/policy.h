@@ -1,6 +1,6 @@
 /* Exported by `rbenv export` from a trained rbenv policy; do not edit.
  *   run:       docs/innocube/policy
- *   algorithm: ppo (1015808 env steps, seed 0)
+ *   algorithm: ppo (8192 env steps, seed 0)
  *   env id:    rbenv/SatelliteReorient-v1
  *   scene:     innocube-3u-train
  *   env options: {"action_mode": "acceleration_lifted", "reward_weights": {"failure": 200.0}, "scene": "docs/innocube/innocube-3u-train.toml"}
