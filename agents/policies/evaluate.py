@@ -34,6 +34,7 @@ from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id's baselines
 SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
+ESTIMATED_ERROR = "estimated_attitude_error_deg"  # info key of scenes with an [estimator]
 SENSED_NOTE = "success is judged on the true state, while the policy sees the sensed one"
 
 
@@ -249,6 +250,8 @@ def sensed_observation(plant) -> str | None:
     sensors = plant.sensors  # None unless [sensors] is on
     if sensors is not None and sensors.attitude == "gyro":
         seen.append("attitude integrated from the gyro")
+    if plant.scene.sensors.attitude == "estimator":  # plant.sensors is None then
+        seen.append("the attitude and rate the MEKF estimates")
     if sensors is not None and sensors.delay_steps:
         seen.append(f"{sensors.delay_steps} control step late")
     if plant.sensor_noise is not None:
@@ -299,7 +302,8 @@ def _run_batch(policy, n: int, seed: int, env_kwargs: dict, record: int,
             if energy:
                 out["energy_J"][idx] = sum(energy[1:], energy[0])
             out["final_error_deg"][idx] = np.asarray(info.get(error_key, nan))[idx]
-            out["sensed_final_error_deg"][idx] = np.asarray(info.get(SENSED_ERROR, nan))[idx]
+            believed = info.get(SENSED_ERROR, info.get(ESTIMATED_ERROR, nan))
+            out["sensed_final_error_deg"][idx] = np.asarray(believed)[idx]
             ok = idx[success[idx]] if task.success_terminates else idx[:0]
             out["settle_time_s"][ok] = settle_time_s(out["episode_time_s"][ok], hold, dt)
             alive[idx] = False

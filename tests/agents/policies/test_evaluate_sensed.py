@@ -100,3 +100,19 @@ def test_a_run_report_on_the_gyro_scene_carries_the_note(tmp_path):
     assert f"Note: {SENSED_NOTE}" in report and "final error median, sensed (deg)" in report
     evaluations = json.loads((tmp_path / "evaluation.json").read_text())
     assert all(e["observation"]["note"] == SENSED_NOTE for e in evaluations)
+
+
+def test_an_estimator_scene_reports_what_the_filter_believes_beside_the_truth():
+    """On a scene with [estimator] the policy sees the MEKF's estimate: the summary says so,
+    and the sensed error is the estimate's own (info's estimated_attitude_error_deg) at the
+    end of each episode, not the true one."""
+    scene = str(ROOT / "docs" / "estimation" / "cubesat-12u-star.toml")
+    result = evaluate("pd", episodes=4, seed=3, env_id="rbenv/SatelliteReorient-v1",
+                      env_kwargs={"scene": scene})
+    s = result.summary()
+    assert s["observation"]["sensed"] == "the attitude and rate the MEKF estimates"
+    believed = result.sensed_final_error_deg
+    assert np.isfinite(believed).all()
+    # The filter tracks the truth to a fraction of a degree, never exactly.
+    assert np.abs(believed - result.final_error_deg).max() < 0.2
+    assert (believed != result.final_error_deg).all()
