@@ -2,7 +2,7 @@
 
 Issue 22 allows SBX (``sbx-rl``) as an optional extra if it measurably wins. This measures
 whether it does, in one run on one machine: each algorithm's shipped settings
-(``rbenv/hyperparams/<algo>.py``: 32 native sub-envs, 8 gradient steps per vector step, batch
+(``agents/zoo/<algo>.py``: 32 native sub-envs, 8 gradient steps per vector step, batch
 512, [256, 256]) built once with SB3 (as ``rbenv train`` does, :mod:`benchmarks.train_speed`) and
 once with SBX's class of the same name and the same arguments, then ``learn`` timed end to end
 (collection, replay sampling, updates) over 160 gradient updates after a prefilled buffer, the

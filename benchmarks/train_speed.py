@@ -11,7 +11,7 @@ so the ratios come from one run on one machine. The competing process is a pure-
 (one core), as a second job or an editor's indexer would be.
 
 Off-policy (issue 22): SAC, TD3, TQC and CrossQ with the settings ``rbenv train`` ships
-(``rbenv/hyperparams/<algo>.py``), and SAC variants that trade sub-envs per step, batch size,
+(``agents/zoo/<algo>.py``), and SAC variants that trade sub-envs per step, batch size,
 gradient steps and width. Each time ``learn`` end to end (after a prefilled buffer) over a fixed
 number of gradient updates, so collection, replay sampling and updates all count; the rate with
 no gradient step gives the collection cost alone. Target: 1,000 env-steps/s at 0.25 or more

@@ -22,17 +22,11 @@ The package in layers, each importing only those below it (docs/design.md, "Laye
 its options), ``rbenv.tasks`` (what each task asks of the satellite), ``rbenv.satellite`` (the
 plant: actuators, scenes, orbit, sensing, allocation, randomization, state) and ``rbenv.core``
 (rigid-body physics); ``rbenv.agents`` (controllers, policies, training) sits above them all.
-The module paths of version 0.2 (``rbenv.env``, ``rbenv.scene``, ``rbenv.actuators``, ...) still
-import, as the same module objects (:data:`MOVED`; docs/api.md names the canonical paths).
 """
 
 from __future__ import annotations
 
-import importlib as _importlib
-import importlib.abc as _abc
-import importlib.util as _util
 import os as _os
-import sys as _sys
 from importlib.metadata import PackageNotFoundError, version
 
 # The layers core/ and agents/ are subpackages, rbenv.core and rbenv.agents. A wheel holds them
@@ -42,50 +36,6 @@ _checkout = _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
 if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
         _os.path.join(_checkout, "core", "__init__.py")):
     __path__.append(_checkout)
-
-# Module paths of version 0.2 -> the folder that holds the module now: `rbenv.scene` is
-# `rbenv.satellite.scene`, `rbenv.actuators.wheels` is `rbenv.satellite.actuators.wheels`.
-MOVED = {name: "satellite" for name in (
-    "actuators", "allocation", "disturbances", "draws", "orbit", "plant", "randomization",
-    "scene", "scene_schema", "sensing", "state", "telemetry", "torch_draws", "usage")}
-MOVED |= {name: "envs" for name in (
-    "adapter", "bounds", "env", "goal", "options", "registry", "rendering", "torch_compile",
-    "torch_env", "transition", "vector_env")}
-
-
-class _MovedModules(_abc.MetaPathFinder, _abc.Loader):
-    """Imports an old path (:data:`MOVED`) as the module at its new path: the same object, so
-    its classes, its state and a test's monkeypatch are shared, and nothing loads twice."""
-
-    @staticmethod
-    def new_name(fullname: str) -> str | None:
-        parts = fullname.split(".")
-        if len(parts) < 2 or parts[0] != __name__ or parts[1] not in MOVED:
-            return None
-        return ".".join([__name__, MOVED[parts[1]], *parts[1:]])
-
-    def find_spec(self, fullname, path=None, target=None):
-        if self.new_name(fullname) is None:
-            return None
-        return _util.spec_from_loader(fullname, self)
-
-    def create_module(self, spec):
-        return _importlib.import_module(self.new_name(spec.name))
-
-    def exec_module(self, module):
-        """Nothing to run: the module ran once, under its new name."""
-
-
-if not any(isinstance(finder, _MovedModules) for finder in _sys.meta_path):
-    _sys.meta_path.insert(0, _MovedModules())
-
-
-def __getattr__(name: str):
-    """``rbenv.scene`` and the other old paths as attributes, without an import statement."""
-    if name in MOVED:
-        return _importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 
 from rbenv.envs import goal, registry
 from rbenv.envs.env import SatelliteDetumbleEnv, SatelliteReorientEnv, SatelliteTrackEnv

@@ -17,6 +17,11 @@ from pathlib import Path
 
 import pytest
 
+try:
+    import tomllib
+except ImportError:  # Python 3.10: the tomli dependency
+    import tomli as tomllib
+
 pytest.importorskip("importlinter")
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,6 +63,7 @@ def test_the_layer_contracts_hold(tmp_path):
     ("rbenv/envs/transition.py", "from rbenv.envs import env"),  # env core -> shell
     ("rbenv/satellite/plant.py", "from rbenv.tasks import build"),  # plant -> tasks
     ("rbenv/envs/registry.py", "from rbenv.agents import settings"),  # env package -> training
+    ("rbenv/hyperparams/__init__.py", "from rbenv.agents import settings"),  # a new rbenv folder
 ])
 @pytest.mark.slow
 def test_an_upward_import_breaks_a_contract(tmp_path, module, line):
@@ -65,9 +71,22 @@ def test_an_upward_import_breaks_a_contract(tmp_path, module, line):
     layout = installed_layout(tmp_path)
     package = module.partition("/")[0]
     path = layout / "rbenv" / module if package in ("core", "agents") else layout / module
-    path.write_text(path.read_text() + f"\n\ndef _upward():\n    {line}\n")
+    path.parent.mkdir(exist_ok=True)
+    text = path.read_text() if path.exists() else ""
+    path.write_text(text + f"\n\ndef _upward():\n    {line}\n")
     done = lint(layout)
     assert done.returncode != 0 and "BROKEN" in done.stdout, done.stdout + done.stderr
+
+
+def test_only_the_entry_point_of_rbenv_sits_above_agents():
+    """``python -m rbenv`` (rbenv/__main__.py) is the one module of the env package that may
+    import agents: the layers contract is exhaustive, so a new folder of rbenv is refused unless
+    named in a layer, and its top layer names only ``__main__``."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    contract = next(c for c in config["tool"]["importlinter"]["contracts"]
+                    if c["name"] == "core <- rbenv <- agents <- cli")
+    assert contract["exhaustive"] is True
+    assert contract["layers"][:2] == ["__main__", "agents"], contract["layers"]
 
 
 # Tarjan's algorithm over grimp's graph of every import (the graph import-linter checks), run

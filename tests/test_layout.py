@@ -14,14 +14,14 @@ TESTS = ROOT / "tests"
 MIRROR = {"core": "core", "rbenv": "rbenv", "agents": "agents",
           "agents/baselines": "agents/baselines", "agents/flight": "agents/flight",
           "agents/policies": "agents/policies", "agents/training": "agents/training",
-          "agents/settings": "agents/settings",
+          "agents/settings": "agents/settings", "agents/zoo": "agents/zoo",
           "benchmarks": "benchmarks"}
 # What a test folder's files must import (one name at least); benchmarks/ is above every package,
 # and the rest of rbenv above core.
 SUBJECT = {"core": "rbenv.core", "rbenv": "rbenv", "agents": "rbenv.agents",
            "agents/baselines": "rbenv.agents.baselines", "agents/flight": "rbenv.agents.flight",
            "agents/policies": "rbenv.agents.policies", "agents/training": "rbenv.agents.training",
-           "agents/settings": "rbenv.agents.settings",
+           "agents/settings": "rbenv.agents.settings", "agents/zoo": "rbenv.agents.zoo",
            "benchmarks": "benchmarks"}
 
 

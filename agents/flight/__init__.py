@@ -1,2 +1,3 @@
-"""Flight telemetry against rbenv: replay a policy from logged starts, identify a scene's
-parameters from the logs (:mod:`.replay`, :mod:`.identify`)."""
+"""Flight telemetry against rbenv: read the mission's logs (:mod:`.telemetry`), replay a policy
+from logged starts (:mod:`.replay`) and identify a scene's parameters from the logs
+(:mod:`.identify`)."""

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 from rbenv.agents.flight import replay as replay_
+from rbenv.agents.flight.telemetry import load
 from rbenv.core import quaternion
 from rbenv.core.errors import RbenvValueError
 from scipy.optimize import least_squares
@@ -44,7 +45,6 @@ from scipy.optimize import least_squares
 import rbenv
 from rbenv.satellite.actuators.wheels import parse_wheels
 from rbenv.satellite.scene import Scene, scene_table, scene_variant
-from rbenv.satellite.telemetry import load
 
 WEIGHTS = {"error_deg": 1.0, "rate_dps": 0.1, "wheel_rpm": 10.0}  # the residuals' units
 NAN_RESIDUAL = 10.0  # a sample after a simulated episode ended early: 10 units

@@ -1,11 +1,11 @@
 """Replay: fly a policy closed loop from each logged start, and compare with the flight.
 
-For every sub-maneuver of the telemetry (:mod:`rbenv.satellite.telemetry`) one env starts from the
-logged first sample: attitude error ``q`` (target-relative, so ``q_target`` is the identity), body
-rate ``omega_B`` and wheel speeds ``wheel_speed``; the wheels are past their start-up delay
-(``wheel_clock_s``) when a command was logged earlier in the folder. All sub-maneuvers fly side
-by side in one vector env for as long as the longest; each is compared with its log at the
-logged time stamps.
+For every sub-maneuver of the telemetry (:mod:`rbenv.agents.flight.telemetry`) one env starts
+from the logged first sample: attitude error ``q`` (target-relative, so ``q_target`` is the
+identity), body rate ``omega_B`` and wheel speeds ``wheel_speed``; the wheels are past their
+start-up delay (``wheel_clock_s``) when a command was logged earlier in the folder. All
+sub-maneuvers fly side by side in one vector env for as long as the longest; each is compared
+with its log at the logged time stamps.
 
 The scene's wheels must be laid out so that the logged speed (rpm) is the state's
 ``wheel_speed`` (rad/s relative to the body, along each wheel's axis): innocube-3u's axes are
@@ -36,11 +36,11 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.flight.telemetry import SubManeuver, load
 from rbenv.agents.policies.evaluate import make_policy, scripted
 from rbenv.agents.policies.load import load_policy
 
 from rbenv.satellite.scene import Scene, load_scene
-from rbenv.satellite.telemetry import SubManeuver, load
 
 STEADY_WINDOW_S = 20.0  # s: steady error is the mean over the sub-maneuver's last 20 s
 SETTLE_DEG = 1.0

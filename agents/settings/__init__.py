@@ -13,7 +13,7 @@ a user's task registers its own::
         env_id="myorg/PointSun-v0", baselines={"pd": "mypkg.controllers:SunPD"},
         budget={"ppo": 500_000}, hyperparams={"ppo": tuned.PPO}))
 
-RL Baselines3 Zoo reads the same dicts through ``--conf-file rbenv.hyperparams.<algo>``.
+RL Baselines3 Zoo reads the same dicts through ``--conf-file rbenv.agents.zoo.<algo>``.
 """
 
 from __future__ import annotations

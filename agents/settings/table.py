@@ -3,7 +3,7 @@
 The env package (:mod:`rbenv.envs.registry`) says what an id *is*; this table says how it is
 trained and what it is compared with, keyed by the same id, as MuJoCo Playground keeps its
 ``config/*_params.py`` apart from its envs. ``rbenv train``, the learning suite, the evaluation
-report's baselines and RL Zoo's files (``rbenv.hyperparams.<algo>``) read it.
+report's baselines and RL Zoo's files (``rbenv.agents.zoo.<algo>``) read it.
 """
 
 from __future__ import annotations

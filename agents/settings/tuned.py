@@ -1,7 +1,7 @@
 """The tuned settings of each algorithm, in RL Baselines3 Zoo's format: the one source.
 
 The training entries (:mod:`rbenv.agents.settings.shipped`) point every shipped id at these
-dicts; the zoo files (``rbenv.hyperparams.ppo``, ...) and ``rbenv train`` read them from there.
+dicts; the zoo files (``rbenv.agents.zoo.ppo``, ...) and ``rbenv train`` read them from there.
 """
 
 from __future__ import annotations

@@ -202,7 +202,7 @@ def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3",
     (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
 
     This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
-    rbenv.hyperparams.<algo>`` reads the same dict. Returns a deep copy.
+    rbenv.agents.zoo.<algo>`` reads the same dict. Returns a deep copy.
     """
     if algo not in ALGOS:
         raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")

@@ -1,7 +1,8 @@
 """The Stable-Baselines3 back end of the training engine: PPO, SAC, TD3, TQC or CrossQ on the
-native vector env (``rbenv train``). Settings come from the task registry (``rbenv/hyperparams``,
-RL Zoo's format; :class:`rbenv.agents.training.config.TrainConfig`). With ``--engine sbx``
-(:class:`SBXSession`) the same training runs SBX's SAC or TD3, in JAX (the sbx extra).
+native vector env (``rbenv train``). Settings come from the training settings
+(:mod:`rbenv.agents.settings`, RL Zoo's format; :class:`rbenv.agents.training.config.TrainConfig`).
+With ``--engine sbx`` (:class:`SBXSession`) the same training runs SBX's SAC or TD3, in JAX (the
+sbx extra).
 
 The run folder, its lock, resume, summary and report are the engine's
 (:mod:`rbenv.agents.training.engine`); this module builds the model, trains it with SB3's

@@ -1,7 +1,7 @@
 """SAC or TQC with SB3's ``HerReplayBuffer`` on ``rbenv/SatelliteReorientGoal-v1`` (issue 22).
 
 Trains on the goal-conditioned form of Reorient-v1 (:mod:`rbenv.envs.goal`) with the off-policy
-recipe of :mod:`rbenv.hyperparams._off_policy` where it applies (torque actions with ``pinv``
+recipe of :mod:`rbenv.agents.settings.off_policy` where it applies (torque actions with ``pinv``
 allocation, 32 envs, lr 1e-3, batch 512, buffer 1M, learning_starts 10k, 8 gradient steps per
 vector step, gamma 0.99, tau 0.01, net [256, 256]), HER relabelling with the ``future``
 strategy, 4 sampled goals and ``copy_info_dict=True`` (the env's ``compute_reward`` needs the

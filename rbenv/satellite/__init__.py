@@ -3,7 +3,7 @@
 ``plant`` (the :class:`~rbenv.satellite.plant.Plant` that steps them), ``actuators/`` (one module
 each, behind one protocol), ``scene`` and ``scene_schema`` (the TOML scenes, shipped in
 ``rbenv/scenes/``), ``orbit`` and ``disturbances`` (the torques of the surroundings),
-``sensing`` and ``telemetry`` (what is measured), ``allocation`` (torque to thrusters),
+``sensing`` (what is measured), ``allocation`` (torque to thrusters),
 ``randomization``, ``draws`` and ``torch_draws`` (episode starts from counter-based streams),
 ``state`` (the typed state each part declares) and ``usage`` (the wording of a bad choice).
 

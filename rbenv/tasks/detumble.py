@@ -83,7 +83,7 @@ class Detumble(Task):
         clip = xp.clip
         return (clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0), clip(w[2] * s, -1.0, 1.0))
 
-    def measure(self, st, xp) -> tuple:
+    def _update_errors(self, st, xp) -> tuple:
         """After a step: (|ω| in rad/s, inside the threshold, failure: |ω| > rate limit); sets
         the hold counter (not ``st.rate``, which still holds the rate before the step)."""
         w = st.omega_B
@@ -94,7 +94,7 @@ class Detumble(Task):
 
     def evaluate(self, st, effort, xp):
         wt = self.weights
-        rate, inside, failure = self.measure(st, xp)
+        rate, inside, failure = self._update_errors(st, xp)
         inv_limit = self.inv_rate_limit
         terms = tuple.__new__(self.Terms, (
             -wt.rate * xp.minimum(rate * inv_limit, 1.0),
@@ -141,7 +141,7 @@ class DetumbleV1(Detumble):
     def evaluate(self, st, effort, xp):
         """v1 terms (error ψ(|ω|) on [0, L], progress on it), success, failure."""
         prev = xp.minimum(st.rate, self.rate_limit)
-        rate, _, failure = self.measure(st, xp)
+        rate, _, failure = self._update_errors(st, xp)
         success = st.hold >= self.hold_steps
         now = xp.minimum(rate, self.rate_limit)
         L, w_s = self.rate_limit, self.success_rate

@@ -130,7 +130,7 @@ class Reorient(Task):
         return (*e, clip(w[0] * s, -1.0, 1.0), clip(w[1] * s, -1.0, 1.0),
                 clip(w[2] * s, -1.0, 1.0))
 
-    def measure(self, st, xp) -> tuple:
+    def _update_errors(self, st, xp) -> tuple:
         """Set q_err, rate and the hold counter of ``st`` after a step; returns (angle (rad),
         rate (rad/s), inside the thresholds, failure: |ω| > rate limit)."""
         st.q_err, angle = error_quaternion(st.q_target_conj, st.q, xp)
@@ -143,7 +143,7 @@ class Reorient(Task):
     def evaluate(self, st, effort, xp):
         """Reward terms, success (thresholds held) and failure (|ω| > rate limit)."""
         wt = self.weights
-        angle, rate, inside, failure = self.measure(st, xp)
+        angle, rate, inside, failure = self._update_errors(st, xp)
         terms = tuple.__new__(self.Terms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate * self.inv_rate_limit, 1.0),
@@ -197,7 +197,7 @@ class ReorientV1(v1.V1Decode, Reorient):
     def evaluate(self, st, effort, xp):
         """v1 terms (error ψ(θ), rate ψ(|ω|), progress on ψ(θ)), success, failure."""
         prev = st.angle
-        angle, rate, _, failure = self.measure(st, xp)
+        angle, rate, _, failure = self._update_errors(st, xp)
         success = st.hold >= self.hold_steps
         drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
         psi = v1.log_scale(angle, self.success_angle, math.pi, xp)

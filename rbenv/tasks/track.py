@@ -164,7 +164,7 @@ class Track(Task):
         return (*e, *(clip((w[i] - w_t[i]) * s, -1.0, 1.0) for i in range(3)),
                 *(clip(w_t[i] * s, -1.0, 1.0) for i in range(3)))
 
-    def measure(self, st, xp) -> tuple:
+    def _update_errors(self, st, xp) -> tuple:
         """After a step: set q_err, ω_t_B, rate error, rate and the on-target count of ``st``
         (not ``st.angle``, still the error before the step); returns (angle (rad), rate error
         (rad/s), on target, failure: |ω| > rate limit, success: the last step, on target
@@ -184,7 +184,7 @@ class Track(Task):
 
     def evaluate(self, st, effort, xp):
         wt = self.weights
-        angle, rate_err, on, failure, success = self.measure(st, xp)
+        angle, rate_err, on, failure, success = self._update_errors(st, xp)
         terms = tuple.__new__(self.Terms, (
             -wt.attitude * _INV_PI * angle,
             -wt.rate * xp.minimum(rate_err * self.inv_rate_limit, 1.0),
@@ -274,7 +274,7 @@ class TrackV1(v1.V1Decode, Track):
         """v1 terms (error ψ(θ), rate ψ(|ω − ω_t|), progress on ψ(θ)); success is paid on
         the last step when the episode succeeds."""
         prev = st.angle
-        angle, rate_err, _, failure, success = self.measure(st, xp)
+        angle, rate_err, _, failure, success = self._update_errors(st, xp)
         drop = v1.log_scale_drop(prev, angle, self.success_angle, math.pi, xp)
         psi = v1.log_scale(angle, self.success_angle, math.pi, xp)
         psi_rate = v1.log_scale(xp.minimum(rate_err, self.rate_limit), self.success_rate,

@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from rbenv.agents import cli
+from rbenv.agents.flight.telemetry import Telemetry, write_folder
 
-from rbenv.satellite.telemetry import Telemetry, write_folder
 from rbenv.satellite.usage import MissingExtraError
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,4 +1,4 @@
-"""RL Baselines3 Zoo with the hyperparameters rbenv ships (``--conf-file rbenv.hyperparams.X``).
+"""RL Baselines3 Zoo with the hyperparameters rbenv ships (``--conf-file rbenv.agents.zoo.X``).
 
 A tiny budget (one PPO rollout of 64 envs x 64 steps) through the zoo's real command line:
 ``rl_zoo3.train`` must pick up rbenv's settings, not its ``default:`` entry, and ``rl_zoo3.enjoy``
@@ -15,9 +15,9 @@ import sys
 import gymnasium as gym
 import pytest
 from rbenv.agents import settings
+from rbenv.agents.zoo import ppo
 
 import rbenv
-from rbenv.hyperparams import ppo
 
 # Exactly one rollout of the default id's shipped PPO settings (n_envs x n_steps).
 _PPO = settings.get(rbenv.ENV_ID).settings("ppo")
@@ -34,12 +34,12 @@ def test_every_registered_id_has_zoo_settings():
                   and env_id != rbenv.envs.goal.GOAL_ID)
     assert rbenv.ENV_ID in ours
     missing = [env_id for env_id in ours if env_id not in ppo.hyperparams]
-    assert not missing, f"add {missing} to rbenv/hyperparams/ppo.py"
+    assert not missing, f"add {missing} to agents/zoo/ppo.py"
 
 
 @pytest.mark.parametrize("algo", ALGOS)
 def test_every_algorithm_ships_settings_for_every_id(algo):
-    table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
+    table = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams
     assert set(rbenv.ENV_IDS) <= set(table)  # every shipped id (a test may register more)
 
 
@@ -51,7 +51,7 @@ def test_zoo_settings_are_rbenv_trains_defaults(algo):
     from rbenv.agents.policies.activations import to_classes
     from rbenv.agents.training.config import ZOO_KEYS, TrainConfig, normalize_kwargs
 
-    table = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams
+    table = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams
     for env_id, entry in table.items():
         cfg = TrainConfig(algo=algo, env_id=env_id).resolve()
         # rbenv train names an activation (config.json is JSON); the zoo gets its class.
@@ -81,7 +81,7 @@ def test_zoo_trains_and_enjoys_with_the_shipped_file(tmp_path):
     yaml = pytest.importorskip("yaml", reason="PyYAML comes with rl_zoo3")
     common = ["--algo", "ppo", "--env", rbenv.ENV_ID, "--gym-packages", "rbenv",
               "--device", "cpu", "-f", str(tmp_path / "logs")]
-    train = _zoo("rl_zoo3.train", *common, "--conf-file", "rbenv.hyperparams.ppo",
+    train = _zoo("rl_zoo3.train", *common, "--conf-file", "rbenv.agents.zoo.ppo",
                  "-n", str(ZOO_STEPS), "--num-threads", "1", "--seed", "0",
                  "--eval-freq", str(ZOO_STEPS), "--eval-episodes", "2", cwd=tmp_path)
     assert train.returncode == 0, train.stderr[-3000:]
@@ -112,7 +112,7 @@ def test_zoo_trains_off_policy_with_the_shipped_file(tmp_path, algo):
     yaml = pytest.importorskip("yaml", reason="PyYAML comes with rl_zoo3")
     train = _zoo("rl_zoo3.train", "--algo", algo, "--env", rbenv.ENV_ID, "--gym-packages",
                  "rbenv", "--device", "cpu", "-f", str(tmp_path / "logs"), "--conf-file",
-                 f"rbenv.hyperparams.{algo}", "-n", str(OFF_POLICY_STEPS), "--num-threads",
+                 f"rbenv.agents.zoo.{algo}", "-n", str(OFF_POLICY_STEPS), "--num-threads",
                  "1", "--seed", "0", "--eval-freq", "-1", "-params", "learning_starts:256",
                  "gradient_steps:1", "batch_size:64", "buffer_size:4096", cwd=tmp_path)
     assert train.returncode == 0, train.stderr[-3000:]

@@ -13,11 +13,11 @@ import pytest
 from rbenv.agents.baselines.controllers import InnoCubePD
 from rbenv.agents.cli import main
 from rbenv.agents.flight import identify, replay
+from rbenv.agents.flight.telemetry import Telemetry, load, write_folder
 
 import rbenv
 from rbenv.satellite.actuators.wheels import parse_wheels
 from rbenv.satellite.scene import scene_table
-from rbenv.satellite.telemetry import Telemetry, load, write_folder
 
 ENV_ID = "rbenv/SatelliteReorient-v1"
 START = datetime(2025, 12, 15, 21, 50, 8)

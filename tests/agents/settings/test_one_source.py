@@ -55,7 +55,7 @@ def test_readers_hold_no_ppo_numbers_and_import_the_source(path):
     if path.endswith("sb3.py"):  # it takes its settings from the config (config.py)
         return
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
-    assert imported & {"rbenv.agents", "rbenv.agents.settings", "rbenv.hyperparams.ppo"}
+    assert imported & {"rbenv.agents", "rbenv.agents.settings", "rbenv.agents.zoo.ppo"}
 
 
 def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
@@ -117,7 +117,7 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
 
     env_id = "rbenv/SatelliteReorient-v1"
     own = settings.get(env_id).id_settings["ppo"]
-    zoo = importlib.import_module("rbenv.hyperparams.ppo").hyperparams[env_id]
+    zoo = importlib.import_module("rbenv.agents.zoo.ppo").hyperparams[env_id]
     assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own}
     # The zoo gets the same dict, with the activation's name made the class SB3 builds.
     from rbenv.agents.policies.activations import Tanh
@@ -165,7 +165,7 @@ def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, alg
 
     spec = settings.get(env_id)
     steps = spec.id_settings[algo]["n_timesteps"]
-    zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
+    zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
     assert zoo == shipped_settings(algo, env_id) == spec.settings(algo)
     assert zoo["n_timesteps"] == steps == spec.timesteps(algo, "cubesat-12u")
     assert TrainConfig(algo=algo, env_id=env_id).resolve().timesteps == steps
@@ -208,7 +208,7 @@ def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
     for cfg in (TrainConfig(algo=algo, env_id=env_id).resolve(),
                 SBXConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()):
         assert cfg.n_envs == 32 and cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 4
-    zoo = importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[env_id]
+    zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
     assert zoo["n_envs"] == 32
 
 

@@ -1,8 +1,8 @@
-"""``rbenv train --algo sac|td3|tqc|crossq``: short runs with the settings rbenv/hyperparams ships.
+"""``rbenv train --algo sac|td3|tqc|crossq``: short runs with the shipped settings.
 
 Each run is a few thousand steps (no learning is expected); what is checked is the plumbing:
 the run folder and report exist, and every setting not overridden here came from
-``rbenv/hyperparams/<algo>.py``, the file ``rl_zoo3 --conf-file`` reads.
+``rbenv.agents.zoo.<algo>``, the module ``rl_zoo3 --conf-file`` reads.
 """
 
 import importlib
@@ -24,7 +24,7 @@ SHORT = {"learning_starts": 512, "gradient_steps": 1, "batch_size": 64, "buffer_
 
 
 def shipped(algo: str) -> dict:
-    return importlib.import_module(f"rbenv.hyperparams.{algo}").hyperparams[
+    return importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[
         "rbenv/SatelliteReorient-v0"]
 
 

@@ -1,5 +1,5 @@
-"""TQC (sb3-contrib) settings, read by ``rbenv train --algo tqc`` and by RL Baselines3 Zoo
-(``--algo tqc --conf-file rbenv.hyperparams.tqc``).
+"""TQC (sb3-contrib) settings for RL Baselines3 Zoo (``--algo tqc --conf-file
+rbenv.agents.zoo.tqc``), the same that ``rbenv train --algo tqc`` uses.
 
 SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with TQC's own defaults (25 quantiles per
 critic, 2 dropped per net) and a 200k-step budget: issue 22 measured 99.7 % held out after
@@ -12,6 +12,6 @@ shared, untuned per id.
 
 from __future__ import annotations
 
-from rbenv.hyperparams import zoo_table
+from rbenv.agents.zoo import zoo_table
 
 hyperparams = zoo_table("tqc")

@@ -29,7 +29,6 @@ from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
-
 from rbenv.core.errors import RbenvValueError
 
 __all__ = [

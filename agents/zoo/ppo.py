@@ -1,4 +1,4 @@
-"""PPO settings for RL Baselines3 Zoo: ``--conf-file rbenv.hyperparams.ppo``.
+"""PPO settings for RL Baselines3 Zoo: ``--conf-file rbenv.agents.zoo.ppo``.
 
 Derived from the training entries (:mod:`rbenv.agents.settings`): one per id, each the same
 dict that ``rbenv train`` uses (:data:`rbenv.agents.settings.tuned.PPO`). The zoo steps 64
@@ -8,6 +8,6 @@ but it learns the same task at the same budget.
 
 from __future__ import annotations
 
-from rbenv.hyperparams import zoo_table
+from rbenv.agents.zoo import zoo_table
 
 hyperparams = zoo_table("ppo")

@@ -1,4 +1,4 @@
-"""rbenv.satellite.telemetry: the dashboard's CSV format, read back from files these tests write
+"""rbenv.agents.flight.telemetry: the dashboard's CSV format, read back from files these tests write
 (the flight data has no license, so none of it is in the repository)."""
 
 from __future__ import annotations
@@ -7,8 +7,7 @@ from datetime import datetime
 
 import numpy as np
 import pytest
-
-from rbenv.satellite.telemetry import (
+from rbenv.agents.flight.telemetry import (
     Telemetry,
     TelemetryError,
     error_angle_deg,

@@ -1,7 +1,7 @@
-"""SAC settings, read by ``rbenv train --algo sac`` and by RL Baselines3 Zoo::
+"""SAC settings for RL Baselines3 Zoo, the same that ``rbenv train --algo sac`` uses::
 
     python -m rl_zoo3.train --algo sac --env rbenv/SatelliteReorient-v1 --gym-packages rbenv \\
-        --conf-file rbenv.hyperparams.sac
+        --conf-file rbenv.agents.zoo.sac
 
 Issue 22's recipe (:mod:`rbenv.agents.settings.off_policy`): torque actions with ``pinv``
 allocation, 32 sub-envs, observation normalisation only, lr 1e-3, batch 512, 8 gradient steps
@@ -13,6 +13,6 @@ shared, untuned per id.
 
 from __future__ import annotations
 
-from rbenv.hyperparams import zoo_table
+from rbenv.agents.zoo import zoo_table
 
 hyperparams = zoo_table("sac")

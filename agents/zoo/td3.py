@@ -1,5 +1,5 @@
-"""TD3 settings, read by ``rbenv train --algo td3`` and by RL Baselines3 Zoo
-(``--algo td3 --conf-file rbenv.hyperparams.td3``).
+"""TD3 settings for RL Baselines3 Zoo (``--algo td3 --conf-file
+rbenv.agents.zoo.td3``), the same that ``rbenv train --algo td3`` uses.
 
 SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with Gaussian exploration noise of standard
 deviation 0.1 (the zoo's ``noise_type``/``noise_std``; ``rbenv train`` builds the same
@@ -11,6 +11,6 @@ shared, untuned per id.
 
 from __future__ import annotations
 
-from rbenv.hyperparams import zoo_table
+from rbenv.agents.zoo import zoo_table
 
 hyperparams = zoo_table("td3")

@@ -4,12 +4,11 @@ Each module holds ``hyperparams``, a dict keyed by env id in the zoo's own forma
 reads it by module name from any folder::
 
     python -m rl_zoo3.train --algo ppo --env rbenv/SatelliteReorient-v1 --gym-packages rbenv \\
-        --conf-file rbenv.hyperparams.ppo
+        --conf-file rbenv.agents.zoo.ppo
 
-The settings live in :mod:`rbenv.agents.settings` (training belongs to ``agents``, not to the
-env package); these modules are a view of them, kept at this path so that the zoo command
-above keeps working. They sit above ``agents`` in the layers (pyproject's import-linter
-contracts): nothing in rbenv imports them.
+The settings live in :mod:`rbenv.agents.settings`; these modules are the zoo's view of them
+(the same dicts ``rbenv train`` uses), beside the settings in ``agents``: the env package
+(``rbenv.envs``, ``rbenv.tasks``, ``rbenv.satellite``) never imports ``agents``.
 """
 
 from __future__ import annotations

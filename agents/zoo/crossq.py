@@ -1,5 +1,5 @@
-"""CrossQ (sb3-contrib) settings, read by ``rbenv train --algo crossq`` and by RL Baselines3
-Zoo (``--algo crossq --conf-file rbenv.hyperparams.crossq``).
+"""CrossQ (sb3-contrib) settings for RL Baselines3 Zoo (``--algo crossq --conf-file
+rbenv.agents.zoo.crossq``), the same that ``rbenv train --algo crossq`` uses.
 
 SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) without ``tau``: CrossQ has no target
 network (it normalises the critic's batches instead). Its critics are [256, 256] like the
@@ -10,6 +10,6 @@ The v1 ids carry their own measured budgets (``n_timesteps``, in their task entr
 
 from __future__ import annotations
 
-from rbenv.hyperparams import zoo_table
+from rbenv.agents.zoo import zoo_table
 
 hyperparams = zoo_table("crossq")
