@@ -490,14 +490,9 @@ class TorchEnv(gym.Env):
     metadata: ClassVar[dict] = {"render_modes": []}
 
     def __init__(self, scene=None, **options):
-        for name in ("num_envs", "autoreset_mode"):
-            if name in options:
-                raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword "
-                                f"argument {name!r}: it is "
-                                f"one satellite; use gym.make_vec(ID, backend='torch') for a "
-                                f"batch")
-        self.env = TorchVectorEnv(1, scene, autoreset_mode=AutoresetMode.DISABLED,
-                                     **options)
+        """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["torch_single"]``."""
+        o = take(type(self).__name__, "torch_single", {"scene": scene, **options})
+        self.env = TorchVectorEnv(1, autoreset_mode=AutoresetMode.DISABLED, **o)
         # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
         # gymnasium.Env); the vector env's spaces are in its dtype.
         self.action_space = gym.spaces.Box(-1.0, 1.0, self.env.single_action_space.shape,

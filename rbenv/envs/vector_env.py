@@ -15,12 +15,7 @@ from gymnasium.vector.utils import batch_space
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
 from rbenv.envs import transition
-from rbenv.envs.adapter import (
-    action_array,
-    autoreset_mode_of,
-    check_backend,
-    task_of,
-)
+from rbenv.envs.adapter import action_array, autoreset_mode_of
 from rbenv.envs.options import AUTORESET_DEFAULT, take
 from rbenv.envs.vector import Step, VectorContract
 from rbenv.satellite.draws import EpisodeDraws
@@ -67,15 +62,6 @@ class AttitudeVectorEnv(VectorContract):
     def _id_doc(cls, spec) -> str:
         single = f"{spec.class_stem}Env"
         return f"Vector form of :class:`rbenv.{single}` (see :class:`AttitudeVectorEnv`)."
-
-    def __new__(cls, *args, **options):
-        """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.envs.torch_env`,
-        needs torch); "numpy" (default) this one."""
-        if check_backend(options.get("backend", "numpy")):
-            from rbenv.envs.torch_env import TorchVectorEnv
-
-            return TorchVectorEnv(*args, **{**options, "task": task_of(cls, options.get("task"))})
-        return super().__new__(cls)
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["numpy"]`` (see the class doc)."""
