@@ -21,9 +21,10 @@ sub-env that ended restarts on the following step, whose action it ignores. SAME
 sub-env that ends returns its new episode's first observation; the last one is in
 ``info["final_obs"]``, an (N, d) tensor whose rows are valid where ``info["_final_obs"]`` is
 True, and ``info["final_info"]`` holds the ending step's info, every key zero where a row did
-not end, as the NumPy env's (on a CPU both only on a step where some sub-env ended; on
-another device on every step, masked, as telling would read the host). The info of a masked
-reset holds the reset rows alone (``_key`` is the mask), as the NumPy env's.
+not end, as the NumPy env's; both are in every SAME_STEP step (masks all False where no
+sub-env ended: telling would read the host), where the NumPy env has them only on a step
+where some sub-env ended. The info of a masked reset holds the reset rows alone (``_key`` is
+the mask), as the NumPy env's.
 On a CUDA (any non-CPU) device new episodes are drawn for every row and the ended ones
 selected with ``torch.where``: no index list, no host round trip. On a CPU, where a host read
 costs nothing, only the ended rows are drawn (by index), which is cheaper; the numbers are the
@@ -386,10 +387,11 @@ class TorchVectorEnv(VectorContract):
             s.terminated = torch.where(rows, False, s.terminated)
             s.truncated = torch.where(rows, False, s.truncated)
 
-    def _final_due(self, done) -> bool:
-        """On a CPU, whether some row ended (a free host read); elsewhere always, with no
-        host read: the final entries are then in every SAME_STEP step, masked."""
-        return self.device.type != "cpu" or bool(done.any())
+    @staticmethod
+    def _final_due(done) -> bool:
+        """Always, with no host read: the final entries are in every SAME_STEP step, masked
+        (all False where no sub-env ended), on every device alike."""
+        return True
 
     @staticmethod
     def _final_obs(done: torch.Tensor, obs: torch.Tensor) -> torch.Tensor:
