@@ -16,7 +16,7 @@ import numpy as np
 
 from rbenv.core.backend import FLOAT
 from rbenv.envs import transition
-from rbenv.envs.adapter import TaskAdapter, action_array, check_backend, task_of
+from rbenv.envs.adapter import TaskAdapter, action_array
 from rbenv.envs.options import take
 from rbenv.satellite.draws import EpisodeDraws, check_seed
 from rbenv.satellite.plant import NO_NOISE
@@ -32,15 +32,6 @@ class AttitudeEnv(TaskAdapter, gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
     SHELLS: ClassVar[dict] = {}
-
-    def __new__(cls, *args, **options):
-        """``backend="torch"`` makes the torch single env instead (:class:`rbenv.envs.torch_env.
-        TorchEnv`, needs torch; ``device`` and ``dtype`` options); "numpy" (default) this one."""
-        if check_backend(options.get("backend", "numpy")):
-            from rbenv.envs.torch_env import TorchEnv
-
-            return TorchEnv(*args, **{**options, "task": task_of(cls, options.get("task"))})
-        return super().__new__(cls)
 
     def __init__(self, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["single"]`` (the Arguments table)."""

@@ -181,12 +181,15 @@ def _box(n: int) -> gym.spaces.Box:
 
 
 def make_goal_env(**kwargs) -> GoalReorientEnv:
-    """``gym.make(GOAL_ID, **kwargs)``: the v1 reorientation env's options. The v1 env is
-    built from its class, not through ``gym.make``: the registry would call v1 out of date
-    (Reorient-v2 exists) on every goal env made, though the goal form is v1's on purpose."""
+    """``gym.make(GOAL_ID, **kwargs)``: the v1 reorientation env's options
+    (:data:`rbenv.envs.options.OPTIONS_OF` ``["goal"]``, checked by name here: the env
+    options and ``render_mode``). The v1 env is built from its class, not through
+    ``gym.make``: the registry would call v1 out of date (Reorient-v2 exists) on every goal
+    env made, though the goal form is v1's on purpose."""
     from rbenv.envs.env import SatelliteReorientV1Env
+    from rbenv.envs.options import take
 
-    return GoalReorientEnv(SatelliteReorientV1Env(**kwargs))
+    return GoalReorientEnv(SatelliteReorientV1Env(**take("GoalReorientEnv", "goal", kwargs)))
 
 
 def register() -> None:

@@ -109,15 +109,18 @@ class VectorOptions:
 
 ENV_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EnvOptions))
 BACKEND_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(BackendOptions))
+TORCH_OPTIONS: tuple[str, ...] = tuple(n for n in BACKEND_OPTIONS if n != "backend")
 SHELL_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(ShellOptions))
 VECTOR_OPTIONS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(VectorOptions))
 
-# The options each shell takes, by its backend (rbenv.envs.env, vector_env, torch_env). The
-# NumPy shells take ``backend`` alone of the backend options (to hand "torch" over).
+# The options each shell takes (rbenv.envs.env, vector_env, torch_env, goal). ``backend``
+# is no shell's: the entry points of rbenv.envs.registry take it and pick the shell.
 OPTIONS_OF: dict[str, tuple[str, ...]] = {
-    "single": (*ENV_OPTIONS, *SHELL_OPTIONS, "backend"),
-    "numpy": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, "backend"),
-    "torch": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, *BACKEND_OPTIONS),
+    "single": (*ENV_OPTIONS, *SHELL_OPTIONS),
+    "numpy": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS),
+    "torch": (*ENV_OPTIONS, *SHELL_OPTIONS, *VECTOR_OPTIONS, *TORCH_OPTIONS),
+    "torch_single": (*ENV_OPTIONS, *SHELL_OPTIONS, *TORCH_OPTIONS),
+    "goal": (*ENV_OPTIONS, "render_mode"),  # the goal form is Reorient-v1's, NumPy
 }
 
 # The vector envs' autoreset mode when ``autoreset_mode`` is not given, on every backend; the
@@ -138,11 +141,13 @@ def take(owner: str, shell: str, given: dict) -> dict:
     names = OPTIONS_OF[shell]
     unknown = set(given).difference(names)
     if unknown:
-        unknown_options(owner, unknown, names)
+        hint = "" if unknown.isdisjoint(("num_envs", "autoreset_mode")) else \
+            " (num_envs and autoreset_mode are a batch's: gym.make_vec(ID, num_envs=N, ...))"
+        unknown_options(owner, unknown, names, hint)
     return {name: given.get(name, _ALL_DEFAULTS[name]) for name in names}
 
 
-def unknown_options(owner: str, unknown, valid) -> None:
+def unknown_options(owner: str, unknown, valid, hint: str = "") -> None:
     """Raise the TypeError of an unexpected keyword, naming the valid ones.
 
     The message begins as Python's own ("got an unexpected keyword argument 'frameskip'"):
@@ -151,7 +156,7 @@ def unknown_options(owner: str, unknown, valid) -> None:
     first, *rest = sorted(unknown)
     more = f" (and {', '.join(repr(k) for k in rest)})" if rest else ""
     raise TypeError(f"{owner}.__init__() got an unexpected keyword argument {first!r}{more}; "
-                    f"the valid options are {', '.join(sorted(valid))}")
+                    f"the valid options are {', '.join(sorted(valid))}{hint}")
 
 
 @cache

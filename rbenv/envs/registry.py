@@ -3,12 +3,15 @@ training.
 
 :func:`register` takes an entry (id, task class and maker, docs, default scene, the scene
 tables it needs), refuses an id already taken by another task, and registers the id with
-Gymnasium: its single env and its native vector env. A shipped id has its own classes,
-``class SatelliteReorientEnv(AttitudeEnv)`` in :mod:`rbenv.envs.env` and
-``class SatelliteReorientVectorEnv(AttitudeVectorEnv)`` in :mod:`rbenv.envs.vector_env`; any other
-id runs on :class:`rbenv.envs.env.AttitudeEnv` and :class:`rbenv.envs.vector_env.AttitudeVectorEnv`
-themselves, given the entry as ``task``. ``rbenv.ENV_IDS`` and every tool that lists tasks read
-this registry.
+Gymnasium, every id alike: its entry points are :func:`make_env` (``gym.make``) and
+:func:`make_vector_env` (``gym.make_vec``), given the entry as ``task``. They take ``backend``
+and make the shell of it: on NumPy the id's own class where it has one (``class
+SatelliteReorientEnv(AttitudeEnv)`` in :mod:`rbenv.envs.env`, ``class
+SatelliteReorientVectorEnv(AttitudeVectorEnv)`` in :mod:`rbenv.envs.vector_env`), else
+:class:`rbenv.envs.env.AttitudeEnv` and :class:`rbenv.envs.vector_env.AttitudeVectorEnv`
+themselves; on torch :class:`rbenv.envs.torch_env.TorchEnv` and
+:class:`rbenv.envs.torch_env.TorchVectorEnv`. ``rbenv.ENV_IDS`` and every tool that lists
+tasks read this registry.
 
 A new task is one module (a :class:`rbenv.tasks.base.Task` subclass, its maker and its entry)
 plus one call::
@@ -29,13 +32,15 @@ from rbenv import tasks
 from rbenv.core.errors import InvalidParameterError
 from rbenv.envs import env as single_env
 from rbenv.envs import vector_env
+from rbenv.envs.adapter import check_backend
 from rbenv.envs.options import ENV_OPTIONS
 from rbenv.satellite.scene import load_scene
 from rbenv.satellite.usage import check_choice
 from rbenv.tasks.spec import MAX_EPISODE_STEPS, TaskSpec
 
 __all__ = ["MAX_EPISODE_STEPS", "VECTOR_OPTIONS", "TaskSpec", "by_name", "check_env_options",
-           "get", "plain_env", "register", "specs", "unregister"]
+           "get", "make_env", "make_vector_env", "plain_env", "register", "specs",
+           "unregister"]
 
 _SPECS: dict[str, TaskSpec] = {}
 
@@ -59,17 +64,44 @@ def register(spec: TaskSpec) -> TaskSpec:
             f"task name {spec.name!r} of {spec.env_id!r} is already used by {names[spec.name]!r}")
     _SPECS[spec.env_id] = spec
     _sync_table_makers()
-    single = single_env.SHELLS.get(spec.env_id)
-    vector = vector_env.SHELLS.get(spec.env_id)
-    kwargs = {} if single is not None and single.task_spec is spec else {"task": spec}
-    if kwargs:  # an id without classes of its own: the generic shells, told their task
-        single, vector = single_env.AttitudeEnv, vector_env.AttitudeVectorEnv
     if spec.env_id in gym.registry:
         del gym.registry[spec.env_id]
-    gym.register(id=spec.env_id, entry_point=f"{single.__module__}:{single.__name__}",
-                 vector_entry_point=f"{vector.__module__}:{vector.__name__}",
-                 max_episode_steps=spec.max_episode_steps, kwargs=kwargs)
+    gym.register(id=spec.env_id, entry_point=f"{__name__}:make_env",
+                 vector_entry_point=f"{__name__}:make_vector_env",
+                 max_episode_steps=spec.max_episode_steps, kwargs={"task": spec})
     return spec
+
+
+def make_env(task: TaskSpec, backend: str = "numpy", **options):
+    """``gym.make(id, backend=..., **options)``: the single env of entry ``task`` on
+    ``backend`` ("numpy", default: the id's own class, :mod:`rbenv.envs.env`; "torch":
+    :class:`rbenv.envs.torch_env.TorchEnv`, needs torch). Each shell checks its options."""
+    if check_backend(backend):
+        from rbenv.envs.torch_env import TorchEnv
+
+        return TorchEnv(task=task, **options)
+    return _shell(single_env.SHELLS, single_env.AttitudeEnv, task)(task=task, **options)
+
+
+def make_vector_env(num_envs: int = 1, task: TaskSpec | None = None, backend: str = "numpy",
+                    **options):
+    """``gym.make_vec(id, num_envs=N, backend=..., **options)``: the native vector env of
+    entry ``task`` on ``backend`` ("numpy", default: the id's own class,
+    :mod:`rbenv.envs.vector_env`; "torch": :class:`rbenv.envs.torch_env.TorchVectorEnv`)."""
+    if check_backend(backend):
+        from rbenv.envs.torch_env import TorchVectorEnv
+
+        return TorchVectorEnv(num_envs, task=task, **options)
+    cls = _shell(vector_env.SHELLS, vector_env.AttitudeVectorEnv, task)
+    return cls(num_envs, task=task, **options)
+
+
+def _shell(shells: dict, generic: type, task) -> type:
+    """The class of ``task``'s id where it is a shipped id's (its docs and name), else
+    ``generic``, which runs any entry given as ``task``. (Equal, not identical: ``gym.make``
+    hands the entry point a deep copy of the registered kwargs.)"""
+    cls = shells.get(getattr(task, "env_id", None))
+    return cls if cls is not None and cls.task_spec == task else generic
 
 
 def _sync_table_makers() -> None:

@@ -20,7 +20,11 @@ implementation for both). NEXT_STEP (default, :data:`rbenv.envs.options.AUTORESE
 sub-env that ended restarts on the following step, whose action it ignores. SAME_STEP: a
 sub-env that ends returns its new episode's first observation; the last one is in
 ``info["final_obs"]``, an (N, d) tensor whose rows are valid where ``info["_final_obs"]`` is
-True, and ``info["final_info"]`` holds the last step's ``is_success`` alone (masked alike).
+True, and ``info["final_info"]`` holds the ending step's info, every key zero where a row did
+not end, as the NumPy env's; both are in every SAME_STEP step (masks all False where no
+sub-env ended: telling would read the host), where the NumPy env has them only on a step
+where some sub-env ended. The info of a masked reset holds the reset rows alone (``_key`` is
+the mask), as the NumPy env's.
 On a CUDA (any non-CPU) device new episodes are drawn for every row and the ended ones
 selected with ``torch.where``: no index list, no host round trip. On a CPU, where a host read
 costs nothing, only the ended rows are drawn (by index), which is cheaper; the numbers are the
@@ -166,6 +170,7 @@ class TorchVectorEnv(VectorContract):
     """
 
     metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AUTORESET_DEFAULT}
+    mask_kind: ClassVar[str] = "a torch bool tensor or a NumPy bool array"
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["torch"]`` (see the class doc)."""
@@ -284,16 +289,15 @@ class TorchVectorEnv(VectorContract):
     def _stack(self, comps: tuple, n=None) -> torch.Tensor:
         return torch.stack([self._tensor(c, n=n) for c in comps], dim=1)
 
-    def _info(self, st, terms, success) -> dict:
-        values = transition.info(self.plant, self.task, st, terms, success, self.xp)
-        out = {}
-        for key, value in values.items():
-            out[key] = self._tensor(value) if not isinstance(value, torch.Tensor) or \
-                value.dtype.is_floating_point else value.expand(self.num_envs)
-            out["_" + key] = self._mask
-        return out
+    def _owner(self):
+        return self._row_tensor
 
-    # ------------------------------------------------------------------- reset
+    def _row_tensor(self, value) -> torch.Tensor:
+        """An info value as an (N,) tensor: floats in the env's dtype, bools and ints as they
+        are (a 0-d one expanded)."""
+        if not isinstance(value, torch.Tensor) or value.dtype.is_floating_point:
+            return self._tensor(value)
+        return value.expand(self.num_envs) if value.ndim == 0 else value
 
     # ------------------------------------------------------------------- torch rows
 
@@ -314,8 +318,28 @@ class TorchVectorEnv(VectorContract):
         return torch.where(mask, a, b)
 
     @staticmethod
+    def _keep(mask, value) -> torch.Tensor:
+        shape = mask.shape + (1,) * (value.ndim - 1)
+        return torch.where(mask.reshape(shape), value, torch.zeros_like(value))
+
+    @staticmethod
     def _any(mask) -> bool:
         return bool(mask.any())  # a host read
+
+    @staticmethod
+    def _all(mask) -> bool:
+        return bool(mask.all())  # a host read, at a reset
+
+    def _mask_array(self, mask):
+        """A torch tensor, or a NumPy array (as Gymnasium users pass it; actions are taken
+        from NumPy too) copied to the env's device."""
+        if isinstance(mask, np.ndarray):
+            return torch.from_numpy(mask.copy()).to(self.device)
+        return mask.to(self.device) if isinstance(mask, torch.Tensor) else None
+
+    @staticmethod
+    def _is_bool(array) -> bool:
+        return array.dtype == torch.bool
 
     @staticmethod
     def _rows(mask) -> list[int]:
@@ -330,31 +354,9 @@ class TorchVectorEnv(VectorContract):
         self.diverged = torch.zeros_like(self.diverged)
         obs = self._stack(transition.observe(self.plant, self.task, self._st, None, self.xp))
         zeros = torch.zeros(self.num_envs, dtype=self.dtype, device=self.device)
-        info = self._info(self._st, transition.zero_terms(self.task, zeros),
-                          torch.zeros_like(self._mask))
-        return obs, info
-
-    def _reset_mask(self, mask) -> torch.Tensor:
-        """The (N,) bool mask of ``options["reset_mask"]`` on the env's device: a torch bool
-        tensor or a NumPy bool array (as Gymnasium users pass it; actions are taken from NumPy
-        too). Another type or dtype -> TypeError; wrong shape or all False -> ValueError."""
-        if mask is None:
-            return self._mask
-        rule = (f"options['reset_mask'] must be a torch bool tensor or a NumPy bool array of "
-                f"shape ({self.num_envs},)")
-        if isinstance(mask, np.ndarray) and mask.dtype == np.bool_:
-            mask = torch.from_numpy(mask.copy())
-        if not isinstance(mask, torch.Tensor) or mask.dtype != torch.bool:
-            raise TypeError(f"{rule}, got {type(mask).__name__} "
-                            f"{getattr(mask, 'dtype', '')}")
-        if tuple(mask.shape) != (self.num_envs,):
-            raise InvalidParameterError(f"{rule}, got shape {tuple(mask.shape)}")
-        if not bool(mask.any()):  # a host read, as reset's check() already makes
-            raise InvalidParameterError("options['reset_mask'] must contain at least one True "
-                                        "(a sub-env to reset), got all False")
-        if self._st is None and not bool(mask.all()):
-            raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
-        return mask.to(self.device)
+        return obs, transition.info(self.plant, self.task, self._st,
+                                    transition.zero_terms(self.task, zeros),
+                                    torch.zeros_like(self._mask), self.xp)
 
     # ------------------------------------------------------------------- step
 
@@ -386,14 +388,19 @@ class TorchVectorEnv(VectorContract):
             s.truncated = torch.where(rows, False, s.truncated)
 
     @staticmethod
-    def _final(done: torch.Tensor, s: Step) -> dict:
-        return {"final_obs": s.obs, "_final_obs": done, "_final_info": done,
-                "final_info": {"is_success": s.success, "_is_success": done}}
+    def _final_due(done) -> bool:
+        """Always, with no host read: the final entries are in every SAME_STEP step, masked
+        (all False where no sub-env ended), on every device alike."""
+        return True
 
-    def _finish(self, s: Step) -> dict:
-        info = self._info(s.st, s.terms, s.success)
-        info["diverged"] = self._step_diverged
-        return info
+    @staticmethod
+    def _final_obs(done: torch.Tensor, obs: torch.Tensor) -> torch.Tensor:
+        return obs  # the ending step's (N, d), valid in the rows of done; the autoreset rebinds
+
+    def _step_info(self, s: Step) -> dict:
+        values = transition.info(self.plant, self.task, s.st, s.terms, s.success, self.xp)
+        values["diverged"] = self._step_diverged
+        return values
 
     def _restart_rows(self, done, st, obs, terms, success):
         """SAME_STEP autoreset of the rows where ``done``: new episodes, their observations,
@@ -485,14 +492,9 @@ class TorchEnv(gym.Env):
     metadata: ClassVar[dict] = {"render_modes": []}
 
     def __init__(self, scene=None, **options):
-        for name in ("num_envs", "autoreset_mode"):
-            if name in options:
-                raise TypeError(f"{type(self).__name__}.__init__() got an unexpected keyword "
-                                f"argument {name!r}: it is "
-                                f"one satellite; use gym.make_vec(ID, backend='torch') for a "
-                                f"batch")
-        self.env = TorchVectorEnv(1, scene, autoreset_mode=AutoresetMode.DISABLED,
-                                     **options)
+        """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["torch_single"]``."""
+        o = take(type(self).__name__, "torch_single", {"scene": scene, **options})
+        self.env = TorchVectorEnv(1, autoreset_mode=AutoresetMode.DISABLED, **o)
         # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
         # gymnasium.Env); the vector env's spaces are in its dtype.
         self.action_space = gym.spaces.Box(-1.0, 1.0, self.env.single_action_space.shape,

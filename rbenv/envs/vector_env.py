@@ -9,20 +9,13 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import gymnasium as gym
 import numpy as np
 from gymnasium.vector.utils import batch_space
 
 from rbenv.core import validation
 from rbenv.core.backend import NUMPY
-from rbenv.core.errors import InvalidParameterError
 from rbenv.envs import transition
-from rbenv.envs.adapter import (
-    action_array,
-    autoreset_mode_of,
-    check_backend,
-    task_of,
-)
+from rbenv.envs.adapter import action_array, autoreset_mode_of
 from rbenv.envs.options import AUTORESET_DEFAULT, take
 from rbenv.envs.vector import Step, VectorContract
 from rbenv.satellite.draws import EpisodeDraws
@@ -62,21 +55,13 @@ class AttitudeVectorEnv(VectorContract):
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
                                 "autoreset_mode": AUTORESET_DEFAULT}
+    mask_kind: ClassVar[str] = "a NumPy bool array"
     SHELLS: ClassVar[dict] = {}
 
     @classmethod
     def _id_doc(cls, spec) -> str:
         single = f"{spec.class_stem}Env"
         return f"Vector form of :class:`rbenv.{single}` (see :class:`AttitudeVectorEnv`)."
-
-    def __new__(cls, *args, **options):
-        """``backend="torch"`` makes the torch-native env instead (:mod:`rbenv.envs.torch_env`,
-        needs torch); "numpy" (default) this one."""
-        if check_backend(options.get("backend", "numpy")):
-            from rbenv.envs.torch_env import TorchVectorEnv
-
-            return TorchVectorEnv(*args, **{**options, "task": task_of(cls, options.get("task"))})
-        return super().__new__(cls)
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["numpy"]`` (see the class doc)."""
@@ -119,8 +104,36 @@ class AttitudeVectorEnv(VectorContract):
         return np.where(mask, a, b).astype(b.dtype, copy=False)
 
     @staticmethod
+    def _keep(mask, value) -> np.ndarray:
+        return np.where(_rowwise(mask, value), value, np.zeros_like(value))
+
+    @staticmethod
     def _any(mask) -> bool:
         return bool(mask.any())
+
+    @staticmethod
+    def _all(mask) -> bool:
+        return bool(mask.all())
+
+    @staticmethod
+    def _mask_array(mask):
+        return mask.copy() if isinstance(mask, np.ndarray) else None
+
+    @staticmethod
+    def _is_bool(array) -> bool:
+        return array.dtype == np.bool_
+
+    def _owner(self):
+        """Scalars broadcast to (N,); a state array copied (a later autoreset writes the
+        state in place, and SyncVectorEnv's info never changes)."""
+        owned, shape = _array_ids(self._st), self._mask.shape
+
+        def own(value):
+            if np.ndim(value) == 0:
+                return np.array(np.broadcast_to(value, shape))
+            return value.copy() if id(value) in owned else value
+
+        return own
 
     @staticmethod
     def _rows(mask) -> list[int]:
@@ -144,39 +157,14 @@ class AttitudeVectorEnv(VectorContract):
             est.reset(self._st, (int(self._seeds[0]), int(self._episodes[0]), n, 41),
                       rows=None if full else idx)
             obs = est.observe(self._st, NUMPY)
-        rows = getattr(self, "_info_rows", None)
-        info = self._info(terms, np.zeros(n, dtype=bool))
+        values = transition.info(self.plant, self.task, self._st, terms,
+                                 np.zeros(n, dtype=bool), NUMPY)
         if est is not None:
-            info.update(self._own_info(est.add_info(self._st, {}), rows))
-        if self._obs is not None and not mask.all():  # a partial reset (DISABLED mode)
+            values = est.add_info(self._st, values)
+        if self._obs is not None and not mask.all():  # a partial reset: the others keep theirs
             obs = np.where(mask[:, None], obs, self._obs)
-            info.update({key: mask for key in info if key.startswith("_")})
         self._obs = obs
-        return obs, info
-
-    def _reset_mask(self, mask) -> np.ndarray:
-        """The (N,) bool mask of ``options["reset_mask"]``, checked in Gymnasium's order and
-        with its exception types (``SyncVectorEnv.reset``): not a NumPy array or not bool ->
-        TypeError; wrong shape or all False -> ValueError. Remembers a partial mask for the
-        reset's :meth:`_info`, which zeroes the other rows as ``SyncVectorEnv`` does."""
-        self._info_rows = None
-        if mask is None:
-            return np.ones(self.num_envs, dtype=bool)
-        rule = f"options['reset_mask'] must be a NumPy bool array of shape ({self.num_envs},)"
-        if not isinstance(mask, np.ndarray):
-            raise TypeError(f"{rule} with at least one True, got {validation.show(mask)} of "
-                            f"type {type(mask).__name__}")
-        if mask.shape != (self.num_envs,):
-            raise InvalidParameterError(f"{rule}, got shape {mask.shape}")
-        if mask.dtype != np.bool_:
-            raise TypeError(f"{rule}, got dtype {mask.dtype}")
-        if not mask.any():
-            raise InvalidParameterError(f"options['reset_mask'] must contain at least one True "
-                                        f"(a sub-env to reset), got {mask.tolist()}")
-        if self._st is None and not mask.all():
-            raise gym.error.ResetNeeded("the first reset must reset every sub-env (no mask)")
-        self._info_rows = None if mask.all() else mask.copy()
-        return mask.copy()
+        return obs, values
 
     def _start(self, idx: np.ndarray, options=None) -> dict:
         """Start values for sub-envs ``idx`` from their counter-based draws."""
@@ -199,9 +187,9 @@ class AttitudeVectorEnv(VectorContract):
         if est is not None:
             est.step(st)
             return Step(st, est.observe(st, NUMPY), out.reward, out.terminated, out.truncated,
-                        out.terms, out.success, self._own_info(est.add_info(st, out.info)))
+                        out.terms, out.success, self._info_of(est.add_info(st, out.info)))
         return Step(st, self._stack(out.obs), out.reward, out.terminated, out.truncated,
-                    out.terms, out.success, self._own_info(out.info))  # the info, built once
+                    out.terms, out.success, self._info_of(out.info))  # the autoreset writes it
 
     def _restart(self, rows: np.ndarray, s: Step, *, ended_before: bool) -> None:
         if rows.any():
@@ -209,12 +197,8 @@ class AttitudeVectorEnv(VectorContract):
                 else (s.success,)
             self._restart_rows(np.flatnonzero(rows), s.obs, s.info, s.terms, flags)
 
-    def _final(self, done: np.ndarray, s: Step) -> dict:
-        return self._final_values(done, s.obs, s.info) if done.any() else {}
-
-    def _finish(self, s: Step) -> dict:
+    def _finish(self, s: Step) -> None:
         self._obs = s.obs
-        return s.info
 
     def _restart_rows(self, idx: np.ndarray, obs: np.ndarray, info: dict, terms,
                       flags) -> None:
@@ -248,25 +232,19 @@ class AttitudeVectorEnv(VectorContract):
     def _actions(self, actions) -> np.ndarray:
         """Actions as float64 (N, k); TypeError for a non-array or non-real values (None,
         strings, complex), a ValueError subclass for a bad shape; each names the shape."""
-        self._info_rows = None  # a step's info covers every sub-env
         if np.isscalar(actions) or actions is None:
             raise TypeError(f"actions must be an array of shape {self.action_space.shape} (one "
                             f"row per sub-env), got {type(actions).__name__} {actions!r}")
         return action_array(actions, self.action_space.shape, copy=True,  # clipped in place
                             name="actions")
 
-    def _final_values(self, done, obs, info) -> dict:
-        """SAME_STEP: the finished sub-envs' last observation and info, masked by ``done``."""
+    def _final_obs(self, done, obs) -> np.ndarray:
+        """An (N,) object array as ``SyncVectorEnv``'s: the ended rows' last observation, None
+        in the others."""
         final_obs = np.full(self.num_envs, None, dtype=object)
         for i in np.flatnonzero(done):
             final_obs[i] = obs[i].copy()
-        final_info = {}
-        for key, value in info.items():
-            if not key.startswith("_"):
-                final_info[key] = np.where(_rowwise(done, value), value, np.zeros_like(value))
-                final_info["_" + key] = done.copy()
-        return {"final_obs": final_obs, "_final_obs": done.copy(), "final_info": final_info,
-                "_final_info": done.copy()}
+        return final_obs
 
     def _stack(self, comps: tuple, rows: int | None = None) -> np.ndarray:
         obs = np.empty((rows or self.num_envs, len(comps)), dtype=np.float32)
@@ -277,32 +255,6 @@ class AttitudeVectorEnv(VectorContract):
     def _observation(self) -> np.ndarray:
         noise = self.plant.draw_sensor_noise(self.np_random, self.num_envs)
         return self._stack(transition.observe(self.plant, self.task, self._st, noise, NUMPY))
-
-    def _info(self, terms, success) -> dict:
-        """The reset's info: of every sub-env, or in a partial reset (the mask
-        :meth:`_reset_mask` kept) of the reset ones only."""
-        rows = getattr(self, "_info_rows", None)
-        self._info_rows = None
-        return self._own_info(
-            transition.info(self.plant, self.task, self._st, terms, success, NUMPY), rows)
-
-    def _own_info(self, values: dict, rows: np.ndarray | None = None) -> dict:
-        """An info dict (:func:`rbenv.envs.transition.info` of every sub-env) as this env
-        returns it: (N,) arrays that it owns (a state array is copied: a later autoreset
-        writes the state in place, and SyncVectorEnv's info never changes), each with its
-        ``_key`` mask. rows: a partial reset's mask; the other rows hold zeros and ``_key`` is
-        False there, as ``SyncVectorEnv`` builds it from the sub-envs it reset."""
-        out, mask = {}, self._mask if rows is None else rows
-        owned = _array_ids(self._st)
-        for key, value in values.items():
-            if np.ndim(value) == 0:
-                value = np.array(np.broadcast_to(value, mask.shape))
-            elif id(value) in owned:
-                value = value.copy()
-            out[key] = value if rows is None else \
-                np.where(_rowwise(rows, value), value, np.zeros_like(value))
-            out["_" + key] = mask
-        return out
 
     # ------------------------------------------------------------------- rendering
 

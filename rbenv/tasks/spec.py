@@ -46,6 +46,10 @@ class TaskSpec:
     needs: tuple = ()
     max_episode_steps: int = MAX_EPISODE_STEPS
 
+    def __repr__(self) -> str:
+        """Short: Gymnasium quotes the registered kwargs (this entry) in its errors."""
+        return f"TaskSpec({self.env_id!r}, task={self.task.__name__})"
+
     def __post_init__(self):
         where = f"task entry {self.env_id!r}"
         if not isinstance(self.env_id, str) or not _ID.match(self.env_id):

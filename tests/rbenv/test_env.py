@@ -76,7 +76,12 @@ def test_gymnasium_and_sb3_checkers_pass_without_warnings(scene, mode):
 def test_registration_and_spaces():
     env = make()
     assert env.spec.max_episode_steps == rbenv.MAX_EPISODE_STEPS
-    assert env.spec.vector_entry_point == "rbenv.envs.vector_env:SatelliteReorientVectorEnv"
+    # one route for every id: the registry's entry points, told the entry, pick the class
+    assert env.spec.entry_point == "rbenv.envs.registry:make_env"
+    assert env.spec.vector_entry_point == "rbenv.envs.registry:make_vector_env"
+    assert type(env.unwrapped) is rbenv.SatelliteReorientEnv
+    venv = gym.make_vec(env.spec.id, num_envs=2)
+    assert type(venv) is rbenv.SatelliteReorientVectorEnv
     assert env.action_space == gym.spaces.Box(-1, 1, (12,), np.float32)
     assert env.observation_space == gym.spaces.Box(-1, 1, (7,), np.float32)
     assert make(action_mode="torque").action_space.shape == (3,)

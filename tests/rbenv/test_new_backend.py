@@ -35,6 +35,7 @@ class SingleEnvsVectorEnv(VectorContract):
         self.single_action_space = self.envs[0].action_space
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._seeds, self._episodes, self._done = None, [0] * num_envs, [False] * num_envs
+        self._mask = [True] * num_envs
         self._st = None
 
     # the array methods
@@ -45,19 +46,31 @@ class SingleEnvsVectorEnv(VectorContract):
         a = a if isinstance(a, list) else [a] * self.num_envs
         return [x if m else y for m, x, y in zip(mask, a, b, strict=True)]
 
+    def _keep(self, mask, value):
+        return [v if m else 0 * v for m, v in zip(mask, value, strict=True)]
+
     def _any(self, mask) -> bool:
         return any(mask)
+
+    def _all(self, mask) -> bool:
+        return all(mask)
 
     def _rows(self, mask) -> list[int]:
         return [i for i, m in enumerate(mask) if m]
 
-    def _reset_mask(self, mask):
-        return [True] * self.num_envs if mask is None else [bool(m) for m in mask]
+    def _mask_array(self, mask):
+        return np.asarray(mask)
+
+    def _is_bool(self, array) -> bool:
+        return array.dtype == bool
+
+    def _owner(self):
+        return list
 
     def _reset_rows(self, mask, options):
         self._st = self.envs
         out = [self._new_episode(i) for i in self._rows(mask)]
-        return np.stack([obs for obs, _ in out]), [info for _, info in out]
+        return np.stack([obs for obs, _ in out]), {"success": [False] * self.num_envs}
 
     def _new_episode(self, i: int):
         """Row i's next episode: its first with its seed, then the counter's next."""
@@ -72,22 +85,25 @@ class SingleEnvsVectorEnv(VectorContract):
         rows = [env.step(a) for env, a in zip(self.envs, actions, strict=True)]
         obs, reward, terminated, truncated, info = (list(c) for c in zip(*rows, strict=True))
         success = [i["is_success"] for i in info]
+        self._rows_info = info
         return Step(self.envs, obs, np.array(reward), np.array(terminated),
-                    np.array(truncated), None, success, info)
+                    np.array(truncated), None, success)
+
+    def _step_info(self, s: Step) -> dict:
+        return {"success": list(s.success)}
 
     def _restart(self, rows, s: Step, *, ended_before: bool) -> None:
         for i in self._rows(rows):
-            s.obs[i], s.info[i] = self._new_episode(i)
+            s.obs[i], self._rows_info[i] = self._new_episode(i)
             s.success[i] = False
             if ended_before:
                 s.reward[i], s.terminated[i], s.truncated[i] = 0.0, False, False
 
-    def _final(self, done, s: Step) -> dict:
-        return {"final_obs": [o.copy() if d else None for o, d in zip(s.obs, done, strict=True)]}
+    def _final_obs(self, done, obs):
+        return [o.copy() if d else None for o, d in zip(obs, done, strict=True)]
 
-    def _finish(self, s: Step) -> dict:
+    def _finish(self, s: Step) -> None:
         s.obs = np.stack(s.obs)
-        return {"rows": s.info}
 
 
 @pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda m: m.value)
@@ -109,8 +125,8 @@ def test_a_toy_backend_gets_the_numpy_vector_envs_episodes_from_the_contract(mod
                                    strict=True):
             np.testing.assert_array_equal(np.asarray(got, dtype=np.asarray(want).dtype), want,
                                           err_msg=f"step {t} {what}")
-        success = [row["is_success"] for row in a[4]["rows"]]
-        assert success == b[4]["is_success"].tolist(), t
+        assert a[4]["success"] == b[4]["is_success"].tolist(), t
+        assert a[4]["_success"] == b[4]["_is_success"].tolist(), t
         if mode is AutoresetMode.SAME_STEP and b[4].get("_final_obs", np.zeros(N)).any():
             for i in np.flatnonzero(b[4]["_final_obs"]):
                 np.testing.assert_array_equal(a[4]["final_obs"][i], b[4]["final_obs"][i])

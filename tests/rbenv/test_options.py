@@ -14,6 +14,7 @@ import pytest
 import rbenv
 from rbenv.envs import options
 from rbenv.envs.env import AttitudeEnv
+from rbenv.envs.goal import make_goal_env
 from rbenv.envs.vector_env import AttitudeVectorEnv
 from rbenv.satellite.plant import make_plant
 from rbenv.tasks import build
@@ -33,26 +34,39 @@ def test_tasks_build_takes_exactly_the_env_options_with_their_defaults():
     assert _keywords(build) == options.DEFAULTS
 
 
+def _shell_class(shell: str):
+    if shell.startswith("torch"):
+        pytest.importorskip("torch", reason="torch is not installed (train extra)")
+        from rbenv.envs.torch_env import TorchEnv, TorchVectorEnv
+
+        return TorchVectorEnv if shell == "torch" else TorchEnv
+    return {"single": AttitudeEnv, "numpy": AttitudeVectorEnv, "goal": make_goal_env}[shell]
+
+
 @pytest.mark.parametrize("shell", sorted(options.OPTIONS_OF))
 def test_each_shell_takes_the_options_declared_for_it_and_refuses_the_rest(shell):
-    """One constructor per shell, ``(num_envs, scene, **options)``: the names it takes are
+    """One constructor per shell, ``(num_envs, scene, **options)`` (the goal env's maker:
+    its options), each checked by ``options.take``: the names it takes are
     ``options.OPTIONS_OF[shell]``, declared once; each is accepted at its declared default, and
-    a name of another shell is refused by name."""
-    if shell == "torch":
-        pytest.importorskip("torch", reason="torch is not installed (train extra)")
-        from rbenv.envs.torch_env import TorchVectorEnv as cls
-    else:
-        cls = AttitudeEnv if shell == "single" else AttitudeVectorEnv
+    a name of another shell, or ``backend`` (the registry's entry points take it), is refused
+    by name."""
+    cls = _shell_class(shell)
     task = rbenv.envs.registry.get(rbenv.ENV_ID)
     declared = options.take(cls.__name__, shell, {})
-    given = {**declared, "task": task, "integrator": "rk4"}
+    given = {**declared, "integrator": "rk4"}
+    if shell != "goal":
+        given["task"] = task
     env = cls(**{k: v for k, v in given.items() if k != "num_envs"}, num_envs=2) \
-        if shell != "single" else cls(**given)
-    assert env.task_spec is task and env.plant.scene.name == "cubesat-12u"
-    others = set().union(*options.OPTIONS_OF.values()) - set(options.OPTIONS_OF[shell])
+        if "num_envs" in given else cls(**given)
+    inner = getattr(env, "env", env)  # the goal env's and TorchEnv's inner env
+    assert inner.plant.scene.name == "cubesat-12u"
+    assert inner.task_spec is (task if shell != "goal" else rbenv.envs.registry.get(
+        "rbenv/SatelliteReorient-v1"))
+    others = set().union(*options.OPTIONS_OF.values(), ["backend"]) - \
+        set(options.OPTIONS_OF[shell])
     for name in sorted(others):
         with pytest.raises(TypeError, match=f"unexpected keyword argument {name!r}"):
-            cls(**{name: None, "task": task})
+            cls(**{name: None} if shell == "goal" else {name: None, "task": task})
 
 
 def test_make_plant_takes_the_plant_options_with_the_declared_defaults():

@@ -50,7 +50,8 @@ def test_torque_mode_and_rendering_work_for_new_tasks(env_id):
 def test_registration_spaces_and_observation_structure(env_id):
     env = gym.make(env_id)
     u = env.unwrapped
-    assert env.spec.vector_entry_point.startswith("rbenv.envs.vector_env:")
+    assert env.spec.vector_entry_point == "rbenv.envs.registry:make_vector_env"
+    assert type(u) is rbenv.envs.env.SHELLS[env_id]  # the id's own class, made by the entry point
     size = sum(u.observation_structure.values())
     assert env.observation_space.shape == (size,)
     slices = u.task.observation_slices()
