@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 from rbenv.agents.baselines.controllers import baseline
+from rbenv.core.errors import InvalidParameterError
 from scipy.optimize import minimize
 
-from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.scene import Scene
 
 __all__ = ["Episode", "Solution", "fuel_optimal", "replay", "solve", "time_optimal"]
@@ -316,11 +316,24 @@ def solve(ep: Episode, settle_step: int, *, block: int = 1, guess=None, maxiter:
 def time_optimal(ep: Episode, feasible_step: int, guess, infeasible_step: int = 0, *,
                  block: int = 1, maxiter: int = 150) -> Solution:
     """The earliest settle step SLSQP reaches, by bisection between ``infeasible_step``
-    (known infeasible, e.g. from the bound) and ``feasible_step`` (guess: its commands)."""
-    best = solve(ep, feasible_step, guess=guess, maxiter=maxiter, block=block)
+    (known infeasible, e.g. from the bound) and ``feasible_step`` (guess: its commands, e.g. a
+    controller's that settles then). Where SLSQP finds no solution at ``feasible_step`` (the
+    guess used another actuator, or the margins are too tight) from the guess or from rest,
+    the step grows by half, up to
+    the latest settle step of a successful episode, before giving up (an infeasible Solution).
+    """
+    latest = ep.scene.episode_steps - ep.scene.hold_steps + 1
+    hi = min(max(feasible_step, infeasible_step + 1), latest)
+    while True:
+        best = solve(ep, hi, guess=guess, maxiter=maxiter, block=block)
+        if not best.feasible and guess is not None:  # a saturated guess can trap SLSQP
+            best = solve(ep, hi, guess=None, maxiter=maxiter, block=block)
+        if best.feasible or hi == latest:
+            break
+        infeasible_step, hi = hi, min(latest, max(hi + 1, math.ceil(1.5 * hi)))
     if not best.feasible:
         return best
-    lo, hi = infeasible_step, feasible_step
+    lo = infeasible_step
     while hi - lo > 1:
         mid = (lo + hi) // 2
         sol = solve(ep, mid, guess=best.commands, maxiter=maxiter, block=block)

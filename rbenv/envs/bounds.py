@@ -464,26 +464,38 @@ def field_max(orbit) -> float:
     return 2.0 * (R_REF / orbit.radius) ** 3 * moment
 
 
-def torque_limits(scene=None) -> TorqueLimits:
-    """The limits of any scene the energy-rate bounds cover (:func:`why_no_torque_limits`)."""
+def torque_limits(scene=None, used=None) -> TorqueLimits:
+    """The limits of any scene the energy-rate bounds cover (:func:`why_no_torque_limits`).
+
+    used: the actuator tables (``"thrusters"``, ``"wheels"``, ``"magnetorquers"``) whose
+    commands may act; default all of the scene's. The others are taken as idle (their
+    torque is zero; idle wheels still carry their momentum). A bound for a restricted set
+    holds only for policies that leave the others idle (e.g. a wheels-only manoeuvre).
+    """
     sc = scene if isinstance(scene, Scene) else load_scene(*(() if scene is None else (scene,)))
     reason = why_no_torque_limits(sc)
     if reason is not None:
         raise InvalidParameterError(reason)
+    present = sorted(sc.actuators)
+    used = set(present if used is None else used)
+    if not used or not used <= set(present):
+        raise InvalidParameterError(
+            f"used={sorted(used)!r}: must be a non-empty subset of the scene's actuators "
+            f"{present}")
     whole = np.array(sc.body.inertia, float)
     wheels, rods = sc.actuators.get("wheels"), sc.actuators.get("magnetorquers")
     inertia = whole if wheels is None else whole - np.asarray(wheels.spin_inertia_B, float)
     lam, vec = np.linalg.eigh(inertia)
     inv_half = vec @ np.diag(lam ** -0.5) @ vec.T  # I^-½
     gain, other = 0.0, 0.0  # other: |torque| of thrusters and rods on the whole spacecraft
-    if sc.thrusters is not None:
+    if sc.thrusters is not None and "thrusters" in used:
         B = np.array(sc.thrusters.torque_matrix_B, float)
         gain += max_weighted_torque(B, inv_half)
         other += max_weighted_torque(B)
-    if wheels is not None:  # ḣ = u per rotor, on the bus as −G u: a box of motor torques
+    if wheels is not None and "wheels" in used:  # ḣ = u per rotor, on the bus as −G u
         gain += max_over_symmetric_box(_wheel_torque_columns(wheels), inv_half)
     field = field_max(sc.orbit) if sc.orbit.enabled and sc.orbit.magnetic_field else 0.0
-    if rods is not None:  # |m × B| ≤ Σ m_i |B|
+    if rods is not None and "magnetorquers" in used:  # |m × B| ≤ Σ m_i |B|
         gain += float(np.sum(rods.max_dipole)) * field / math.sqrt(lam[0])
         other += float(np.sum(rods.max_dipole)) * field
     ext = float(np.linalg.norm(sc.disturbance.torque)) if sc.disturbance.model == "constant" \
@@ -504,15 +516,18 @@ def torque_limits(scene=None) -> TorqueLimits:
         success_rate=float(ep.success_rate),
         settle_time_max=float(ep.duration - ep.hold_time + dt),
         wheels=None if wheels is None else _wheel_limits(wheels, whole, inertia, other,
-                                                         float(dt)))
+                                                         float(dt), "wheels" in used))
 
 
-def _wheel_limits(wheels, inertia_whole, inertia_bus, torque_other: float,
-                  dt: float) -> WheelLimits:
+def _wheel_limits(wheels, inertia_whole, inertia_bus, torque_other: float, dt: float,
+                  commanded: bool = True) -> WheelLimits:
     """The wheels' part of :class:`TorqueLimits` (see :class:`WheelLimits`)."""
     J = np.asarray(wheels.inertia, float)
     top = np.asarray(wheels.max_speed, float)
     net = np.linalg.norm(_wheel_torque_columns(wheels), axis=0)  # (n,) largest net |u_i|
+    if not commanded:  # idle wheels: only the bearing friction turns them
+        net = net - np.asarray(wheels.max_torque, float) * max(
+            1.0, float(np.max(np.asarray(wheels.realized_gain, float))))
     start = np.minimum(np.abs(np.asarray(wheels.initial_speed, float)) + wheels.random_speed,
                        top)
     return WheelLimits(inertia_whole_B=np.asarray(inertia_whole, float),
