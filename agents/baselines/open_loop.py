@@ -67,10 +67,16 @@ class Episode:
     wheel_speed0: np.ndarray | None
     action_size: int
     action_slice: slice
+    orbit_torques: bool = False
 
     @classmethod
-    def from_seed(cls, seed: int, env_id: str, scene=None, actuator: str = "wheels") -> Episode:
-        """The episode ``env_id`` starts at ``reset(seed=seed)`` (read from the env itself)."""
+    def from_seed(cls, seed: int, env_id: str, scene=None, actuator: str = "wheels",
+                  orbit_torques: bool | None = None) -> Episode:
+        """The episode ``env_id`` starts at ``reset(seed=seed)`` (read from the env itself).
+
+        orbit_torques: model the orbit's gravity gradient and field torques (default: only
+        for the rods, whose torque is ``m × B``; the wheels and thrusters leave them to the
+        margins)."""
         env = _make(env_id, scene)
         try:
             base = env.unwrapped
@@ -80,7 +86,7 @@ class Episode:
                 raise InvalidParameterError(
                     f"actuator={actuator!r}: the scene's actuators are {tables}")
             act = plant.actuator(actuator)
-            if act.action_mode != "throttle":
+            if getattr(act, "action_mode", "throttle") != "throttle":
                 raise InvalidParameterError(
                     f"actuator {actuator!r} is in action_mode {act.action_mode!r}; the "
                     "optimiser commands throttle mode")
@@ -90,6 +96,15 @@ class Episode:
                     raise InvalidParameterError(
                         f"scene {plant.scene.name!r}: the optimiser models ideal wheels (no "
                         "friction, deadband, gain or start-up delay)")
+            orbit = plant.scene.orbit
+            if orbit_torques is None:
+                orbit_torques = actuator == "magnetorquers"
+            if actuator == "magnetorquers" and not (orbit.enabled and orbit.magnetic_field
+                                                    and orbit_torques):
+                raise InvalidParameterError(
+                    f"actuator 'magnetorquers' on scene {plant.scene.name!r}: the rods need "
+                    "the orbit's magnetic field, and orbit_torques=True")
+            orbit_torques = bool(orbit_torques and orbit.enabled)
             start = 0
             for a in plant.actuators:
                 size = int(np.prod(a.action_shape))
@@ -108,7 +123,7 @@ class Episode:
                        else np.array(target, float).ravel() * np.array([1.0, -1, -1, -1]),
                        wheel_speed0=None if speed0 is None
                        else np.array(speed0, float).ravel(),
-                       action_size=start, action_slice=sl)
+                       action_size=start, action_slice=sl, orbit_torques=orbit_torques)
         finally:
             env.close()
 
@@ -153,19 +168,26 @@ class Episode:
         qs, wsq, sp = [q], [w], [] if ws is None else [speed]
         B = None if self.actuator != "thrusters" else np.asarray(
             sc.thrusters.torque_matrix_B, float)
+        orbit = self._orbit_vectors(N) if self.orbit_torques else None
         for k in range(N):
             tau = np.broadcast_to(self.bias_B, (M, 3)).astype(float)
             u = np.zeros((M, 3 if ws is None else len(J)))
+            dipole = None
             if B is not None:
                 tau = tau + np.clip(U[:, k], 0.0, 1.0) @ B.T
-            elif ws is not None:
+            elif self.actuator == "wheels":
                 u = np.clip(U[:, k], -1.0, 1.0) * np.asarray(ws.max_torque, float)
                 head = np.maximum((top - np.abs(speed)) * j_eff / dt, 0.0)
                 u = np.where(speed * u >= 0.0, np.clip(u, -head, head), u)
+            elif self.actuator == "magnetorquers":
+                rods = sc.actuators["magnetorquers"]
+                dipole = np.clip(U[:, k], -1.0, 1.0) @ (
+                    np.asarray(rods.axes_B, float) * np.asarray(rods.max_dipole, float)[:, None])
             hb = None if ws is None else hw @ G
             hb_dot = None if ws is None else u @ G
-            for _ in range(subs):
-                q, w = _rk4(q, w, tau, inertia, inv, h, hb, hb_dot)
+            for j in range(subs):
+                fn = None if orbit is None else _orbit_torque(orbit, 2 * (k * subs + j), dipole)
+                q, w = _rk4(q, w, tau, inertia, inv, h, hb, hb_dot, fn)
                 if hb is not None:
                     hb = hb + hb_dot * h
             if ws is not None:
@@ -178,6 +200,27 @@ class Episode:
         if ws is not None:
             out["wheel_speed"] = np.stack(sp, axis=1)
         return out
+
+    def _orbit_vectors(self, steps: int) -> dict:
+        """The orbit's inertial vectors at every half integrator step of ``steps`` control steps
+        (entry i at time i·h/2, as the env's table), the gravity-gradient factor 3n², the
+        whole spacecraft's inertia it acts on, and a residual dipole (A·m², body) or None."""
+        sc = self.scene
+        orbit = sc.orbit
+        h = self.dt / sc.physics.substeps
+        t = np.arange(2 * steps * sc.physics.substeps + 3) * (0.5 * h)
+        residual = None
+        if orbit.residual_dipole is not None:
+            from rbenv.satellite.disturbances import ResidualDipole
+
+            residual = np.asarray(ResidualDipole.parse(orbit.residual_dipole).moment_B_Am2,
+                                  float)
+        return {"r_N": np.stack(orbit.direction_N(t, np), axis=-1) if orbit.gravity_gradient
+                else None,
+                "B_N": np.stack(orbit.field_N(t, np), axis=-1) if orbit.magnetic_field
+                else None,
+                "gg": 3.0 * orbit.mean_motion ** 2,
+                "inertia": np.asarray(sc.body.inertia, float), "residual": residual}
 
     def error_sin2(self, q: np.ndarray) -> np.ndarray:
         """sin²(θ/2) of the error rotation q_target* ⊗ q, (...,)."""
@@ -195,22 +238,55 @@ def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
                      pw * qz + px * qy - py * qx + pz * qw], axis=-1)
 
 
-def _derivative(q, w, tau, inertia, inv, hb, hb_dot):
-    """q̇ = ½ q ⊗ (0, ω_B); I ω̇_B = τ − ω × (I ω + h_B) − ḣ_B (h_B: the rotors' momentum)."""
+def _to_body(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """R(q)ᵀ v for unit q (scalar first, body → world): v in body axes, (..., 3)."""
+    wq, u = q[..., :1], q[..., 1:]
+    c = np.cross(u, v)
+    return v - 2.0 * wq * c + 2.0 * np.cross(u, c)
+
+
+def _orbit_torque(orbit: dict, base: int, dipole):
+    """The orbit torques of one substep starting at half-step ``base``: a function of the
+    stage (0, ½, 1) and the stage's attitude, N·m body axes (gravity gradient
+    ``3n² r̂_B × I r̂_B``, the rods' and the residual dipole's ``m × B_B``)."""
+    if orbit["residual"] is not None:
+        dipole = orbit["residual"] if dipole is None else dipole + orbit["residual"]
+
+    def torque(stage: float, q: np.ndarray) -> np.ndarray:
+        q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+        i = base + int(2 * stage)
+        out = np.zeros((*q.shape[:-1], 3))
+        if orbit["r_N"] is not None:
+            r = _to_body(q, np.broadcast_to(orbit["r_N"][i], out.shape))
+            out = out + orbit["gg"] * np.cross(r, r @ orbit["inertia"].T)
+        if dipole is not None and orbit["B_N"] is not None:
+            out = out + np.cross(dipole, _to_body(q, np.broadcast_to(orbit["B_N"][i],
+                                                                     out.shape)))
+        return out
+    return torque
+
+
+def _derivative(q, w, tau, inertia, inv, hb, hb_dot, fn=None, stage=0.0):
+    """q̇ = ½ q ⊗ (0, ω_B); I ω̇_B = τ − ω × (I ω + h_B) − ḣ_B (h_B: the rotors' momentum),
+    τ plus ``fn(stage, q)`` (the orbit torques) where given."""
     zero = np.zeros((*q.shape[:-1], 1))
     q_dot = 0.5 * _qmul(q, np.concatenate([zero, w], axis=-1))
     m = w @ inertia.T if hb is None else w @ inertia.T + hb
+    if fn is not None:
+        tau = tau + fn(stage, q)
     t = tau - np.cross(w, m) - (0.0 if hb_dot is None else hb_dot)
     return q_dot, t @ inv.T
 
 
-def _rk4(q, w, tau, inertia, inv, h, hb=None, hb_dot=None):
+def _rk4(q, w, tau, inertia, inv, h, hb=None, hb_dot=None, fn=None):
     mid = None if hb is None else hb + 0.5 * h * hb_dot
     end = None if hb is None else hb + h * hb_dot
-    k1 = _derivative(q, w, tau, inertia, inv, hb, hb_dot)
-    k2 = _derivative(q + 0.5 * h * k1[0], w + 0.5 * h * k1[1], tau, inertia, inv, mid, hb_dot)
-    k3 = _derivative(q + 0.5 * h * k2[0], w + 0.5 * h * k2[1], tau, inertia, inv, mid, hb_dot)
-    k4 = _derivative(q + h * k3[0], w + h * k3[1], tau, inertia, inv, end, hb_dot)
+    k1 = _derivative(q, w, tau, inertia, inv, hb, hb_dot, fn, 0.0)
+    k2 = _derivative(q + 0.5 * h * k1[0], w + 0.5 * h * k1[1], tau, inertia, inv, mid, hb_dot,
+                     fn, 0.5)
+    k3 = _derivative(q + 0.5 * h * k2[0], w + 0.5 * h * k2[1], tau, inertia, inv, mid, hb_dot,
+                     fn, 0.5)
+    k4 = _derivative(q + h * k3[0], w + h * k3[1], tau, inertia, inv, end, hb_dot, fn, 1.0)
     q = q + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
     w = w + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
     return q / np.linalg.norm(q, axis=-1, keepdims=True), w
