@@ -74,6 +74,21 @@ def test_the_rollout_applies_the_envs_speed_limit_rule():
     assert np.abs(mine["omega_B"][0, 1:] - env["omega_B"]).max() < 1e-12
 
 
+@pytest.mark.parametrize(("env_id", "actuator", "scale"), [
+    (rbenv.DETUMBLE_ID, "magnetorquers", 1.0),  # 10 s steps, 4 substeps, rods through the field
+    (rbenv.ENV_ID, "wheels", 0.05),
+])
+def test_with_orbit_torques_modelled_the_rollout_reproduces_the_env(env_id, actuator, scale):
+    """cubesat-6u-rw's gravity gradient and field (the rods' torque m × B), modelled: equal to
+    rounding over 20 steps, and the commands did turn it."""
+    ep = ol.Episode.from_seed(5, env_id, "cubesat-6u-rw", actuator, orbit_torques=True)
+    U = _commands(ep, 20, scale)
+    env = _env_trajectory(ep, U)
+    assert len(env["omega_B"]) == 20
+    assert np.abs(ep.rollout(U[None])["omega_B"][0, 1:] - env["omega_B"]).max() < 1e-15
+    assert np.abs(env["omega_B"][-1] - ep.omega0_B).max() > 1e-3
+
+
 def test_with_orbit_torques_the_rollout_stays_within_the_margins():
     """cubesat-6u-rw has gravity gradient, which the optimiser leaves out: over 20 steps its
     rate differs from the env's by far less than the margin on the success rate (0.3 × 0.01)."""
@@ -141,3 +156,21 @@ def test_bad_requests_are_named():
     ep = ol.Episode.from_seed(1, rbenv.ENV_ID, "cubesat-6u-rw", "wheels")
     with pytest.raises(InvalidParameterError, match="objective='fuel' needs thrusters"):
         ol.solve(ep, 10, objective="fuel")
+    with pytest.raises(InvalidParameterError, match="the rods need the orbit's magnetic field"):
+        ol.Episode.from_seed(1, rbenv.DETUMBLE_ID, "cubesat-6u-rw", "magnetorquers",
+                             orbit_torques=False)
+
+
+@pytest.mark.slow  # a rods detumble, 10 s steps: one optimisation, tens of seconds
+def test_a_rods_detumble_optimised_and_replayed_is_above_the_bound_and_beats_b_dot():
+    seed = 2_000_000
+    ep = ol.Episode.from_seed(seed, rbenv.DETUMBLE_ID, "cubesat-6u-rw", "magnetorquers")
+    bound = rb.energy_settle_bound(rb.torque_limits(ep.scene, used=("magnetorquers",)),
+                                   ep.omega0_B[None])["sampled"][0]
+    bdot = ol.replay("bdot", ep)
+    assert bdot["success"]
+    sol = ol.solve(ep, round(bdot["settle_time_s"] / ep.dt), guess=bdot["commands"],
+                   block=2, maxiter=60)
+    rep = ol.replay(sol.commands, ep)
+    assert sol.feasible and rep["success"]
+    assert bound <= rep["settle_time_s"] <= bdot["settle_time_s"]
