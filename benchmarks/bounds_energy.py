@@ -113,18 +113,21 @@ def run_case(name: str, case: dict, seed: int, count: int, candidates: int, maxi
         pd = ol.replay(warm, ep)
         row["pd"] = {"policy": warm, "success": pd["success"],
                      "settle_time_s": pd["settle_time_s"], "fuel_g": 1000 * pd["fuel_kg"]}
-        if pd["success"]:
-            hi = int(np.rint(pd["settle_time_s"] / dt))
+        if pd["success"] or not quick:
+            # A failed warm start: from rest, with the latest settle step as the upper end.
+            latest = ep.scene.episode_steps - ep.scene.hold_steps + 1
+            hi = int(np.rint(pd["settle_time_s"] / dt)) if pd["success"] else latest
+            guess = pd["commands"] if pd["success"] else None
             # quick: one solve at the warm start's step (a smoke test), no bisection
             lo = hi - 1 if quick else max(int(np.rint(used[i] / dt)) - 1, 0)
-            sol = ol.time_optimal(ep, hi, pd["commands"], lo, maxiter=maxiter,
+            sol = ol.time_optimal(ep, hi, guess, lo, maxiter=maxiter,
                                   block=case.get("block", 1))
             rep = ol.replay(sol.commands, ep)
             row["time_optimal"] = {"solver_feasible": sol.feasible, "success": rep["success"],
                                    "settle_time_s": rep["settle_time_s"],
                                    "fuel_g": 1000 * rep["fuel_kg"]}
             if case["fuel"]:
-                sol = ol.fuel_optimal(ep, hi, pd["commands"], maxiter=maxiter)
+                sol = ol.fuel_optimal(ep, hi, guess, maxiter=maxiter)
                 rep = ol.replay(sol.commands, ep)
                 own = np.full(candidates, rep["settle_time_s"] if rep["success"] else math.nan)
                 row["fuel_optimal"] = {"solver_feasible": sol.feasible,
@@ -205,7 +208,9 @@ def main(argv=()) -> dict:
                    help="episodes whose quartiles are picked")
     p.add_argument("--maxiter", type=int, default=150, help="SLSQP iterations per solve")
     p.add_argument("--case", action="append", default=[],
-                   help="run only this case (repeatable; default all)")
+                   help="run only this case (repeatable; default all); without --quick, the "
+                        "rows of the other cases in an existing bounds_energy.json of the same "
+                        "settings are kept")
     args = p.parse_args(argv)
     from rbenv.agents.training.sb3 import set_threads
 
@@ -230,6 +235,17 @@ def main(argv=()) -> dict:
             "load_average_1min_at_end": os.getloadavg()[0], "machine": common.machine()}
     out = Path(args.out) if args.out else OUT
     out.mkdir(parents=True, exist_ok=True)
+    old = out / "bounds_energy.json"
+    if args.case and not args.quick and old.is_file():  # rerun cases: update their rows
+        kept = json.loads(old.read_text())
+        if (kept["seed"], kept["candidates"], kept["episodes_per_case"], kept["maxiter"]) == (
+                args.seed, candidates, count, maxiter):
+            order = list(all_cases)
+            data["rows"] = sorted([r for r in kept["rows"] if r["case"] not in chosen] + rows,
+                                  key=lambda r: order.index(r["case"]))
+            data["violation_count"] = sum(len(r["violations"]) for r in data["rows"])
+            data["command"] = kept.get("command", "") + "; then " + data["command"]
+            data["wall_time_s"] += kept.get("wall_time_s", 0.0)
     (out / "bounds_energy.json").write_text(json.dumps(common._jsonable(data), indent=1) + "\n")
     table = markdown(data)
     (out / "bounds_energy.md").write_text(table)
