@@ -569,7 +569,9 @@ def energy_settle_bound(limits: TorqueLimits, omega0_B, angle0=None, bias_B=None
     control step ``|ω| ≤ L``, so ``s ≤ √λmax L``, and within a step ``s ≤ √λmax L + A dt``.
 
     Reorientation (``angle0`` (N,) rad): ``∫ s dt ≥ √λmin (θ0 − θ_s)``, the fastest s profile
-    is bang-coast-bang in s (:func:`bang_coast_bang_time`). Detumbling (``angle0`` None): s
+    is bang-coast-bang in s (:func:`bang_coast_bang_time`); with wheels its cap is also
+    ``√λmin`` times the rate and momentum caps of :func:`rate_caps_with_wheels` (returned as
+    ``rate_cap``). Detumbling (``angle0`` None): s
     must fall from s0 to √λmax ω_s, so ``T ≥ (s0 − √λmax ω_s)/A``. omega0_B (N, 3) rad/s,
     bias_B (N, 3) N·m or None. Returns ``continuous`` and ``sampled`` (N,) s (rounded up to a
     control step) and ``accel`` (N,) (A, in the units of s per second).
