@@ -166,7 +166,9 @@ def violations(row: dict) -> list[str]:
 
 
 def _f(x, spec=".1f"):
-    return "—" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+    if not isinstance(x, (int, float)) or not math.isfinite(x):  # None, NaN ("NaN" in JSON)
+        return "—"
+    return format(x, spec)
 
 
 def markdown(data: dict) -> str:
