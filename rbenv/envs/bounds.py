@@ -36,13 +36,18 @@ from rbenv.satellite.scene import Scene, load_scene
 
 __all__ = [
     "SceneLimits",
+    "TorqueLimits",
+    "WheelLimits",
     "bang_coast_bang_time",
+    "detumble_fuel_bound",
+    "energy_settle_bound",
     "episode_starts",
     "fuel_bound",
     "gyro_coefficient",
     "max_weighted_torque",
     "min_impulse_lp",
     "rate_cap",
+    "rate_caps_with_wheels",
     "scene_limits",
     "settle_time_bound",
     "weighted_rate_forms",
@@ -410,6 +415,31 @@ class TorqueLimits:
     success_angle: float
     success_rate: float
     settle_time_max: float
+    wheels: WheelLimits | None = None  # the momentum cap's data; None: no wheels, no cap
+
+
+@dataclass(frozen=True, eq=False)
+class WheelLimits:
+    """What the wheels' momentum cap needs (SI units): the bus rate is ``I⁻¹(H − G h)``, so a
+    bounded total momentum H and bounded rotor momenta h bound it (docs/bounds.md).
+
+    inertia_whole_B: (3, 3) kg·m², the spacecraft's with the rotors (``Iω + Gh = I_whole ω +
+    G J Ω``). axes_B: (n, 3) spin axes. inertia: (n,) kg·m², J_s. speed_bound: (n,) rad/s, a
+    bound on |Ω_i| after any control step: max(Ω_max, u_net·dt/J) (the motor may not speed a
+    wheel past Ω_max at the step's end, but a wheel slowing down may cross zero); speed0: (n,)
+    rad/s, the largest |Ω_i| at the start. torque_other: N·m, the largest torque the other
+    actuators (thrusters, rods) put on the whole spacecraft; with the external torques it is
+    all that changes |H|. gyro_coeff: 1/rad, c with ``|I⁻¹(ω × Iω)| ≤ c|ω|²`` for the bus
+    inertia I (:func:`gyro_coefficient`).
+    """
+
+    inertia_whole_B: np.ndarray
+    axes_B: np.ndarray
+    inertia: np.ndarray
+    speed_bound: np.ndarray
+    speed0: np.ndarray
+    torque_other: float
+    gyro_coeff: float
 
 
 def why_no_torque_limits(scene: Scene) -> str | None:
@@ -434,25 +464,40 @@ def field_max(orbit) -> float:
     return 2.0 * (R_REF / orbit.radius) ** 3 * moment
 
 
-def torque_limits(scene=None) -> TorqueLimits:
-    """The limits of any scene the energy-rate bounds cover (:func:`why_no_torque_limits`)."""
+def torque_limits(scene=None, used=None) -> TorqueLimits:
+    """The limits of any scene the energy-rate bounds cover (:func:`why_no_torque_limits`).
+
+    used: the actuator tables (``"thrusters"``, ``"wheels"``, ``"magnetorquers"``) whose
+    commands may act; default all of the scene's. The others are taken as idle (their
+    torque is zero; idle wheels still carry their momentum). A bound for a restricted set
+    holds only for policies that leave the others idle (e.g. a wheels-only manoeuvre).
+    """
     sc = scene if isinstance(scene, Scene) else load_scene(*(() if scene is None else (scene,)))
     reason = why_no_torque_limits(sc)
     if reason is not None:
         raise InvalidParameterError(reason)
+    present = sorted(sc.actuators)
+    used = set(present if used is None else used)
+    if not used or not used <= set(present):
+        raise InvalidParameterError(
+            f"used={sorted(used)!r}: must be a non-empty subset of the scene's actuators "
+            f"{present}")
     whole = np.array(sc.body.inertia, float)
     wheels, rods = sc.actuators.get("wheels"), sc.actuators.get("magnetorquers")
     inertia = whole if wheels is None else whole - np.asarray(wheels.spin_inertia_B, float)
     lam, vec = np.linalg.eigh(inertia)
     inv_half = vec @ np.diag(lam ** -0.5) @ vec.T  # I^-½
-    gain = 0.0
-    if sc.thrusters is not None:
-        gain += max_weighted_torque(np.array(sc.thrusters.torque_matrix_B, float), inv_half)
-    if wheels is not None:  # ḣ = u per rotor, on the bus as −G u: a box of motor torques
+    gain, other = 0.0, 0.0  # other: |torque| of thrusters and rods on the whole spacecraft
+    if sc.thrusters is not None and "thrusters" in used:
+        B = np.array(sc.thrusters.torque_matrix_B, float)
+        gain += max_weighted_torque(B, inv_half)
+        other += max_weighted_torque(B)
+    if wheels is not None and "wheels" in used:  # ḣ = u per rotor, on the bus as −G u
         gain += max_over_symmetric_box(_wheel_torque_columns(wheels), inv_half)
     field = field_max(sc.orbit) if sc.orbit.enabled and sc.orbit.magnetic_field else 0.0
-    if rods is not None:  # |m × B| ≤ Σ m_i |B|
+    if rods is not None and "magnetorquers" in used:  # |m × B| ≤ Σ m_i |B|
         gain += float(np.sum(rods.max_dipole)) * field / math.sqrt(lam[0])
+        other += float(np.sum(rods.max_dipole)) * field
     ext = float(np.linalg.norm(sc.disturbance.torque)) if sc.disturbance.model == "constant" \
         else 0.0
     if sc.orbit.enabled and sc.orbit.gravity_gradient:  # |3n² r̂ × I r̂| ≤ 3n²(λmax − λmin)/2
@@ -469,7 +514,27 @@ def torque_limits(scene=None) -> TorqueLimits:
         rate_gain_control=float(gain), torque_ext=ext, rate_limit=float(ep.rate_limit),
         control_dt=float(dt), success_angle=math.radians(ep.success_angle_deg),
         success_rate=float(ep.success_rate),
-        settle_time_max=float(ep.duration - ep.hold_time + dt))
+        settle_time_max=float(ep.duration - ep.hold_time + dt),
+        wheels=None if wheels is None else _wheel_limits(wheels, whole, inertia, other,
+                                                         float(dt), "wheels" in used))
+
+
+def _wheel_limits(wheels, inertia_whole, inertia_bus, torque_other: float, dt: float,
+                  commanded: bool = True) -> WheelLimits:
+    """The wheels' part of :class:`TorqueLimits` (see :class:`WheelLimits`)."""
+    J = np.asarray(wheels.inertia, float)
+    top = np.asarray(wheels.max_speed, float)
+    net = np.linalg.norm(_wheel_torque_columns(wheels), axis=0)  # (n,) largest net |u_i|
+    if not commanded:  # idle wheels: only the bearing friction turns them
+        net = net - np.asarray(wheels.max_torque, float) * max(
+            1.0, float(np.max(np.asarray(wheels.realized_gain, float))))
+    start = np.minimum(np.abs(np.asarray(wheels.initial_speed, float)) + wheels.random_speed,
+                       top)
+    return WheelLimits(inertia_whole_B=np.asarray(inertia_whole, float),
+                       axes_B=np.asarray(wheels.axes_B, float), inertia=J,
+                       speed_bound=np.maximum(top, net * dt / J), speed0=start,
+                       torque_other=float(torque_other),
+                       gyro_coeff=gyro_coefficient(inertia_bus))
 
 
 def _wheel_torque_columns(wheels) -> np.ndarray:
@@ -504,7 +569,9 @@ def energy_settle_bound(limits: TorqueLimits, omega0_B, angle0=None, bias_B=None
     control step ``|ω| ≤ L``, so ``s ≤ √λmax L``, and within a step ``s ≤ √λmax L + A dt``.
 
     Reorientation (``angle0`` (N,) rad): ``∫ s dt ≥ √λmin (θ0 − θ_s)``, the fastest s profile
-    is bang-coast-bang in s (:func:`bang_coast_bang_time`). Detumbling (``angle0`` None): s
+    is bang-coast-bang in s (:func:`bang_coast_bang_time`); with wheels its cap is also
+    ``√λmin`` times the rate and momentum caps of :func:`rate_caps_with_wheels` (returned as
+    ``rate_cap``). Detumbling (``angle0`` None): s
     must fall from s0 to √λmax ω_s, so ``T ≥ (s0 − √λmax ω_s)/A``. omega0_B (N, 3) rad/s,
     bias_B (N, 3) N·m or None. Returns ``continuous`` and ``sampled`` (N,) s (rounded up to a
     control step) and ``accel`` (N,) (A, in the units of s per second).
@@ -516,14 +583,56 @@ def energy_settle_bound(limits: TorqueLimits, omega0_B, angle0=None, bias_B=None
     accel = lim.rate_gain_control + (lim.torque_ext + np.linalg.norm(bias, axis=-1)) \
         / math.sqrt(lim.inertia_min)
     s_end = math.sqrt(lim.inertia_max) * lim.success_rate
+    out = {}
     if angle0 is None:
         t = np.maximum(s0 - s_end, 0.0) / accel
     else:
         cap = math.sqrt(lim.inertia_max) * lim.rate_limit + accel * lim.control_dt
         dist = math.sqrt(lim.inertia_min) * (np.asarray(angle0, float) - lim.success_angle)
-        t = bang_coast_bang_time(dist, np.minimum(s0, cap), s_end, accel, cap)
+        if lim.wheels is not None:  # in |ω| units (÷√λmin), capped by rate and momentum
+            caps = rate_caps_with_wheels(lim, w0, bias, accel)
+            out["rate_cap"] = caps
+            cap = np.minimum(cap, math.sqrt(lim.inertia_min) * caps["cap"])
+        t = bang_coast_bang_time(dist, np.minimum(s0, cap), np.minimum(s_end, cap), accel, cap)
     dt = lim.control_dt
-    return {"continuous": t, "sampled": np.ceil(t / dt - 1e-9) * dt, "accel": accel}
+    return {"continuous": t, "sampled": np.ceil(t / dt - 1e-9) * dt, "accel": accel, **out}
+
+
+def rate_caps_with_wheels(limits: TorqueLimits, omega0_B, bias_B, accel) -> dict:
+    """Bounds on ``|ω(t)|`` over a successful reorientation with wheels, rad/s, (N,) each.
+
+    ``energy``: √(λmax/λmin) L + A dt/√λmin (the energy cap of :func:`energy_settle_bound`).
+    ``rate``: L + ½ dt·a_max: |ω| ≤ L at the control steps on either side of t and
+    ``|ω̇| ≤ a_max = A/√λmin + g``, g bounding the gyroscopic ``|I⁻¹ ω × (Iω + Gh)|`` at
+    ``|ω| ≤ V`` (the energy cap): the smaller of ``V|H|max/λmin`` (``Iω + Gh`` is H_B, |H_B| =
+    |H|) and ``cV² + V max|G h|/λmin``.
+    ``momentum``: ``ω = I⁻¹(H − G h)`` with ``|H| ≤ |H|max`` and ``|h_i| ≤ J_i(Ω̄_i + L)``:
+    ``|H|max/λmin + max over signs |I⁻¹ G diag(h_max) σ|``. ``momentum_max``: |H|max, N·m·s,
+    ``|I_whole ω0| + max |G J Ω0|`` plus the largest external and thruster/rod torque times
+    the latest settle time. ``cap``: the smallest of the three. docs/bounds.md proves each.
+    """
+    lim, wh = limits, limits.wheels
+    w0 = np.atleast_2d(np.asarray(omega0_B, float))
+    lam_min, dt, L = lim.inertia_min, lim.control_dt, lim.rate_limit
+    sign_box = 1.0 - 2.0 * ((np.arange(2 ** len(wh.inertia))[:, None]
+                             >> np.arange(len(wh.inertia))) & 1)  # (2^n, n)
+    GJ0 = wh.axes_B.T * (wh.inertia * wh.speed0)  # (3, n): G J Ω0,max
+    h0 = np.linalg.norm(w0 @ wh.inertia_whole_B.T, axis=-1) \
+        + float(np.linalg.norm(sign_box @ GJ0.T, axis=1).max())
+    torque_h = (lim.torque_ext + wh.torque_other
+                + np.linalg.norm(np.atleast_2d(bias_B), axis=-1))  # |dH/dt| ≤ this
+    h_max = h0 + torque_h * lim.settle_time_max
+    energy = math.sqrt(lim.inertia_max / lam_min) * L + accel * dt / math.sqrt(lam_min)
+    Gh = wh.axes_B.T * (wh.inertia * (wh.speed_bound + L))  # (3, n): G diag(h_max)
+    gyro = np.minimum(energy * h_max / lam_min,
+                      wh.gyro_coeff * energy ** 2
+                      + energy * float(np.linalg.norm(sign_box @ Gh.T, axis=1).max()) / lam_min)
+    rate = L + 0.5 * dt * (accel / math.sqrt(lam_min) + gyro)
+    inv = np.linalg.inv(lim.inertia_B)
+    stored = float(np.linalg.norm(sign_box @ (inv @ Gh).T, axis=1).max())
+    momentum = h_max / lam_min + stored
+    return {"energy": energy, "rate": rate, "momentum": momentum, "momentum_max": h_max,
+            "cap": np.minimum(np.minimum(energy, rate), momentum)}
 
 
 def detumble_fuel_bound(limits: SceneLimits, omega0_B, bias_B=None, time_s=None,

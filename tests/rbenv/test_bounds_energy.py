@@ -121,3 +121,93 @@ def test_the_field_bound_is_the_dipoles_largest_magnitude():
     B = (R_REF / orbit.radius) ** 3 * (3 * (r @ m)[:, None] * r - m)
     mags = np.linalg.norm(B, axis=1)
     assert mags.max() <= top and mags.max() > 0.98 * top
+
+
+# ------------------------------------------------------------ the wheels' rate and momentum caps
+
+@pytest.mark.parametrize("scene", ["cubesat-6u-rw", "cubesat-12u-rw"])
+def test_the_momentum_caps_premises_hold_in_the_simulator(scene):
+    """Wheel commands held for random spells of 1-10 steps (z at 0.3 of full torque, which keeps
+    cubesat-6u-rw's minor axis longer below the rate limit), the other actuators idle (so the
+    wheels-only limits apply), up to 150 steps: at every control step |H| stays within |H|max
+    at that time, every rotor's |h_i| within J_i(Ω̄_i + L), and |ω| within the momentum cap."""
+    env = gym.make(rbenv.ENV_ID, scene=scene)
+    base = env.unwrapped
+    plant = base.plant
+    lim = rb.torque_limits(plant.scene, used=("wheels",))
+    wh = lim.wheels
+    env.reset(seed=11)
+    st = base._st
+    w0 = np.array(st.omega_B, float).ravel()
+    bias = np.zeros(3) if st.bias is None else np.array(st.bias, float).ravel()
+    caps = rb.rate_caps_with_wheels(lim, w0[None], bias[None],
+                                    rb.energy_settle_bound(lim, w0[None], np.array([1.0]),
+                                                           bias[None])["accel"])
+    h0 = caps["momentum_max"][0] - (lim.torque_ext + wh.torque_other + np.linalg.norm(bias)) \
+        * lim.settle_time_max
+    rate_h = lim.torque_ext + wh.torque_other + np.linalg.norm(bias)
+    rng = np.random.default_rng(4)
+    a = np.zeros(env.action_space.shape, np.float32)
+    worst = {"H": 0.0, "h": 0.0, "w": 0.0}
+    hold = 0
+    for k in range(1, 151):
+        if hold == 0:
+            a[:3] = rng.choice([-1.0, -0.3, 0.3, 1.0], size=3) * np.array([1.0, 1.0, 0.3])
+            hold = int(rng.integers(1, 11))
+        hold -= 1
+        _, _, term, _, _ = env.step(a)
+        st = base._st
+        w = np.array(st.omega_B, float).ravel()
+        h = wh.inertia * (np.array(st.wheel_speed, float).ravel() + wh.axes_B @ w)
+        H = lim.inertia_B @ w + wh.axes_B.T @ h
+        worst["H"] = max(worst["H"], np.linalg.norm(H) / (h0 + rate_h * k * lim.control_dt))
+        h_top = wh.inertia * (wh.speed_bound + lim.rate_limit)
+        worst["h"] = max(worst["h"], float(np.max(np.abs(h) / h_top)))
+        worst["w"] = max(worst["w"], np.linalg.norm(w) / caps["momentum"][0])
+        if term:  # past the rate limit: the episode (and the caps' premise) ends
+            break
+    assert all(0.0 < v <= 1.0 for v in worst.values()), worst
+    assert worst["h"] > 0.8  # a rotor did reach its speed limit
+
+
+@pytest.mark.parametrize("scene", ["cubesat-6u-rw", "cubesat-12u-rw"])
+def test_the_wheel_caps_only_tighten_the_energy_bound(scene):
+    """On 300 episodes the wheel bound is never below the energy bound without the caps, and
+    on cubesat-6u-rw (no thrusters) the rate cap raises its median by 3 s (11.5 → 14.5 s)."""
+    import dataclasses
+
+    lim = rb.torque_limits(scene)
+    st = rb.episode_starts(300, 1_000_000, scene, env_id=rbenv.ENV_ID)
+    new = rb.energy_settle_bound(lim, st["omega_B"], st["angle"], st["bias_B"])
+    old = rb.energy_settle_bound(dataclasses.replace(lim, wheels=None), st["omega_B"],
+                                 st["angle"], st["bias_B"])
+    assert (new["continuous"] >= old["continuous"] - 1e-12).all()
+    assert (new["rate_cap"]["cap"] <= new["rate_cap"]["energy"]).all()
+    if scene == "cubesat-6u-rw":
+        assert np.median(new["sampled"]) - np.median(old["sampled"]) == pytest.approx(3.0)
+
+
+def test_wheels_alone_the_momentum_cap_binds_on_cubesat_12u_rw():
+    """Without the thrusters |H| stays near its start, and the three RWP015 (15 mN·m·s) cap
+    the rate below the rate limit: the wheels-only bound is the larger, by the cap."""
+    st = rb.episode_starts(50, 1_000_000, "cubesat-12u-rw", env_id=rbenv.ENV_ID)
+    alone = rb.energy_settle_bound(rb.torque_limits("cubesat-12u-rw", used=("wheels",)),
+                                   st["omega_B"], st["angle"], st["bias_B"])
+    every = rb.energy_settle_bound(rb.torque_limits("cubesat-12u-rw"), st["omega_B"],
+                                   st["angle"], st["bias_B"])
+    caps = alone["rate_cap"]
+    assert (caps["cap"] == caps["momentum"]).all() and (caps["momentum"] < 0.1745).all()
+    assert (alone["sampled"] >= every["sampled"]).all()
+    assert np.median(alone["sampled"]) > 1.5 * np.median(every["sampled"])
+
+
+def test_thruster_scenes_have_no_wheel_caps():
+    lim = rb.torque_limits("cubesat-12u")
+    assert lim.wheels is None
+    out = rb.energy_settle_bound(lim, np.zeros((1, 3)), np.array([2.0]))
+    assert "rate_cap" not in out
+
+
+def test_a_bad_actuator_set_is_named():
+    with pytest.raises(rbenv.core.errors.InvalidParameterError, match=r"used=\['rods'\]"):
+        rb.torque_limits("cubesat-6u-rw", used=("rods",))
