@@ -5,7 +5,8 @@
     python -m benchmarks.bounds --v1 [--suite DIR] [--run NAME=RUN_FOLDER ...]
 
 On the default scene (cubesat-12u) and the held-out episodes ``seed + i``, computes for each
-episode the lower bounds of :mod:`rbenv.envs.bounds` (settle time; propellant for any successful
+episode the lower bounds of :mod:`rbenv.agents.baselines.bounds` (settle time; propellant
+for any successful
 policy; propellant given the policy's own settle time), evaluates the PD and bang-bang
 baselines and the suite's three PPO policies (``benchmarks/results/suite/cells/
 ppo-reorient-cubesat-12u-seed{0,1,2}``, each as the suite evaluates it: the checkpoint the
@@ -130,10 +131,9 @@ def quartiles(x) -> dict:
 def ratios(result, bounds: dict, limits) -> dict:
     """Per-episode achieved / bound for one EvalResult, successful episodes only (the ratios
     of :func:`rbenv.agents.policies.optimality.ratios`, which every evaluation reports)."""
+    from rbenv.agents.baselines.bounds import fuel_bound
     from rbenv.agents.policies.optimality import EpisodeBounds
     from rbenv.agents.policies.optimality import ratios as per_episode
-
-    from rbenv.envs.bounds import fuel_bound
 
     def fuel_at(t):  # propellant needed to settle by t (valid for each episode)
         return fuel_bound(limits, bounds["angle"], bounds["omega_B"], bounds["bias_B"],
@@ -164,9 +164,8 @@ def spot_checks(seed: int, count: int, maxiter: int, quick: bool,
     propellant settling by the last admissible step, throttles held 2 s, warm-started from the
     PD's throttles (skipped with --quick).
     """
+    from rbenv.agents.baselines import bounds as rb
     from rbenv.agents.baselines import optimal
-
-    from rbenv.envs import bounds as rb
 
     limits = rb.scene_limits(SCENE)
     starts = rb.episode_starts(candidates, seed, SCENE)
@@ -314,10 +313,9 @@ def plot(data: dict, per_episode: dict, path: Path) -> Path:
 def run(episodes: int, seed: int, ppo_seeds, optimal_count: int, maxiter: int,
         quick: bool = False, env_id: str = V0, suite: Path | None = None,
         runs: dict[str, Path] | None = None) -> tuple[dict, dict]:
+    from rbenv.agents.baselines import bounds as rb
     from rbenv.agents.policies.evaluate import evaluate
     from rbenv.agents.training.sb3 import set_threads
-
-    from rbenv.envs import bounds as rb
 
     set_threads(1)
     limits = rb.scene_limits(SCENE)

@@ -7,7 +7,8 @@ For each case, a few seeded episodes (the quartiles of the initial angle, or of 
 rate for detumbling, among ``--candidates`` episodes from ``--seed``) get open-loop commands
 optimised by :mod:`rbenv.agents.baselines.open_loop` (SciPy SLSQP) and replayed in the env
 itself; the env's settle time and propellant are what count. Each is set beside the bounds of
-:mod:`rbenv.envs.bounds` for that episode; a bound above an achieved value is a bug and is
+:mod:`rbenv.agents.baselines.bounds` for that episode; a bound above an achieved value is a
+bug and is
 counted in ``violations``.
 
 * ``reorient-wheels`` on cubesat-6u-rw and cubesat-12u-rw (Reorient, the default id): the
@@ -83,10 +84,9 @@ def run_case(name: str, case: dict, seed: int, count: int, candidates: int, maxi
              quick: bool) -> list[dict]:
     """The rows of one case: per picked episode, its bounds, the PD and the optimised
     trajectories as the env replays them."""
+    from rbenv.agents.baselines import bounds as rb
     from rbenv.agents.baselines import open_loop as ol
     from rbenv.agents.policies.optimality import episode_bounds
-
-    from rbenv.envs import bounds as rb
 
     env_id, scene, actuator = case["env_id"], case["scene"], case["actuator"]
     starts = rb.episode_starts(candidates, seed, scene, env_id=env_id)
@@ -175,7 +175,8 @@ def markdown(data: dict) -> str:
     lines = [
         "Optimised open-loop trajectories (SciPy SLSQP, `rbenv.agents.baselines.open_loop`), "
         "replayed in the env on the same seeded episodes, beside the lower bounds of "
-        "`rbenv.envs.bounds`. Settle bound: the one every evaluation reports (any actuator of "
+        "`rbenv.agents.baselines.bounds`. Settle bound: the one every evaluation reports "
+        "(any actuator of "
         "the scene); own actuator: the bound for the optimised actuator alone. A bound above an "
         "achieved value would be a bug: "
         f"{data['violation_count']} found.", "",

@@ -1,8 +1,9 @@
 """Optimised open-loop commands for reaction-wheel reorientation and for detumbling (SciPy).
 
 The sibling of :mod:`rbenv.agents.baselines.optimal` (thruster reorientation) for the cases the
-energy-rate bounds cover (:func:`rbenv.envs.bounds.energy_settle_bound`,
-:func:`rbenv.envs.bounds.detumble_fuel_bound`): one seeded episode, commands through *one*
+energy-rate bounds cover (:func:`rbenv.agents.baselines.bounds.energy_settle_bound`,
+:func:`rbenv.agents.baselines.bounds.detumble_fuel_bound`): one seeded episode, commands
+through *one*
 actuator group (``"wheels"``: motor torques as fractions of u_max in [-1, 1]; ``"thrusters"``:
 throttles in [0, 1]), every other actuator idle. Direct single shooting, as there:
 

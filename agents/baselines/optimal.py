@@ -10,7 +10,8 @@ independently of :mod:`core`), and SciPy's SLSQP minimises the propellant subjec
 Gradients are forward differences, all perturbed sequences integrated in one NumPy batch. A
 solution is *achievable*, never a bound: :func:`replay` runs it in the env itself on the same
 seeded episode and reads the env's success, settle time and propellant. Used by
-``benchmarks/bounds.py`` to check that the lower bounds of :mod:`rbenv.envs.bounds` lie below a
+``benchmarks/bounds.py`` to check that the lower bounds of
+:mod:`rbenv.agents.baselines.bounds` lie below a
 trajectory optimised for that episode, and to show how much room the bounds leave.
 """
 
@@ -21,11 +22,11 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.baselines.bounds import episode_starts
 from rbenv.agents.baselines.controllers import baseline
 from scipy.optimize import minimize
 
 import rbenv
-from rbenv.envs.bounds import episode_starts
 from rbenv.satellite.scene import Scene, load_scene
 
 __all__ = ["Problem", "Solution", "fuel_optimal", "replay", "solve", "time_optimal"]

@@ -1,15 +1,16 @@
 """How far an evaluated policy is from the limit: its settle time and propellant as ratios to
-per-episode lower bounds (:mod:`rbenv.envs.bounds`, derived in docs/bounds.md).
+per-episode lower bounds (:mod:`rbenv.agents.baselines.bounds`, derived in docs/bounds.md).
 
 A ratio of 1 would be perfect and no policy goes below it. Which bounds hold where:
 
 * reorientation with thrusters alone, no orbit torques: the settle time and propellant bounds
   of docs/bounds.md (the rate-based settle bound, the weighted-rate propellant bound);
 * reorientation with any other actuators (wheels, rods, thrusters beside them), orbit torques
-  included: the energy-rate settle bound (:func:`rbenv.envs.bounds.energy_settle_bound`), no
+  included: the energy-rate settle bound
+  (:func:`rbenv.agents.baselines.bounds.energy_settle_bound`), no
   propellant bound (wheels and rods spend none; thrusters beside them share the torque);
 * detumbling, any actuators: the energy-rate settle bound; with thrusters alone and no orbit
-  torques also the propellant bound (:func:`rbenv.envs.bounds.detumble_fuel_bound`);
+  torques also the propellant bound (:func:`rbenv.agents.baselines.bounds.detumble_fuel_bound`);
 * nowhere else (tracking, unloading, a randomized model, per-step disturbance noise, drag or
   solar pressure): :func:`episode_bounds` returns the reason, and the evaluation says it.
 
@@ -28,8 +29,8 @@ from functools import lru_cache
 
 import gymnasium as gym
 import numpy as np
+from rbenv.agents.baselines import bounds as rb
 
-from rbenv.envs import bounds as rb
 from rbenv.satellite.scene import Scene
 
 __all__ = ["EpisodeBounds", "episode_bounds", "ratios", "summary", "why_undefined"]

@@ -40,7 +40,7 @@ def test_v1_quick_compares_on_v0_episodes_and_writes_its_own_table(tmp_path):
 
 
 def test_v1_refuses_episodes_that_differ_from_v0s():
-    from rbenv.envs import bounds as rb
+    from rbenv.agents.baselines import bounds as rb
 
     v0 = rb.episode_starts(3, 7, bench.SCENE)
     bench.check_same_episodes(v0, rb.episode_starts(3, 7, bench.SCENE, env_id=bench.V1),

@@ -145,7 +145,8 @@ def test_evaluate_runs_it_on_a_vector_env():
 
 
 def test_on_wheels_it_stays_above_the_energy_rate_bound():
-    """The wheel scenes' settle bound (rbenv.envs.bounds.energy_settle_bound) held against
+    """The wheel scenes' settle bound (rbenv.agents.baselines.bounds.energy_settle_bound) held
+    against
     the MPC, the fastest controller rbenv has for wheels."""
     result = evaluate("mpc", episodes=4, seed=1000000, record=0, scene="cubesat-6u-rw")
     assert result.success.all()

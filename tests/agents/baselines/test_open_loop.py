@@ -1,17 +1,18 @@
 """rbenv.agents.baselines.open_loop: its own dynamics reproduce the env's for the same commands,
-and what it optimises, replayed in the env, never beats a lower bound of rbenv.envs.bounds."""
+and what it optimises, replayed in the env, never beats a lower bound of
+rbenv.agents.baselines.bounds."""
 
 from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents.baselines import bounds as rb
 from rbenv.agents.baselines import open_loop as ol
 from rbenv.agents.policies.optimality import episode_bounds
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.envs import bounds as rb
 
 
 def _env_trajectory(ep: ol.Episode, commands: np.ndarray) -> dict:

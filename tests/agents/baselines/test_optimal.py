@@ -1,6 +1,6 @@
 """The trajectory optimiser (rbenv.agents.baselines.optimal): its own rollout matches the env, and
 the trajectories it optimises, replayed in the env, never beat the lower bounds of
-rbenv.envs.bounds."""
+rbenv.agents.baselines.bounds."""
 
 from __future__ import annotations
 
@@ -8,9 +8,8 @@ import math
 
 import numpy as np
 import pytest
+from rbenv.agents.baselines import bounds as rb
 from rbenv.agents.baselines import optimal
-
-from rbenv.envs import bounds as rb
 
 SEED = 1_000_000  # the first held-out episode (as tests/rbenv/test_bounds.py)
 

@@ -7,12 +7,12 @@ import json
 
 import numpy as np
 import pytest
+from rbenv.agents.baselines import bounds as rb
 from rbenv.agents.cli import main
 from rbenv.agents.policies import optimality
 from rbenv.agents.policies.evaluate import evaluate, format_table
 
 import rbenv
-from rbenv.envs import bounds as rb
 
 SEED = 1_000_000
 
@@ -33,7 +33,8 @@ def test_no_policy_beats_a_bound(pd_and_bangbang):
 
 
 def test_ratios_equal_the_bounds_computed_directly(pd_and_bangbang):
-    """The same episodes' bounds from rbenv.envs.bounds, by hand, give the same ratios."""
+    """The same episodes' bounds from rbenv.agents.baselines.bounds, by hand, give the same
+    ratios."""
     limits = rb.scene_limits("cubesat-12u")
     starts = rb.episode_starts(24, SEED, env_id=rbenv.ENV_ID)
     settle = rb.settle_time_bound(limits, starts["angle"], starts["omega_B"],

@@ -1,5 +1,6 @@
 """The energy-rate settle bounds (wheels, rods, detumbling) and the detumble propellant bound
-of rbenv.envs.bounds: the premise checked on the simulator, closed forms, and no scripted
+of rbenv.agents.baselines.bounds: the premise checked on the simulator, closed forms, and no
+scripted
 controller beating a bound on seeded episodes."""
 
 from __future__ import annotations
@@ -9,9 +10,9 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from rbenv.agents.baselines import bounds as rb
 
 import rbenv
-from rbenv.envs import bounds as rb
 from rbenv.satellite.scene import load_scene
 
 

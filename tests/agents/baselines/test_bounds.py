@@ -1,4 +1,5 @@
-"""Lower bounds on settle time and propellant (rbenv.envs.bounds), checked against closed forms,
+"""Lower bounds on settle time and propellant (rbenv.agents.baselines.bounds), checked against
+closed forms,
 independent numerics (quadrature, an ODE solver, linprog) and the scripted controllers on 200
 episodes. Optimised trajectories against the bounds: tests/agents/baselines/test_optimal.py;
 the benchmark: tests/benchmarks/test_bounds_benchmark.py."""
@@ -9,10 +10,10 @@ import math
 
 import numpy as np
 import pytest
+from rbenv.agents.baselines import bounds as rb
 from rbenv.core.errors import InvalidParameterError
 from scipy.integrate import quad, solve_ivp
 
-from rbenv.envs import bounds as rb
 from rbenv.satellite.scene import load_scene
 
 SEED = 1_000_000

@@ -28,9 +28,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from rbenv.core.errors import InvalidParameterError
 from scipy.optimize import linprog
 
-from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.actuators.thrusters import G0
 from rbenv.satellite.scene import Scene, load_scene
 
