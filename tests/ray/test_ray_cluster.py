@@ -109,9 +109,11 @@ def test_sweep_on_two_node_cluster(raytools, two_hosts, tmp_path):
         suite = json.loads((out / "suite.json").read_text())
         placement = json.loads((out / "tune_placement.json").read_text())
         assert suite["missing"] == []
-        assert len(suite["cells"]) == 2 and {c["task"] for c in suite["cells"]} == {
-            "detumble", "reorient"}
-        assert all(c["policy"]["episodes"] == 4 for c in suite["cells"])
+        # suite.json names the cells; each cell's figures are in cells/<name>/result.json.
+        cells = [json.loads((out / "cells" / name / "result.json").read_text())
+                 for name in suite["cells"]]
+        assert len(cells) == 2 and {c["task"] for c in cells} == {"detumble", "reorient"}
+        assert all(c["policy"]["episodes"] == 4 for c in cells)
         assert {p["node_ip"] for p in placement.values()} == {HEAD_IP, WORKER_IP}
     finally:
         for node in reversed(nodes):
