@@ -24,6 +24,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.baselines.bounds import episode_starts
 from rbenv.agents.baselines.controllers import baseline
+from rbenv.agents.baselines.open_loop import _expand, _qmul, _resample
 from scipy.optimize import minimize
 
 import rbenv
@@ -88,15 +89,6 @@ class Problem:
         return (e[..., 1:] ** 2).sum(axis=-1)
 
 
-def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack([pw * qw - px * qx - py * qy - pz * qz,
-                     pw * qx + px * qw + py * qz - pz * qy,
-                     pw * qy - px * qz + py * qw + pz * qx,
-                     pw * qz + px * qy - py * qx + pz * qw], axis=-1)
-
-
 def _derivative(q, w, tau, inertia, inv):
     """q̇ = ½ q ⊗ (0, ω_B), ω̇_B = I⁻¹(τ − ω × Iω)."""
     zero = np.zeros((*q.shape[:-1], 1))
@@ -127,13 +119,6 @@ class Solution:
     iterations: int
 
 
-def _expand(x: np.ndarray, n: int, steps: int, block: int) -> np.ndarray:
-    """Block throttles (..., nb·n) → per-step throttles (..., steps, n)."""
-    nb = -(-steps // block)
-    u = x.reshape((*x.shape[:-1], nb, n))
-    return np.repeat(u, block, axis=-2)[..., :steps, :]
-
-
 def solve(problem: Problem, settle_step: int, *, block: int = 1, guess=None,
           stretch: bool = False, maxiter: int = 150) -> Solution:
     """Least-propellant throttles that settle at control step ``settle_step`` and hold.
@@ -154,7 +139,7 @@ def solve(problem: Problem, settle_step: int, *, block: int = 1, guess=None,
     else:
         guess = np.asarray(guess, float)
         factor = (len(guess) / steps) ** 2 if stretch else 1.0
-        x0 = np.clip(factor * _resample(guess, nb, block), 0.0, 1.0)
+        x0 = np.clip(factor * _resample(guess, nb, 0.0), 0.0, 1.0)
     force = np.asarray(sc.thrusters.max_force, float)
     cost = np.tile(force, nb) * block * problem.dt / (force.sum() * problem.dt)
     rate2 = (_RATE_MARGIN * ep.rate_limit) ** 2
@@ -192,17 +177,6 @@ def solve(problem: Problem, settle_step: int, *, block: int = 1, guess=None,
     return Solution(throttles=_expand(x, n, steps, block), settle_step=settle_step,
                     converged=bool(res.success), feasible=bool(g.min() >= -_FEAS_TOL),
                     message=str(res.message), iterations=int(res.nit))
-
-
-def _resample(U: np.ndarray, nb: int, block: int) -> np.ndarray:
-    """Per-step throttles (N', n) → block throttles (nb·n,) by averaging over time-scaled bins."""
-    N = U.shape[0]
-    edges = np.linspace(0, N, nb + 1)
-    out = np.empty((nb, U.shape[1]))
-    for i in range(nb):
-        lo, hi = int(edges[i]), max(math.ceil(edges[i + 1]), int(edges[i]) + 1)
-        out[i] = U[lo:min(hi, N)].mean(axis=0)
-    return np.clip(out, 0.0, 1.0).ravel()
 
 
 def time_optimal(problem: Problem, feasible_step: int, guess, infeasible_step: int = 0, *,
