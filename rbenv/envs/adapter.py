@@ -108,8 +108,8 @@ class TaskAdapter:
     :class:`rbenv.envs.vector_env.AttitudeVectorEnv`, :class:`rbenv.envs.torch_env.TorchVectorEnv`).
 
     A shipped id's class names its entry in ``task_spec`` and carries its documentation; the
-    generic classes take the entry as the ``task`` option (``gym.make``
-    passes it for an id registered without classes of its own).
+    generic classes take the entry as the ``task`` option (``gym.make`` passes it for an id
+    registered without classes of its own).
     """
 
     task_spec: ClassVar[TaskSpec | None] = None

@@ -120,8 +120,8 @@ def _check_classes(entry: _Entry) -> None:
         if cls is None or cls is base:
             continue
         if not (isinstance(cls, type) and issubclass(cls, base)):
-            raise InvalidParameterError(f"{where}: {name} must be a {base.__name__} subclass, "
-                                        f"got {cls!r}")
+            raise InvalidParameterError(f"{where}: {name} must be a subclass of "
+                                        f"{base.__name__}, got {cls!r}")
         if cls.task_spec != entry.spec:
             raise InvalidParameterError(
                 f"{where}: {name} {cls.__name__} runs {cls.task_spec!r}, not this entry: set "

@@ -66,7 +66,8 @@ def test_a_class_that_runs_another_entry_is_refused_by_name(copy_id):
     with pytest.raises(InvalidParameterError,
                        match=r"env SatelliteReorientV1Env runs .*task_spec"):
         registry.register(copy_id, env=single_env.SatelliteReorientV1Env)
-    with pytest.raises(InvalidParameterError, match="vector_env must be a AttitudeVectorEnv"):
+    with pytest.raises(InvalidParameterError,
+                       match="vector_env must be a subclass of AttitudeVectorEnv"):
         registry.register(copy_id, vector_env=single_env.AttitudeEnv)
     assert COPY_ID not in gym.registry
 
