@@ -28,6 +28,7 @@ from pathlib import Path
 
 from rbenv.agents.flight import commands as flight
 from rbenv.agents.policies import compiled, runfolder
+from rbenv.agents.policies.envcheck import check_env_options
 from rbenv.agents.policies.evaluate import (
     check_policy,
     evaluate,
@@ -56,7 +57,6 @@ from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv.envs import registry
 from rbenv.satellite import usage
 
 BENCH_OUT = "bench-results"
@@ -314,7 +314,7 @@ def _check_evaluate(args) -> None:
         options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}
     if args.scene is not None:
         options["scene"] = args.scene
-    registry.check_env_options(env_id, options)
+    check_env_options(env_id, options)
     check_policy(args.policy, env_id, options)  # a baseline the scene cannot run: where it can
     for name in ("json", "plot", "video"):
         path = getattr(args, name)

@@ -17,12 +17,12 @@ from typing import ClassVar, Literal, TypeVar
 
 from rbenv.agents import settings
 from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.envcheck import check_env_options
 from rbenv.agents.policies.runfolder import RunFolderError
 from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.envs.registry import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
 # The periodic evaluation where neither the caller nor the task's run defaults set it.
