@@ -378,7 +378,7 @@ class TorchRLSession(TorchRLOptions):
     def report(self, out: Path, cfg: TorchRLRunConfig, summary: dict) -> Path:
         return write_report(out, cfg, summary, Trained(
             SB3Policy(out), name="ppo (TorchRL)", title=f"PPO (TorchRL) on `{cfg.scene}`",
-            setup=f"{cfg.hyperparams['num_envs']} envs on {summary.get('device', self.device)}",
+            setup=f"{cfg.hyperparams['n_envs']} envs on {summary.get('device', self.device)}",
             load=f"`rbenv.agents.policies.load_policy({str(out)!r})`: an SB3 PPO policy with "
                  "the observation normalisation (`obs_stats.npz`) that the bare weights lack"))
 

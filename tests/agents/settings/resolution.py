@@ -4,7 +4,8 @@
 ``RLlibConfig``, ``TorchRLRunConfig``) with only the combination given and calls
 ``.resolve()``, as ``rbenv train`` does, and adds the learning suite's budget and RL Zoo's
 table, so that a change of the settings' shape can be checked to keep every number.
-``python -m tests.agents.settings.resolution OUT.json`` writes the dump.
+``python -m tests.agents.settings.resolution OUT.json`` writes the dump
+(data/resolution_8ef0698.json is main's, before the recipes).
 """
 
 from __future__ import annotations
