@@ -13,7 +13,7 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar, Literal, TypeVar
+from typing import ClassVar, Literal, TypeVar, get_args
 
 from rbenv.agents import settings
 from rbenv.agents.policies import runfolder
@@ -344,47 +344,51 @@ class SBXConfig(TrainConfig):
         return super().resolve()
 
 
+ENGINES: tuple[str, ...] = get_args(Engine)
+
+
 @dataclass(frozen=True)
 class SessionOptions:
-    """How one training session runs, whatever the back end; not saved with the run."""
+    """How one training session runs, for every back end; not saved with the run (a run
+    trained on one device or cluster may resume on another). Each field's docstring says which
+    engines read it (:attr:`READ_BY`); ``rbenv train`` refuses a field its engine does not
+    read."""
+
+    # field -> the engines that read it (the rest ignore it).
+    READ_BY: ClassVar[dict[str, tuple[str, ...]]] = {
+        "progress": ENGINES, "trust_pickle": ENGINES, "tensorboard": ("sb3", "sbx"),
+        "verbose": ("sb3", "sbx"), "address": ("rllib",), "device": ("torchrl",),
+        "quick": ("torchrl",)}
 
     progress: bool = True
-    """Show training progress (a bar for sb3, a line per iteration for rllib)."""
+    """Show training progress (a bar for sb3, a line per iteration for rllib and torchrl).
+    Every engine."""
     trust_pickle: bool = False
     """Let --resume unpickle a run folder written before rbenv's pickle-free format, or an RLlib
     run's checkpoints. Unpickling runs any code in the files: only for folders from a source
-    you trust."""
-
-
-@dataclass(frozen=True)
-class SB3Options(SessionOptions):
-    """How one Stable-Baselines3 training session runs."""
-
+    you trust. Every engine."""
     tensorboard: str | None = None
-    """Also log training to TensorBoard under this folder (DIR/RUN_NAME)."""
+    """Also log training to TensorBoard under this folder (DIR/RUN_NAME). sb3 and sbx."""
     verbose: int = 0
-    """Stable-Baselines3's own logging: 0 (none), 1 or 2."""
-
-
-@dataclass(frozen=True)
-class RLlibOptions(SessionOptions):
-    """How one RLlib training session runs."""
-
+    """Stable-Baselines3's own logging: 0 (none), 1 or 2. sb3 and sbx."""
     address: str | None = None
     """A running Ray cluster: 'auto' (started on this machine with ray start) or HOST:PORT of
-    its head; unset: a private Ray instance on 127.0.0.1."""
-
-
-@dataclass(frozen=True)
-class TorchRLOptions(SessionOptions):
-    """How one TorchRL training session runs (``--engine torchrl``); not saved with the run,
-    so a run trained on one device may resume on another."""
-
+    its head; unset: a private Ray instance on 127.0.0.1. rllib."""
     device: str = "cpu"
-    """The torch device of env and learner (cpu, cuda, cuda:1, ...)."""
+    """The torch device of env and learner (cpu, cuda, cuda:1, ...). torchrl."""
     quick: bool = False
     """A smoke run (CI's form): 16384 timesteps unless --timesteps is given, and 50 episodes
-    for the report; not with --resume."""
+    for the report; not with --resume. torchrl."""
+
+    @classmethod
+    def read_by(cls, engine: str) -> tuple[str, ...]:
+        """The fields ``engine`` reads."""
+        return tuple(name for name, engines in cls.READ_BY.items() if engine in engines)
+
+    @classmethod
+    def ignored_by(cls, engine: str) -> tuple[str, ...]:
+        """The fields ``engine`` does not read."""
+        return tuple(name for name in cls.READ_BY if name not in cls.read_by(engine))
 
 
 # A TorchRL learner field (TorchRLConfig) → the recipe key it is read from (RL Zoo's name).

@@ -38,8 +38,8 @@ from rbenv.agents.settings import rllib as _rllib
 from rbenv.agents.training import engine, flags
 from rbenv.agents.training.config import (
     Engine,
-    RLlibOptions,
     RunConfig,
+    SessionOptions,
     apply_run_defaults,
     shipped_settings,
 )
@@ -187,7 +187,7 @@ def rollout(policy, cfg: RLlibConfig, episodes: int, seed: int) -> dict:
 # --- the back end --------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class RLlibSession(RLlibOptions):
+class RLlibSession(SessionOptions):
     """The RLlib back end (:class:`rbenv.agents.training.engine.Backend`) with the options of
     one training session."""
 
@@ -335,7 +335,7 @@ def main(argv: list[str] | None = None) -> Path:
     p = argparse.ArgumentParser(prog="python -m rbenv.agents.training.rllib",
                                 description=__doc__.split("\n")[0])
     flags.add_fields(p, RLlibConfig, skip=("engine",))
-    flags.add_fields(p, RLlibSession)
+    flags.add_fields(p, RLlibSession, skip=RLlibSession.ignored_by("rllib"))
     add_run_arguments(p)
     args = p.parse_args(argv)
     cfg = RLlibConfig(**flags.given(args, RLlibConfig))

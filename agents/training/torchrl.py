@@ -47,7 +47,7 @@ from rbenv.agents.policies import runfolder, weights
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write
 from rbenv.agents.policies.sb3 import SB3Policy
 from rbenv.agents.training import engine
-from rbenv.agents.training.config import TorchRLConfig, TorchRLOptions, TorchRLRunConfig
+from rbenv.agents.training.config import SessionOptions, TorchRLConfig, TorchRLRunConfig
 from rbenv.agents.training.report import Trained, write_report
 from rbenv.core.errors import InvalidParameterError
 from tensordict import TensorDict
@@ -360,7 +360,7 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
 # --- the run-folder engine --------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class TorchRLSession(TorchRLOptions):
+class TorchRLSession(SessionOptions):
     """The TorchRL back end (:class:`rbenv.agents.training.engine.Backend`) with the options of
     one training session (``device``; ``quick`` is applied by the CLI to a new run's config)."""
 
