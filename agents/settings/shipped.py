@@ -44,7 +44,7 @@ REORIENT_V1_PPO = {**REORIENT_V1_PPO_EARLIER, "n_timesteps": 600_000, "gamma": 0
 # sbx-sac-256e-b1024-g16-64; docs/performance.md). TD3 >= 99 % of the 500 held-out
 # episodes first at 200k, 250k and 250k samples (seeds 0-2); SAC at 300k, 450k and 400k.
 # SB3's TD3 with the same settings was at 0 % after 250k (seed 0), so the sb3 engine keeps
-# id_settings' recipe.
+# the general recipe (32 envs).
 REORIENT_V1_SBX = {Recipe("sac", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 600_000},
                    Recipe("td3", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 350_000}}
 

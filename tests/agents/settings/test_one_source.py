@@ -332,3 +332,23 @@ def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
         assert cls(env_id=v1, eval_every=1000).resolve().eval_every == 1000  # the caller's wins
         plain = cls(env_id="rbenv/SatelliteReorient-v0").resolve()
         assert (plain.eval_every, plain.eval_episodes) == (200_000, 100), cls
+
+
+def test_the_packages_docstring_example_runs():
+    """agents/settings/__init__.py's example is valid code: it registers, and the recipe
+    merges as the docstring says."""
+    import textwrap
+
+    doc = settings.__doc__
+    block = doc.split("::\n\n", 1)[1].split("\n\n")
+    code = textwrap.dedent("\n\n".join(b for b in block[:2] if b.startswith("    ")))
+    assert "settings.register(" in code
+    try:
+        exec(compile(code, "agents/settings/__init__.py", "exec"), {})
+        mine = settings.get("myorg/PointSun-v0")
+        assert mine.recipe("ppo")["n_timesteps"] == 500_000
+        assert mine.recipe("ppo", "sb3", "boom-sat")["n_timesteps"] == 2_000_000
+        assert mine.recipe("ppo", "torchrl", "boom-sat")["n_timesteps"] == \
+            tuned.TORCHRL_PPO["n_timesteps"]
+    finally:
+        settings.unregister("myorg/PointSun-v0")
