@@ -1,10 +1,13 @@
-"""What a training run is defined by: :class:`RunConfig`, every back end's fields, and
-:class:`TrainConfig`, the Stable-Baselines3 back end's (``rbenv train``).
+"""What a training run is defined by: :class:`RunConfig`, every back end's fields, and one
+subclass per engine: :class:`TrainConfig` (sb3), :class:`SBXConfig` (sbx),
+:class:`rbenv.agents.training.rllib.RLlibConfig` (rllib) and :class:`TorchRLRunConfig`
+(torchrl); :class:`SessionOptions`, how one session runs, for every engine.
 
-:class:`rbenv.agents.training.rllib.RLlibConfig` and :class:`TorchRLRunConfig` extend
-:class:`RunConfig` likewise. The
-resolved config is saved as the run folder's ``config.json`` and read back by
-:func:`resumed_config`. Nothing here imports SB3, torch or Ray.
+Each config's ``resolve`` fills what the caller left unset from the task's recipe
+(:func:`shipped_settings`, RL Zoo's format) and checks it; :func:`torchrl_fields` is the one
+translation of a recipe to TorchRL's learner (:class:`TorchRLConfig`). The resolved config is
+saved as the run folder's ``config.json`` and read back by :func:`resumed_config`. Nothing
+here imports SB3, torch or Ray.
 """
 
 from __future__ import annotations
