@@ -49,15 +49,17 @@ REORIENT_V1_SBX = {Recipe("sac", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 600_
                    Recipe("td3", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 350_000}}
 
 # Reorient-v1 with rbenv train --engine torchrl (TorchRL's PPO on the torch env): SB3's
-# third-sweep recipe (256 envs x 32 steps, 3 epochs of minibatches of
-# 4096, lr 2e-3, [64, 64], gamma 0.98, log std -0.5). >= 99 % of the 500 held-out episodes
-# first at 803k, 901k and 754k samples (seeds 0-2; benchmarks/time_to_solve.py path
-# torchrl-g0.98-std-0.5-1.2M, docs/performance.md); the learner's own defaults reached 41 %
-# at 800k (seed 0).
-REORIENT_V1_TORCHRL = {"n_envs": 256, "n_steps": 32, "batch_size": 4096, "n_epochs": 3,
-                       "learning_rate": 2e-3, "gamma": 0.98,
-                       "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5},
-                       "n_timesteps": 1_200_000}
+# third-sweep recipe, REORIENT_V1_PPO's (256 envs x 32 steps, 3 epochs of minibatches of
+# 4096, lr 2e-3, [64, 64], gamma 0.98, log std -0.5; TorchRL's networks are tanh anyway), and
+# its own budget. >= 99 % of the 500 held-out episodes first at 803k, 901k and 754k samples
+# (seeds 0-2; benchmarks/time_to_solve.py path torchrl-g0.98-std-0.5-1.2M,
+# docs/performance.md); the learner's own defaults reached 41 % at 800k (seed 0).
+REORIENT_V1_TORCHRL = {
+    **{k: REORIENT_V1_PPO[k] for k in ("n_envs", "n_steps", "batch_size", "n_epochs",
+                                        "learning_rate", "gamma")},
+    "policy_kwargs": {k: REORIENT_V1_PPO["policy_kwargs"][k]
+                      for k in ("net_arch", "log_std_init")},
+    "n_timesteps": 1_200_000}
 
 # Reorient-v2's PPO, the main job (rbenv train with no arguments): Reorient-v1's updates,
 # trained to the budget. Validation (200 episodes from seed 5,000,000, seed 1, 2 M steps) chose
