@@ -72,7 +72,12 @@ def resolve_all() -> dict:
     return out
 
 
+def dumps(table: dict) -> str:
+    """``table`` as JSON, one combination a line (sorted), so a diff names the combination."""
+    lines = [f"{json.dumps(k)}: {json.dumps(v, sort_keys=True)}" for k, v in sorted(table.items())]
+    return "{\n" + ",\n".join(lines) + "\n}\n"
+
+
 if __name__ == "__main__":
     with open(sys.argv[1], "w") as f:
-        json.dump(resolve_all(), f, indent=1, sort_keys=True)
-        f.write("\n")
+        f.write(dumps(resolve_all()))
