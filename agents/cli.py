@@ -43,7 +43,6 @@ from rbenv.agents.training import flags, rllib, suite, tune
 from rbenv.agents.training.config import (
     ENGINES,
     RunConfig,
-    SBXConfig,
     SessionOptions,
     TorchRLRunConfig,
     TrainConfig,
@@ -149,7 +148,7 @@ ENGINE_GROUPS = (
      TorchRLRunConfig),
 )
 # The config class each engine takes its run's fields from.
-ENGINE_CONFIGS = {"sb3": TrainConfig, "sbx": SBXConfig, "rllib": RLlibConfig,
+ENGINE_CONFIGS = {"sb3": TrainConfig, "sbx": TrainConfig, "rllib": RLlibConfig,
                   "torchrl": TorchRLRunConfig}
 
 

@@ -1,6 +1,6 @@
 """What a training run is defined by: :class:`RunConfig`, every back end's fields, and one
-subclass per engine: :class:`TrainConfig` (sb3), :class:`SBXConfig` (sbx),
-:class:`rbenv.agents.training.rllib.RLlibConfig` (rllib) and :class:`TorchRLRunConfig`
+subclass per run folder kind: :class:`TrainConfig` (sb3 and sbx, whose run folders are the
+same), :class:`rbenv.agents.training.rllib.RLlibConfig` (rllib) and :class:`TorchRLRunConfig`
 (torchrl); :class:`SessionOptions`, how one session runs, for every engine.
 
 Each config's ``resolve`` fills what the caller left unset from the task's recipe
@@ -147,10 +147,11 @@ def check_count(name: str, value, minimum: int = 1) -> int:
     return int(value)
 
 
-def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
+def resumed_config(cls: type[C], out: Path, overrides: dict | None = None,
+                   engine: str | None = None) -> C:
     """The saved configuration of the run in ``out``, for that folder, with ``overrides`` (the
     fields of ``cls.RESUME_OVERRIDES`` a caller gave, e.g. a new total of timesteps; None
-    values are ignored).
+    values are ignored). ``engine``: the engine that resumes it (None: ``cls``'s default).
 
     Raises :class:`RunFolderError` if the folder was trained by another back end or its
     config.json does not make a valid ``cls`` (an unknown scene, env option or value among
@@ -158,7 +159,7 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
     """
     out = Path(out)
     saved = runfolder.read_config(out)
-    engine = cls.__dataclass_fields__["engine"].default
+    engine = engine or cls.__dataclass_fields__["engine"].default
     if saved.get("engine", "sb3") != engine:
         raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
                              f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
@@ -240,9 +241,14 @@ def normalize_kwargs(setting) -> dict | None:
     return dict(setting)
 
 
+SBX_ALGOS = ("sac", "td3")
+
+
 @dataclass
 class TrainConfig(RunConfig):
-    """A run of the SB3 back end; saved as ``config.json`` in the run folder."""
+    """A run of the SB3 back end, or of the SBX one (``engine="sbx"``: SAC or TD3 in JAX, the
+    same fields and run folder; its policy files load as SB3 policies); saved as
+    ``config.json`` in the run folder."""
 
     n_envs: int | None = None
     """Envs stepped side by side in one native vector env; unset: the shipped n_envs."""
@@ -281,6 +287,12 @@ class TrainConfig(RunConfig):
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
+        if self.engine not in ("sb3", "sbx"):
+            raise InvalidParameterError(f"engine must be sb3 or sbx for TrainConfig, got "
+                                        f"{self.engine!r}")
+        if self.engine == "sbx" and self.algo not in SBX_ALGOS:
+            raise InvalidParameterError(f"algo must be one of {', '.join(SBX_ALGOS)} for "
+                                        f"--engine sbx, got {self.algo!r}")
         shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
         apply_run_defaults(self, shipped)
         if self.stop_success is None:
@@ -328,23 +340,6 @@ def apply_run_defaults(cfg: RunConfig, recipe: dict) -> None:
     for name, value in recipe.get(RUN, {}).items():
         if hasattr(cfg, name) and getattr(cfg, name) is None:
             setattr(cfg, name, value)
-
-
-SBX_ALGOS = ("sac", "td3")
-
-
-@dataclass
-class SBXConfig(TrainConfig):
-    """A run of the SBX back end (SAC or TD3 in JAX): TrainConfig's fields, and its run folder
-    is an sb3 run's (the policy files load as SB3 policies); saved as ``config.json``."""
-
-    engine: Engine = "sbx"
-
-    def resolve(self) -> SBXConfig:
-        if self.algo not in SBX_ALGOS:
-            raise InvalidParameterError(f"algo must be one of {', '.join(SBX_ALGOS)} for "
-                                        f"--engine sbx, got {self.algo!r}")
-        return super().resolve()
 
 
 ENGINES: tuple[str, ...] = get_args(Engine)

@@ -85,11 +85,11 @@ class SB3Session(SessionOptions):
 
 @dataclass(frozen=True)
 class SBXSession(SB3Session):
-    """The SBX back end (``--engine sbx``, :class:`rbenv.agents.training.config.SBXConfig`):
-    this module's training with SBX's SAC or TD3 (JAX) in place of SB3's. SBX keeps SB3's
-    interface (``learn``, callbacks, VecNormalize, the replay buffer) and compiles each batch
-    of gradient steps into one XLA call; its policies are saved as SB3 policies
-    (:mod:`rbenv.agents.policies.weights`)."""
+    """The SBX back end (``--engine sbx``: :class:`rbenv.agents.training.config.TrainConfig`
+    with ``engine="sbx"``): this module's training with SBX's SAC or TD3 (JAX) in place of
+    SB3's. SBX keeps SB3's interface (``learn``, callbacks, VecNormalize, the replay buffer)
+    and compiles each batch of gradient steps into one XLA call; its policies are saved as SB3
+    policies (:mod:`rbenv.agents.policies.weights`)."""
 
     packages: ClassVar[tuple[str, ...]] = ("sbx", "jax", "stable_baselines3", "torch")
 

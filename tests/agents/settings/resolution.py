@@ -1,7 +1,7 @@
 """What every training combination resolves to: id x algorithm x engine x scene.
 
-:func:`resolve_all` makes each engine's run configuration (``TrainConfig``, ``SBXConfig``,
-``RLlibConfig``, ``TorchRLRunConfig``) with only the combination given and calls
+:func:`resolve_all` makes each engine's run configuration (``TrainConfig`` for sb3
+and sbx, ``RLlibConfig``, ``TorchRLRunConfig``) with only the combination given and calls
 ``.resolve()``, as ``rbenv train`` does, and adds the learning suite's budget and RL Zoo's
 table, so that a change of the settings' shape can be checked to keep every number.
 ``python -m tests.agents.settings.resolution OUT.json`` writes the dump
@@ -22,7 +22,7 @@ import rbenv
 
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")
 ENGINES = {"sb3": ALGOS, "sbx": ("sac", "td3"), "rllib": ("ppo",), "torchrl": ("ppo",)}
-CONFIGS = {"sb3": config.TrainConfig, "sbx": config.SBXConfig, "rllib": RLlibConfig,
+CONFIGS = {"sb3": config.TrainConfig, "sbx": config.TrainConfig, "rllib": RLlibConfig,
            "torchrl": config.TorchRLRunConfig}
 RUN = ("timesteps", "eval_every", "eval_episodes", "stop_success", "keep_best")
 
@@ -34,7 +34,7 @@ def _plain(value):
 
 def resolve_one(engine: str, algo: str, env_id: str, scene: str) -> dict:
     """The numbers a run of ``engine``/``algo`` on ``env_id``/``scene`` starts with."""
-    cfg = CONFIGS[engine](algo=algo, env_id=env_id, scene=scene).resolve()
+    cfg = CONFIGS[engine](engine=engine, algo=algo, env_id=env_id, scene=scene).resolve()
     out = {k: getattr(cfg, k) for k in RUN if hasattr(cfg, k)}
     out["env_kwargs"] = cfg.env_kwargs
     if engine == "torchrl":  # the learner's own fields, whatever names the run keeps

@@ -200,10 +200,10 @@ def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
     import importlib
 
     from rbenv.agents.settings import Recipe
-    from rbenv.agents.training.config import SBXConfig, TrainConfig
+    from rbenv.agents.training.config import TrainConfig
 
     env_id = "rbenv/SatelliteReorient-v1"
-    fast = SBXConfig(algo=algo, env_id=env_id).resolve()
+    fast = TrainConfig(engine="sbx", algo=algo, env_id=env_id).resolve()
     assert fast.n_envs == tuned.MANY_ENVS["n_envs"] == 256
     assert fast.hyperparams["batch_size"] == 1024 and fast.hyperparams["gradient_steps"] == 16
     assert fast.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
@@ -211,7 +211,8 @@ def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
     assert fast.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
     assert fast.timesteps == settings.get(env_id).recipes[Recipe(algo, "sbx")]["n_timesteps"]
     for cfg in (TrainConfig(algo=algo, env_id=env_id).resolve(),
-                SBXConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()):
+                TrainConfig(engine="sbx", algo=algo,
+                            env_id="rbenv/SatelliteReorient-v0").resolve()):
         assert cfg.n_envs == 32 and cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 4
     zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
     assert zoo["n_envs"] == 32
