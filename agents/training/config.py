@@ -91,6 +91,10 @@ class RunConfig:
     threads: int | None = None
     """Torch intra-op threads; unset: 1 (fastest for these small networks, and robust to other
     busy processes), or with --resume the run's own. Part of what makes a run repeatable."""
+    recipe_env_kwargs: bool = True
+    """Add the env options of the task's recipe for this algorithm, engine and scene (a reward
+    weight a scene needs, InnoCube's action mode; rbenv.agents.settings) under --env-kwargs;
+    false: the env's own defaults and --env-kwargs alone."""
 
     def default_out(self) -> str:
         """The run folder when ``out`` is not given."""
@@ -121,6 +125,12 @@ class RunConfig:
         self.check_dicts(("env_kwargs", "hyperparams"))
         self.out = self.out or self.default_out()
         return self
+
+    def apply_recipe_env_kwargs(self, recipe: dict) -> None:
+        """``env_kwargs`` over the recipe's env options (when :attr:`recipe_env_kwargs`): the
+        one place every engine takes them from."""
+        if self.recipe_env_kwargs:
+            self.env_kwargs = {**recipe.get("env_kwargs", {}), **self.env_kwargs}
 
     @classmethod
     def upgrade(cls, saved: dict) -> dict:
@@ -317,7 +327,7 @@ class TrainConfig(RunConfig):
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
                             **self.hyperparams}
         # The recipe's env options (the algorithm's, then its scene's), then the caller's.
-        self.env_kwargs = {**shipped.get("env_kwargs", {}), **self.env_kwargs}
+        self.apply_recipe_env_kwargs(shipped)
         starts = self.hyperparams.get("learning_starts", 0)
         if self.algo in OFF_POLICY and self.timesteps <= starts:
             raise InvalidParameterError(
@@ -494,6 +504,8 @@ class TorchRLRunConfig(RunConfig):
     success rate reaches this fraction; 0: never. Unset: the task's run default for ppo."""
 
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "stop_success")
+    # Folders written before this engine took the recipe's env options resume without them.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"recipe_env_kwargs": False}
 
     def default_out(self) -> str:
         return f"runs/torchrl-{self.algo}-{self.scene}-seed{self.seed}"
@@ -535,6 +547,7 @@ class TorchRLRunConfig(RunConfig):
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
         super().resolve()
+        self.apply_recipe_env_kwargs(shipped)
         unknown = sorted(set(self.hyperparams) - set(TORCHRL_HYPERPARAMS))
         policy = self.hyperparams.get("policy_kwargs", {})
         if not isinstance(policy, dict):

@@ -59,6 +59,9 @@ ENV_NAME = "rbenv-vector"  # the name the creator is registered under, in every 
 class RLlibConfig(RunConfig):
     """A run of the RLlib back end; saved as ``config.json``."""
 
+    # Folders written before this engine took the recipe's env options resume without them.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"recipe_env_kwargs": False}
+
     engine: Engine = "rllib"
     env_runners: int = 0
     """RLlib env runner processes; 0 samples in the driver."""
@@ -84,7 +87,7 @@ class RLlibConfig(RunConfig):
             raise InvalidParameterError(f"algo must be 'ppo' with engine rllib, got "
                                         f"{self.algo!r}")
         # The task's PPO recipe for this engine and scene (a named error for an id without
-        # one); its env_kwargs are not applied (measured with SB3): the caller's are.
+        # one), its env options under the caller's.
         shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
         if self.timesteps is None:
             self.timesteps = shipped["n_timesteps"]
@@ -95,6 +98,7 @@ class RLlibConfig(RunConfig):
         self.check_counts(("env_runners",), minimum=0)
         self.check_dicts(("model",))
         super().resolve()
+        self.apply_recipe_env_kwargs(shipped)
         self.hyperparams = {**_rllib.ppo(shipped), **self.hyperparams}
         self.model = {**_rllib.ppo_model(shipped), **self.model}
         return self

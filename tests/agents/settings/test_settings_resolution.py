@@ -1,7 +1,7 @@
 """Every id x algorithm x engine x scene resolves to the numbers it resolved to on main at
 8ef0698 (data/resolution_8ef0698.json, written by resolution.py before the recipes), except
-the budgets that became the learning suite's measured ones (issue 42: one source per number;
-CHANGELOG.md lists them)."""
+the budgets that became the learning suite's measured ones, and the recipe's env options, which
+RLlib and TorchRL now take as SB3 and SBX do (one source per number; CHANGELOG.md lists them)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,9 @@ ZOO_CHANGES = {("ppo", "rbenv/SatelliteDetumble-v0"): (2_000_000, 300_000),
                ("sac", "rbenv/SatelliteDetumble-v0"): (300_000, 100_000),
                ("sac", "rbenv/SatelliteReorient-v0"): (300_000, 200_000),
                ("sac", "rbenv/SatelliteTrack-v0"): (300_000, 200_000)}
-CHANGED = 122  # rbenv train combinations whose budget moved (beside the 9 zoo entries)
+# rbenv train combinations whose budget moved (122), or whose env options RLlib and TorchRL now
+# take from the recipe (14), beside the 9 zoo entries.
+CHANGED = 136
 
 
 @pytest.fixture(scope="module")
@@ -41,6 +43,10 @@ def _expected(key: str) -> dict:
     if engine in ("sb3", "rllib") or (engine == "sbx" and want["timesteps"] ==
                                       GOLDEN[f"sb3/{algo}/{rest}"]["timesteps"]):
         want["timesteps"] = GOLDEN[f"suite/{algo}/{rest}"]
+    if engine in ("rllib", "torchrl"):  # the recipe's env options reach every engine
+        want["env_kwargs"] = GOLDEN[f"sb3/{algo}/{rest}"]["env_kwargs"]
+        if "learner" in want:
+            want["learner"]["env_kwargs"] = want["env_kwargs"]
     return want
 
 
@@ -61,6 +67,17 @@ def test_each_engine_resolves_to_main_but_the_one_source_budgets(now, engine):
     assert keys
     for key in keys:
         assert now[key] == _expected(key), key
+
+
+def test_every_engine_takes_the_recipes_env_options(now):
+    """One source: RLlib's and TorchRL's env options on each id and scene are SB3's (the wheel
+    scenes' failure weight, InnoCube's action mode, boom-sat tracking's fuel weight)."""
+    differ = 0
+    for key in (k for k in now if k.split("/")[0] in ("rllib", "torchrl")):
+        sb3 = now["sb3/" + key.split("/", 1)[1]]["env_kwargs"]
+        assert now[key]["env_kwargs"] == sb3, key
+        differ += GOLDEN[key]["env_kwargs"] != sb3
+    assert differ > 0  # main left them out on some scenes
 
 
 def test_rbenv_train_trains_the_suite_budget(now):

@@ -59,3 +59,18 @@ def test_a_saved_torchrl_config_with_an_unknown_learner_name_is_named(tmp_path):
     (run / "config.json").write_text(json.dumps(saved))
     with pytest.raises(RunFolderError, match=r"config.json.*\['rollouts'\]"):
         resumed_config(TorchRLRunConfig, run)
+
+
+def test_a_torchrl_run_of_main_on_a_wheel_scene_resumes_without_the_recipes_env_options(tmp_path):
+    """Main's TorchRL runs trained without the recipe's env options (the failure weight on
+    cubesat-6u-rw): resumed, they keep training in the env they were trained in, while a new
+    run on that scene takes them."""
+    pytest.importorskip("torch", reason="the torch env needs torch (ecosystem extra)")
+    run, saved = _run(tmp_path, "config_torchrl_8ef0698.json")
+    saved.update(env_id="rbenv/SatelliteReorient-v0", scene="cubesat-6u-rw", env_kwargs={})
+    (run / "config.json").write_text(json.dumps(saved))
+    resumed = resumed_config(TorchRLRunConfig, run)
+    assert resumed.env_kwargs == {} and resumed.recipe_env_kwargs is False
+    new = TorchRLRunConfig(env_id="rbenv/SatelliteReorient-v0", scene="cubesat-6u-rw").resolve()
+    assert new.env_kwargs == {"reward_weights": {"failure": 200.0}}
+    assert new.recipe_env_kwargs is True
