@@ -309,3 +309,203 @@ def monte_carlo(runs, steps, sensors, seed=1, dt=1.0):
         nees_a.append(a.mean())
         nees_b.append(bb.mean())
     return np.array(nees_a), np.array(nees_b), f, b
+
+
+# --------------------------------------------------------------------------- one satellite
+# 3 × 3 blocks as tuples of 3 row tuples of floats, for the filter of one satellite.
+
+
+def _mm(a, b):
+    """a @ b."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    return ((a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21,
+             a00 * b02 + a01 * b12 + a02 * b22),
+            (a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21,
+             a10 * b02 + a11 * b12 + a12 * b22),
+            (a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21,
+             a20 * b02 + a21 * b12 + a22 * b22))
+
+
+def _mmt(a, b):
+    """a @ bᵀ."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    return ((a00 * b00 + a01 * b01 + a02 * b02, a00 * b10 + a01 * b11 + a02 * b12,
+             a00 * b20 + a01 * b21 + a02 * b22),
+            (a10 * b00 + a11 * b01 + a12 * b02, a10 * b10 + a11 * b11 + a12 * b12,
+             a10 * b20 + a11 * b21 + a12 * b22),
+            (a20 * b00 + a21 * b01 + a22 * b02, a20 * b10 + a21 * b11 + a22 * b12,
+             a20 * b20 + a21 * b21 + a22 * b22))
+
+
+def _t(a):
+    """aᵀ."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    return ((a00, a10, a20), (a01, a11, a21), (a02, a12, a22))
+
+
+def _add(a, b):
+    """a + b."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    return ((a00 + b00, a01 + b01, a02 + b02), (a10 + b10, a11 + b11, a12 + b12),
+            (a20 + b20, a21 + b21, a22 + b22))
+
+
+def _sub(a, b):
+    """a − b."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    return ((a00 - b00, a01 - b01, a02 - b02), (a10 - b10, a11 - b11, a12 - b12),
+            (a20 - b20, a21 - b21, a22 - b22))
+
+
+def _mean_t(a, b):
+    """½(a + bᵀ)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    return ((0.5 * (a00 + b00), 0.5 * (a01 + b10), 0.5 * (a02 + b20)),
+            (0.5 * (a10 + b01), 0.5 * (a11 + b11), 0.5 * (a12 + b21)),
+            (0.5 * (a20 + b02), 0.5 * (a21 + b12), 0.5 * (a22 + b22)))
+
+
+def _sym(a):
+    """½(a + aᵀ)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    x01, x02, x12 = 0.5 * (a01 + a10), 0.5 * (a02 + a20), 0.5 * (a12 + a21)
+    return ((a00, x01, x02), (x01, a11, x12), (x02, x12, a22))
+
+
+def _inv(a):
+    """a⁻¹ by the adjugate (as :func:`_inverse3_cm`)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    c00, c01, c02 = a11 * a22 - a12 * a21, a02 * a21 - a01 * a22, a01 * a12 - a02 * a11
+    c10, c11, c12 = a12 * a20 - a10 * a22, a00 * a22 - a02 * a20, a02 * a10 - a00 * a12
+    c20, c21, c22 = a10 * a21 - a11 * a20, a01 * a20 - a00 * a21, a00 * a11 - a01 * a10
+    d = a00 * c00 + a01 * c10 + a02 * c20
+    return ((c00 / d, c01 / d, c02 / d), (c10 / d, c11 / d, c12 / d), (c20 / d, c21 / d, c22 / d))
+
+
+def _mv(a, v):
+    """a @ v."""
+    return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in a)
+
+
+def _skew1(v):
+    return ((0.0, -v[2], v[1]), (v[2], 0.0, -v[0]), (-v[1], v[0], 0.0))
+
+
+def _blocks(m) -> tuple:
+    """A 3 × 3 array-like as a block (row tuples of floats)."""
+    return tuple(tuple(r) for r in np.asarray(m, dtype=float).tolist())
+
+
+class ScalarMEKF:
+    """:class:`MEKF` for one satellite on Python floats (the single env's filter): the same
+    equations, in the same order of blocks, agreeing with it to round-off. ``q`` (4-tuple),
+    ``bias`` (3-tuple, rad/s), P as the blocks ``p11``, ``p12``, ``p22`` (P₂₁ = P₁₂ᵀ);
+    :attr:`P` gives the (6, 6) array."""
+
+    def __init__(self, q, bias, P, sigma_v: float, sigma_u: float, noise_scale: float = 1.0):
+        P = np.asarray(P, dtype=float)
+        self.q = tuple(float(c) for c in q)
+        self.bias = tuple(float(c) for c in bias)
+        self.p11, self.p12, self.p22 = _blocks(P[:3, :3]), _blocks(P[:3, 3:]), _blocks(P[3:, 3:])
+        self.sigma_v, self.sigma_u, self.noise_scale = sigma_v, sigma_u, noise_scale
+        self._q_dt = None
+
+    @property
+    def P(self) -> np.ndarray:
+        """The covariance (6, 6), a new array."""
+        (a, b, c), (d, e, f), (g, h, i) = self.p11, self.p12, _t(self.p12)
+        return np.array((a + d, b + e, c + f, g + self.p22[0], h + self.p22[1],
+                         i + self.p22[2]))
+
+    def _noise(self, dt: float):
+        if self._q_dt is None or self._q_dt[0] != dt:
+            q = self.noise_scale * process_noise(self.sigma_v, self.sigma_u, dt)
+            self._q_dt = (dt, _blocks(q[:3, :3]), _blocks(q[:3, 3:]), _blocks(q[3:, 3:]))
+        return self._q_dt[1:]
+
+    def propagate(self, dtheta_m: tuple, dt: float) -> None:
+        """:meth:`MEKF.propagate` for Δθ_m (3 floats, rad)."""
+        b = self.bias
+        step = (dtheta_m[0] - b[0] * dt, dtheta_m[1] - b[1] * dt, dtheta_m[2] - b[2] * dt)
+        w = (step[0] / dt, step[1] / dt, step[2] / dt)
+        w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        a = math.sqrt(w2) * dt
+        if a < 1e-3:
+            c1, c2 = dt - a * a * dt / 6.0, dt * dt / 2.0 - a * a * dt * dt / 24.0
+            c3 = dt ** 3 / 6.0 - a * a * dt ** 3 / 120.0
+        else:
+            ws = math.sqrt(w2)
+            sin_a = math.sin(a)
+            c1, c2, c3 = sin_a / ws, (1.0 - math.cos(a)) / ws ** 2, (dt - sin_a / ws) / ws ** 2
+        x, y, z = w
+        # K = [ω̂×], K² = ω̂ω̂ᵀ − |ω̂|² I; A = I − c1 K + c2 K², J = I dt − c2 K + c3 K²
+        kxx, kyy, kzz = x * x - w2, y * y - w2, z * z - w2
+        kxy, kxz, kyz = x * y, x * z, y * z
+        A = ((1.0 + c2 * kxx, c2 * kxy + c1 * z, c2 * kxz - c1 * y),
+             (c2 * kxy - c1 * z, 1.0 + c2 * kyy, c2 * kyz + c1 * x),
+             (c2 * kxz + c1 * y, c2 * kyz - c1 * x, 1.0 + c2 * kzz))
+        J = ((c3 * kxx + dt, c3 * kxy + c2 * z, c3 * kxz - c2 * y),
+             (c3 * kxy - c2 * z, c3 * kyy + dt, c3 * kyz + c2 * x),
+             (c3 * kxz + c2 * y, c3 * kyz - c2 * x, c3 * kzz + dt))
+        q = sn.qmul1(self.q, sn.qexp1(step))
+        inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        self.q = (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
+        p11, p12, p22 = self.p11, self.p12, self.p22
+        # G = [A, −J]: G P = [A P₁₁ − J P₂₁, A P₁₂ − J P₂₂]; P₁₁ ← (G P) Gᵀ, P₁₂ ← (G P)₂
+        u = _sub(_mm(A, p11), _mmt(J, p12))
+        v = _sub(_mm(A, p12), _mm(J, p22))
+        q11, q12, q22 = self._noise(dt)
+        self.p11 = _add(_sym(_sub(_mmt(u, A), _mmt(v, J))), q11)
+        self.p12 = _add(v, q12)
+        self.p22 = _add(p22, q22)
+
+    def _update(self, residual: tuple, M, R) -> None:
+        """:meth:`MEKF._update` for one satellite (M None: the identity); residual 3 floats,
+        M and R 3 × 3 blocks."""
+        p11, p12, p22 = self.p11, self.p12, self.p22
+        p21 = _t(p12)
+        if M is None:
+            h1, h2 = p11, p21  # P Hᵀ = [P₁₁; P₂₁]
+            S = _add(p11, R)
+        else:
+            h1, h2 = _mmt(p11, M), _mmt(p21, M)
+            S = _add(_mm(M, h1), R)
+        s_inv = _inv(_sym(S))
+        k1, k2 = _mm(h1, s_inv), _mm(h2, s_inv)
+        x1, x2 = _mv(k1, residual), _mv(k2, residual)
+        n12 = _sub(p12, _mmt(k1, h2))
+        n21 = _sub(p21, _mmt(k2, h1))
+        self.p11 = _sym(_sub(p11, _mmt(k1, h1)))
+        self.p12 = _mean_t(n12, n21)
+        self.p22 = _sym(_sub(p22, _mmt(k2, h2)))
+        q = sn.qmul1(self.q, sn.qexp1(x1))
+        inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        self.q = (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
+        b = self.bias
+        self.bias = (b[0] + x2[0], b[1] + x2[1], b[2] + x2[2])
+
+    def update_attitude(self, q_m: tuple, R, valid: bool) -> None:
+        """:meth:`MEKF.update_attitude` for one fix (4 floats), R a 3 × 3 block."""
+        if valid:
+            self._update(sn.qlog1(sn.qmul1(sn.qconj1(self.q), q_m)), None, R)
+
+    def update_vector(self, y_B: tuple, r_N: tuple, R, valid: bool, unit: bool = False) -> None:
+        """:meth:`MEKF.update_vector` for one body vector (3 floats), R a 3 × 3 block."""
+        if not valid:
+            return
+        p = sn.rotate_inverse1(self.q, r_N)
+        residual = (y_B[0] - p[0], y_B[1] - p[1], y_B[2] - p[2])
+        if unit:
+            along = tuple(tuple(p[i] * p[j] for j in range(3)) for i in range(3))
+            proj = tuple(tuple((1.0 if i == j else 0.0) - along[i][j] for j in range(3))
+                         for i in range(3))
+            residual = _mv(proj, residual)
+            tr = R[0][0] + R[1][1] + R[2][2]
+            R = _add(_mm(_mm(proj, R), proj), tuple(tuple(tr * c for c in r) for r in along))
+        self._update(residual, _skew1(p), R)
+

@@ -309,3 +309,101 @@ def sun_vector_fit(params: SunSensors, output: np.ndarray,
     scale = params.noise ** 2 / np.maximum(norm, 1e-12)[..., None] ** 2
     cov = scale * proj @ np.linalg.inv(hth) @ proj
     return s_hat, cov, valid
+
+
+# --------------------------------------------------------------------------- one satellite
+# The same models for one satellite on Python floats (tuples of components), for the single
+# env, where a NumPy call's overhead (about a microsecond) costs more than the arithmetic.
+# Each draws the same numbers from the generator as its batched twin at N = 1, in the same
+# order, so the two agree to round-off.
+
+
+def qexp1(v: tuple) -> tuple:
+    """:func:`qexp` of one rotation vector (3 floats, rad): 4 floats."""
+    angle = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    half = 0.5 * angle
+    ratio = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(half) / angle
+    return (math.cos(half), ratio * v[0], ratio * v[1], ratio * v[2])
+
+
+def qlog1(q: tuple) -> tuple:
+    """:func:`qlog` of one unit quaternion (4 floats): 3 floats, rad."""
+    w, x, y, z = q
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 / max(w, 1e-300) if s < 1e-8 else 2.0 * math.atan2(s, w) / s
+    return (k * x, k * y, k * z)
+
+
+def qmul1(a: tuple, b: tuple) -> tuple:
+    """:func:`qmul` of two quaternions (4 floats each)."""
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+def qconj1(q: tuple) -> tuple:
+    """The conjugate of one quaternion."""
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def rotate1(q: tuple, v: tuple) -> tuple:
+    """:func:`rotate` of one vector: A(q) v."""
+    w, u0, u1, u2 = q
+    v0, v1, v2 = v
+    t0, t1, t2 = 2.0 * (u1 * v2 - u2 * v1), 2.0 * (u2 * v0 - u0 * v2), 2.0 * (u0 * v1 - u1 * v0)
+    return (v0 + w * t0 + (u1 * t2 - u2 * t1), v1 + w * t1 + (u2 * t0 - u0 * t2),
+            v2 + w * t2 + (u0 * t1 - u1 * t0))
+
+
+def rotate_inverse1(q: tuple, v: tuple) -> tuple:
+    """:func:`rotate_inverse` of one vector: A(q)ᵀ v."""
+    return rotate1(qconj1(q), v)
+
+
+def gyro_increment1(dtheta: tuple, bias: tuple, sigma_v: float, sigma_u: float, dt: float,
+                    rng: np.random.Generator) -> tuple[tuple, tuple]:
+    """:func:`gyro_increment` for one satellite (3-tuples of floats)."""
+    n = rng.standard_normal(9).tolist()
+    sq, sq3, sv = math.sqrt(dt), math.sqrt(dt ** 3 / 12.0), sigma_v * math.sqrt(dt)
+    measured, nxt = [], []
+    for i in range(3):
+        w_end = sq * n[3 + i]
+        w_int = 0.5 * dt * w_end + sq3 * n[6 + i]
+        measured.append(dtheta[i] + bias[i] * dt + sigma_u * w_int + sv * n[i])
+        nxt.append(bias[i] + sigma_u * w_end)
+    return tuple(measured), tuple(nxt)
+
+
+def star_tracker1(params: StarTracker, chol_T: tuple, q_BN: tuple, omega_B: tuple,
+                  sun_N: tuple | None, nadir_N: tuple | None, earth_radius_rad: float,
+                  rng: np.random.Generator) -> tuple[tuple, bool]:
+    """:func:`star_tracker` for one satellite; chol_T: the transposed Cholesky factor of
+    ``params.noise_cov_B()`` as 3 rows of floats (constant: the caller holds it)."""
+    n0, n1, n2 = rng.standard_normal(3).tolist()
+    c0, c1, c2 = chol_T
+    v = tuple(n0 * c0[j] + n1 * c1[j] + n2 * c2[j] for j in range(3))
+    drop = rng.random() < params.dropout_probability
+    q_m = qmul1(q_BN, qexp1(v))
+    bore = rotate1(q_BN, params.boresight_B)
+    w0, w1, w2 = omega_B
+    valid = not drop and math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) <= params.max_rate_dps * _DEG
+    if valid and sun_N is not None:
+        valid = bore[0] * sun_N[0] + bore[1] * sun_N[1] + bore[2] * sun_N[2] < \
+            math.cos(params.sun_exclusion_deg * _DEG)
+    if valid and nadir_N is not None:
+        limit = min(math.pi, earth_radius_rad + params.earth_exclusion_deg * _DEG)
+        valid = bore[0] * nadir_N[0] + bore[1] * nadir_N[1] + bore[2] * nadir_N[2] < \
+            math.cos(limit)
+    return q_m, valid
+
+
+def magnetometer1(params: Magnetometer, q_BN: tuple, field_N_T: tuple, bias_T: tuple,
+                  rng: np.random.Generator) -> tuple:
+    """:func:`magnetometer` for one satellite (T, body axes)."""
+    noise = rng.standard_normal(3).tolist()
+    b = rotate_inverse1(q_BN, field_N_T)
+    s = params.noise_nT * 1e-9
+    return tuple(b[i] + bias_T[i] + s * noise[i] for i in range(3))
