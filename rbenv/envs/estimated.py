@@ -45,6 +45,11 @@ def _rows(components) -> np.ndarray:
     return np.stack([np.atleast_1d(np.asarray(c, dtype=float)) for c in components], -1)
 
 
+def _feature(variance: float, floor: float, c: float) -> float:
+    """One estimate_sigma feature from a variance: clip((log10 σ + c) / 3, −1, 1)."""
+    return min(1.0, max(-1.0, (math.log10(max(math.sqrt(max(variance, 0.0)), floor)) + c) / 3.0))
+
+
 class EstimatorLoop:
     """Sensors and the MEKF for the plant's satellites (see the module docstring)."""
 
@@ -240,11 +245,11 @@ class EstimatorLoop:
             for act, _ in self.plant.observers:
                 obs = obs + act.observe(self._field_view(st) if act.scene_table ==
                                         "magnetorquers" else st, xp, None)
-            p11, p22 = f.p11, f.p22
-            feats = [min(1.0, max(-1.0, (math.log10(max(math.sqrt(max(p11[i][i], 0.0)), 1e-300))
-                                         + 3.0) / 3.0)) for i in range(3)]
-            feats += [min(1.0, max(-1.0, (math.log10(max(math.sqrt(max(p22[i][i], 0.0)), 1e-30))
-                                          + 5.0) / 3.0)) for i in range(3)]
+            (a, _, _), (_, b, _), (_, _, c) = f.p11
+            (d, _, _), (_, e, _), (_, _, g) = f.p22
+            feats = (_feature(a, 1e-300, 3.0), _feature(b, 1e-300, 3.0),
+                     _feature(c, 1e-300, 3.0), _feature(d, 1e-30, 5.0),
+                     _feature(e, 1e-30, 5.0), _feature(g, 1e-30, 5.0))
             return np.array((*obs, *feats), dtype=np.float32)
         q_hat = f.q
         q = tuple(self._out(q_hat[:, i]) for i in range(4))

@@ -339,6 +339,60 @@ def _mmt(a, b):
              a20 * b20 + a21 * b21 + a22 * b22))
 
 
+def _ab_cd(a, b, c, d):
+    """a @ b − c @ d."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = c
+    (d00, d01, d02), (d10, d11, d12), (d20, d21, d22) = d
+    return ((a00 * b00 + a01 * b10 + a02 * b20 - (c00 * d00 + c01 * d10 + c02 * d20),
+             a00 * b01 + a01 * b11 + a02 * b21 - (c00 * d01 + c01 * d11 + c02 * d21),
+             a00 * b02 + a01 * b12 + a02 * b22 - (c00 * d02 + c01 * d12 + c02 * d22)),
+            (a10 * b00 + a11 * b10 + a12 * b20 - (c10 * d00 + c11 * d10 + c12 * d20),
+             a10 * b01 + a11 * b11 + a12 * b21 - (c10 * d01 + c11 * d11 + c12 * d21),
+             a10 * b02 + a11 * b12 + a12 * b22 - (c10 * d02 + c11 * d12 + c12 * d22)),
+            (a20 * b00 + a21 * b10 + a22 * b20 - (c20 * d00 + c21 * d10 + c22 * d20),
+             a20 * b01 + a21 * b11 + a22 * b21 - (c20 * d01 + c21 * d11 + c22 * d21),
+             a20 * b02 + a21 * b12 + a22 * b22 - (c20 * d02 + c21 * d12 + c22 * d22)))
+
+
+def _sym_abt_cdt(a, b, c, d, s):
+    """½(X + Xᵀ) + s I with X = a @ bᵀ − c @ dᵀ (only X's upper triangle is formed)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = c
+    (d00, d01, d02), (d10, d11, d12), (d20, d21, d22) = d
+    x00 = a00 * b00 + a01 * b01 + a02 * b02 - (c00 * d00 + c01 * d01 + c02 * d02)
+    x11 = a10 * b10 + a11 * b11 + a12 * b12 - (c10 * d10 + c11 * d11 + c12 * d12)
+    x22 = a20 * b20 + a21 * b21 + a22 * b22 - (c20 * d20 + c21 * d21 + c22 * d22)
+    x01 = 0.5 * (a00 * b10 + a01 * b11 + a02 * b12 - (c00 * d10 + c01 * d11 + c02 * d12)
+                 + (a10 * b00 + a11 * b01 + a12 * b02 - (c10 * d00 + c11 * d01 + c12 * d02)))
+    x02 = 0.5 * (a00 * b20 + a01 * b21 + a02 * b22 - (c00 * d20 + c01 * d21 + c02 * d22)
+                 + (a20 * b00 + a21 * b01 + a22 * b02 - (c20 * d00 + c21 * d01 + c22 * d02)))
+    x12 = 0.5 * (a10 * b20 + a11 * b21 + a12 * b22 - (c10 * d20 + c11 * d21 + c12 * d22)
+                 + (a20 * b10 + a21 * b11 + a22 * b12 - (c20 * d10 + c21 * d11 + c22 * d12)))
+    return ((x00 + s, x01, x02), (x01, x11 + s, x12), (x02, x12, x22 + s))
+
+
+def _add_diag(a, s):
+    """a + s I."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    return ((a00 + s, a01, a02), (a10, a11 + s, a12), (a20, a21, a22 + s))
+
+
+def _a_bct(a, b, c):
+    """a − b @ cᵀ."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = c
+    return ((a00 - (b00 * c00 + b01 * c01 + b02 * c02), a01 - (b00 * c10 + b01 * c11 + b02 * c12),
+             a02 - (b00 * c20 + b01 * c21 + b02 * c22)),
+            (a10 - (b10 * c00 + b11 * c01 + b12 * c02), a11 - (b10 * c10 + b11 * c11 + b12 * c12),
+             a12 - (b10 * c20 + b11 * c21 + b12 * c22)),
+            (a20 - (b20 * c00 + b21 * c01 + b22 * c02), a21 - (b20 * c10 + b21 * c11 + b22 * c12),
+             a22 - (b20 * c20 + b21 * c21 + b22 * c22)))
+
+
 def _t(a):
     """aᵀ."""
     (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
@@ -351,14 +405,6 @@ def _add(a, b):
     (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
     return ((a00 + b00, a01 + b01, a02 + b02), (a10 + b10, a11 + b11, a12 + b12),
             (a20 + b20, a21 + b21, a22 + b22))
-
-
-def _sub(a, b):
-    """a − b."""
-    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
-    (b00, b01, b02), (b10, b11, b12), (b20, b21, b22) = b
-    return ((a00 - b00, a01 - b01, a02 - b02), (a10 - b10, a11 - b11, a12 - b12),
-            (a20 - b20, a21 - b21, a22 - b22))
 
 
 def _mean_t(a, b):
@@ -425,7 +471,7 @@ class ScalarMEKF:
     def _noise(self, dt: float):
         if self._q_dt is None or self._q_dt[0] != dt:
             q = self.noise_scale * process_noise(self.sigma_v, self.sigma_u, dt)
-            self._q_dt = (dt, _blocks(q[:3, :3]), _blocks(q[:3, 3:]), _blocks(q[3:, 3:]))
+            self._q_dt = (dt, float(q[0, 0]), float(q[0, 3]), float(q[3, 3]))  # Q is diagonal
         return self._q_dt[1:]
 
     def propagate(self, dtheta_m: tuple, dt: float) -> None:
@@ -457,12 +503,12 @@ class ScalarMEKF:
         self.q = (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
         p11, p12, p22 = self.p11, self.p12, self.p22
         # G = [A, −J]: G P = [A P₁₁ − J P₂₁, A P₁₂ − J P₂₂]; P₁₁ ← (G P) Gᵀ, P₁₂ ← (G P)₂
-        u = _sub(_mm(A, p11), _mmt(J, p12))
-        v = _sub(_mm(A, p12), _mm(J, p22))
-        q11, q12, q22 = self._noise(dt)
-        self.p11 = _add(_sym(_sub(_mmt(u, A), _mmt(v, J))), q11)
-        self.p12 = _add(v, q12)
-        self.p22 = _add(p22, q22)
+        u = _ab_cd(A, p11, J, _t(p12))
+        v = _ab_cd(A, p12, J, p22)
+        q11, q12, q22 = self._noise(dt)  # Q's blocks are multiples of I
+        self.p11 = _sym_abt_cdt(u, A, v, J, q11)
+        self.p12 = _add_diag(v, q12)
+        self.p22 = _add_diag(p22, q22)
 
     def _update(self, residual: tuple, M, R) -> None:
         """:meth:`MEKF._update` for one satellite (M None: the identity); residual 3 floats,
@@ -478,11 +524,9 @@ class ScalarMEKF:
         s_inv = _inv(_sym(S))
         k1, k2 = _mm(h1, s_inv), _mm(h2, s_inv)
         x1, x2 = _mv(k1, residual), _mv(k2, residual)
-        n12 = _sub(p12, _mmt(k1, h2))
-        n21 = _sub(p21, _mmt(k2, h1))
-        self.p11 = _sym(_sub(p11, _mmt(k1, h1)))
-        self.p12 = _mean_t(n12, n21)
-        self.p22 = _sym(_sub(p22, _mmt(k2, h2)))
+        self.p11 = _sym(_a_bct(p11, k1, h1))
+        self.p12 = _mean_t(_a_bct(p12, k1, h2), _a_bct(p21, k2, h1))
+        self.p22 = _sym(_a_bct(p22, k2, h2))
         q = sn.qmul1(self.q, sn.qexp1(x1))
         inv = 1.0 / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
         self.q = (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)

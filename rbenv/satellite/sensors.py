@@ -366,15 +366,14 @@ def rotate_inverse1(q: tuple, v: tuple) -> tuple:
 def gyro_increment1(dtheta: tuple, bias: tuple, sigma_v: float, sigma_u: float, dt: float,
                     rng: np.random.Generator) -> tuple[tuple, tuple]:
     """:func:`gyro_increment` for one satellite (3-tuples of floats)."""
-    n = rng.standard_normal(9).tolist()
-    sq, sq3, sv = math.sqrt(dt), math.sqrt(dt ** 3 / 12.0), sigma_v * math.sqrt(dt)
-    measured, nxt = [], []
-    for i in range(3):
-        w_end = sq * n[3 + i]
-        w_int = 0.5 * dt * w_end + sq3 * n[6 + i]
-        measured.append(dtheta[i] + bias[i] * dt + sigma_u * w_int + sv * n[i])
-        nxt.append(bias[i] + sigma_u * w_end)
-    return tuple(measured), tuple(nxt)
+    v0, v1, v2, e0, e1, e2, i0, i1, i2 = rng.standard_normal(9).tolist()
+    sq, sq3, sv, h = math.sqrt(dt), math.sqrt(dt ** 3 / 12.0), sigma_v * math.sqrt(dt), 0.5 * dt
+    e0, e1, e2 = sq * e0, sq * e1, sq * e2  # W_u(dt)
+    b0, b1, b2 = bias
+    return ((dtheta[0] + b0 * dt + sigma_u * (h * e0 + sq3 * i0) + sv * v0,
+             dtheta[1] + b1 * dt + sigma_u * (h * e1 + sq3 * i1) + sv * v1,
+             dtheta[2] + b2 * dt + sigma_u * (h * e2 + sq3 * i2) + sv * v2),
+            (b0 + sigma_u * e0, b1 + sigma_u * e1, b2 + sigma_u * e2))
 
 
 def star_tracker1(params: StarTracker, chol_T: tuple, q_BN: tuple, omega_B: tuple,
@@ -383,8 +382,9 @@ def star_tracker1(params: StarTracker, chol_T: tuple, q_BN: tuple, omega_B: tupl
     """:func:`star_tracker` for one satellite; chol_T: the transposed Cholesky factor of
     ``params.noise_cov_B()`` as 3 rows of floats (constant: the caller holds it)."""
     n0, n1, n2 = rng.standard_normal(3).tolist()
-    c0, c1, c2 = chol_T
-    v = tuple(n0 * c0[j] + n1 * c1[j] + n2 * c2[j] for j in range(3))
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = chol_T
+    v = (n0 * c00 + n1 * c10 + n2 * c20, n0 * c01 + n1 * c11 + n2 * c21,
+         n0 * c02 + n1 * c12 + n2 * c22)
     drop = rng.random() < params.dropout_probability
     q_m = qmul1(q_BN, qexp1(v))
     bore = rotate1(q_BN, params.boresight_B)
