@@ -233,10 +233,6 @@ class EstimatorLoop:
 
     # ------------------------------------------------------------------- outputs
 
-    def _out(self, x: np.ndarray):
-        """One satellite's row (single env) or the batch."""
-        return x[0] if self.single else x
-
     def observe(self, st, xp) -> np.ndarray:
         """The observation: the task's components on the estimate, then estimate_sigma."""
         f = self.filter
@@ -251,23 +247,28 @@ class EstimatorLoop:
                      _feature(c, 1e-300, 3.0), _feature(d, 1e-30, 5.0),
                      _feature(e, 1e-30, 5.0), _feature(g, 1e-30, 5.0))
             return np.array((*obs, *feats), dtype=np.float32)
-        q_hat = f.q
-        q = tuple(self._out(q_hat[:, i]) for i in range(4))
-        w = tuple(self._out(self.w_est[:, i]) for i in range(3))
-        if self.single:
-            q, w = tuple(float(c) for c in q), tuple(float(c) for c in w)
+        q_hat, w_est = f.q, self.w_est
+        q = tuple(q_hat[:, i] for i in range(4))
+        w = tuple(w_est[:, i] for i in range(3))
         obs = self.task.observe(st, q, w, xp)
         for act, _ in self.plant.observers:
             obs = obs + act.observe(self._field_view(st) if act.scene_table == "magnetorquers"
                                     else st, xp, None)
-        sigma = np.sqrt(np.diagonal(f.P, axis1=-2, axis2=-1))
-        feats = np.concatenate(((np.log10(sigma[:, :3]) + 3.0) / 3.0,
-                                (np.log10(np.maximum(sigma[:, 3:], 1e-30)) + 5.0) / 3.0), -1)
-        feats = np.clip(feats, -1.0, 1.0)
-        if self.single:
-            return np.array((*obs, *feats[0]), dtype=np.float32)
-        return np.stack([np.broadcast_to(np.asarray(c, dtype=np.float32), feats.shape[:1])
-                         for c in obs] + list(feats.T.astype(np.float32)), -1)
+        n, k = q_hat.shape[0], len(obs)
+        out = np.empty((n, k + SIGMA_FEATURES), dtype=np.float32)
+        for j, c in enumerate(obs):
+            out[:, j] = c
+        diag = f.covariance_diagonal()  # (6, N)
+        sigma = np.sqrt(diag)
+        feats = np.empty_like(sigma)
+        np.log10(sigma[:3], out=feats[:3])
+        np.log10(np.maximum(sigma[3:], 1e-30), out=feats[3:])
+        feats[:3] += 3.0
+        feats[3:] += 5.0
+        feats /= 3.0
+        np.clip(feats, -1.0, 1.0, out=feats)
+        out[:, k:] = feats.T
+        return out
 
     def _field_view(self, st):
         """What the rods' magnetometer observation reads instead of the true body field: the
@@ -286,9 +287,7 @@ class EstimatorLoop:
             t = np.broadcast_to(np.asarray(st.steps, dtype=float) * self.dt, (n,))
             field = sn.rotate_inverse(self.filter.q, _rows(self.orbit.field_N(t, np)))
         view = type("FieldView", (), {})()
-        view.field_B_T = tuple(self._out(field[:, i]) for i in range(3))
-        if self.single:
-            view.field_B_T = tuple(float(c) for c in view.field_B_T)
+        view.field_B_T = tuple(field[:, i] for i in range(3))
         return view
 
     def add_info(self, st, info: dict) -> dict:
@@ -309,17 +308,16 @@ class EstimatorLoop:
                                          abs(e[0])) * _DEG
                 info["estimated_attitude_error_deg"] = angle
             return info
-        out = self._out
-        info["q_true"] = out(_rows(st.q))
-        info["q_est"] = out(f.q.copy())
-        info["gyro_bias"] = out(self.bias.copy())
-        info["gyro_bias_est"] = out(f.bias.copy())
-        info["estimate_cov"] = out(f.P.copy())
+        info["q_true"] = _rows(st.q)
+        info["q_est"] = f.q.copy()
+        info["gyro_bias"] = self.bias.copy()
+        info["gyro_bias_est"] = f.bias.copy()
+        info["estimate_cov"] = f.covariance_copy()
         if self.star is not None:
-            info["star_tracker_fix"] = out(self.fix.copy())
+            info["star_tracker_fix"] = self.fix.copy()
         target = getattr(st, "q_target_conj", None)
         if target is not None:
             e = sn.qmul(_rows(target), f.q)  # q_target⁻¹ ⊗ q_est
-            angle = 2.0 * np.arctan2(np.linalg.norm(e[:, 1:], axis=-1), np.abs(e[:, 0])) * _DEG
-            info["estimated_attitude_error_deg"] = float(angle[0]) if self.single else angle
+            s = np.sqrt(np.einsum("ni,ni->n", e[:, 1:], e[:, 1:]))
+            info["estimated_attitude_error_deg"] = 2.0 * np.arctan2(s, np.abs(e[:, 0])) * _DEG
         return info

@@ -89,23 +89,35 @@ def qconj(q: np.ndarray) -> np.ndarray:
 
 def qexp(v: np.ndarray) -> np.ndarray:
     """The unit quaternion of the rotation vector v (..., 3), rad."""
-    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = np.sqrt(np.einsum("...i,...i->...", v, v))
     half = 0.5 * angle
+    out = np.empty((*v.shape[:-1], 4))
+    out[..., 0] = np.cos(half)
     # sin(a/2)/a, with its series below 1e-4 rad (relative error < 1e-17)
     small = angle < 1e-4
-    ratio = np.where(small, 0.5 - angle * angle / 48.0,
-                     np.sin(half) / np.where(small, 1.0, angle))
-    return np.concatenate((np.cos(half), ratio * v), axis=-1)
+    if small.any():
+        ratio = np.where(small, 0.5 - angle * angle / 48.0,
+                         np.sin(half) / np.where(small, 1.0, angle))
+    else:
+        ratio = np.sin(half) / angle
+    np.multiply(ratio[..., None], v, out=out[..., 1:])
+    return out
 
 
 def qlog(q: np.ndarray) -> np.ndarray:
     """The rotation vector (..., 3, rad, |·| ≤ π) of a unit quaternion (sign taken positive)."""
-    q = np.where(q[..., :1] < 0.0, -q, q)
-    s = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
-    angle = 2.0 * np.arctan2(s, q[..., :1])
+    w, u = q[..., 0], q[..., 1:]
+    neg = w < 0.0
+    if neg.any():
+        w, u = np.where(neg, -w, w), np.where(neg[..., None], -u, u)
+    s = np.sqrt(np.einsum("...i,...i->...", u, u))
     small = s < 1e-8
-    return np.where(small, 2.0 * q[..., 1:] / np.maximum(q[..., :1], 1e-300),
-                    q[..., 1:] * angle / np.where(small, 1.0, s))
+    if small.any():
+        k = np.where(small, 2.0 / np.maximum(w, 1e-300),
+                     2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
+    else:
+        k = 2.0 * np.arctan2(s, w) / s
+    return k[..., None] * u
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
