@@ -95,18 +95,17 @@ def _inverse3_cm(a: np.ndarray) -> np.ndarray:
     return c
 
 
-def _phi_coefficients(omega_hat: np.ndarray, dt: float):
-    """(c1, c2, c3, |ω̂|²), each (N,): exp(−[ω̂×]dt) = I − c1 K + c2 K² and
+def _phi_coefficients(x: np.ndarray, y: np.ndarray, z: np.ndarray, dt: float):
+    """(c1, c2, c3, |ω̂|²), each (N,), for ω̂ = (x, y, z): exp(−[ω̂×]dt) = I − c1 K + c2 K² and
     J = ∫₀^dt exp(−[ω̂×]s) ds = I dt − c2 K + c3 K², K = [ω̂×] (series below |ω̂|dt = 1e-3)."""
-    w2 = np.einsum("ni,ni->n", omega_hat, omega_hat)
+    w2 = x * x + y * y + z * z
     w = np.sqrt(w2)
     a = w * dt
     a2 = a * a
     small = a < 1e-3
     ws = np.where(small, 1.0, w)
     ws2 = ws * ws
-    sin_a = np.sin(a)
-    c1 = sin_a / ws
+    c1 = np.sin(a) / ws
     c3 = (dt - c1) / ws2
     c2 = (1.0 - np.cos(a)) / ws2
     if small.any():
@@ -117,32 +116,28 @@ def _phi_coefficients(omega_hat: np.ndarray, dt: float):
 
 
 def _phi_rows_cm(omega_hat: np.ndarray, dt: float) -> np.ndarray:
-    """Φ's first block row [A, −J] (3, 6, N) (its second is [0, I]):
+    """Φ's first block row [A, −J] (3, 6, N) (its second is [0, I]), entry by entry:
     A = I − c1 K + c2 K², J = I dt − c2 K + c3 K², K² = ω̂ω̂ᵀ − |ω̂|² I."""
-    c1, c2, c3, w2 = _phi_coefficients(omega_hat, dt)
-    wt = omega_hat.T
-    ww = wt[:, None, :] * wt[None, :, :]  # ω̂ω̂ᵀ (3, 3, N)
-    g = np.empty((3, 6, omega_hat.shape[0]))
-    np.multiply(c2, ww, out=g[:, :3])
-    np.multiply(-c3, ww, out=g[:, 3:])
-    da, dj = 1.0 - c2 * w2, c3 * w2 - dt  # the diagonals' I terms
-    for i in range(3):
-        g[i, i] += da
-        g[i, 3 + i] += dj
-    x, y, z = c1 * wt[0], c1 * wt[1], c1 * wt[2]  # −c1 K
-    g[0, 1] += z
-    g[0, 2] -= y
-    g[1, 0] -= z
-    g[1, 2] += x
-    g[2, 0] += y
-    g[2, 1] -= x
-    x, y, z = c2 * wt[0], c2 * wt[1], c2 * wt[2]  # −J's +c2 K
-    g[0, 4] -= z
-    g[0, 5] += y
-    g[1, 3] += z
-    g[1, 5] -= x
-    g[2, 3] -= y
-    g[2, 4] += x
+    x, y, z = np.ascontiguousarray(omega_hat.T)
+    c1, c2, c3, w2 = _phi_coefficients(x, y, z, dt)
+    da, dj = 1.0 - c2 * w2, c3 * w2 - dt  # the diagonals: 1 − c2|ω̂|² and −(dt − c3|ω̂|²)
+    g = np.empty((3, 6, x.shape[0]))
+    comps = (x, y, z)
+    for off, c, diag in ((0, c2, da), (3, -c3, dj)):  # c ω̂ω̂ᵀ plus the diagonal
+        cw = (c * x, c * y, c * z)
+        for i in range(3):
+            for j in range(3):
+                np.multiply(cw[i], comps[j], out=g[i, off + j])
+            g[i, off + i] += diag
+    # −c1 K in A, +c2 K in −J; K = [[0, −z, y], [z, 0, −x], [−y, x, 0]]
+    for off, c in ((0, c1), (3, -c2)):
+        kx, ky, kz = c * x, c * y, c * z
+        g[0, off + 1] += kz
+        g[0, off + 2] -= ky
+        g[1, off + 0] -= kz
+        g[1, off + 2] += kx
+        g[2, off + 0] += ky
+        g[2, off + 1] -= kx
     return g
 
 
@@ -243,7 +238,7 @@ class MEKF:
             pht = _matmul_t_cm(P[:, :3], m)
             S = _matmul_cm(m, pht[:3]) + R
         K = _matmul_cm(pht, _inverse3_cm(0.5 * (S + S.transpose(1, 0, 2))))
-        x = np.einsum("ikn,nk->ni", K, residual)
+        x = np.einsum("ikn,kn->ni", K, np.ascontiguousarray(residual.T))
         newP = P - _matmul_t_cm(K, pht)
         newP = 0.5 * (newP + newP.transpose(1, 0, 2))
         q = qmul(self.q if rows is None else self.q[rows], qexp(x[:, :3]))

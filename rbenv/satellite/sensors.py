@@ -29,6 +29,7 @@ docs/estimation.md, "typical") or is marked an assumption there.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -259,6 +260,14 @@ def gyro_increment(dtheta: np.ndarray, bias: np.ndarray, sigma_v: float, sigma_u
     return measured, bias + sigma_u * w_end
 
 
+@functools.lru_cache(maxsize=64)
+def _cholesky_T(params: StarTracker) -> np.ndarray:
+    """The transposed Cholesky factor of the star tracker's noise covariance (read-only)."""
+    out = np.linalg.cholesky(params.noise_cov_B()).T
+    out.flags.writeable = False
+    return out
+
+
 def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
                  sun_N: np.ndarray | None, nadir_N: np.ndarray | None, earth_radius_rad: float,
                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -268,8 +277,7 @@ def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
     or None (no orbit: no exclusion); earth_radius_rad: the Earth's angular radius seen from
     the orbit."""
     n = q_BN.shape[0]
-    chol = np.linalg.cholesky(params.noise_cov_B())
-    v = rng.standard_normal((n, 3)) @ chol.T
+    v = rng.standard_normal((n, 3)) @ _cholesky_T(params)
     drop = rng.random(n) < params.dropout_probability
     q_m = qmul(q_BN, qexp(v))
     bore_N = rotate(q_BN, np.broadcast_to(np.array(params.boresight_B), (n, 3)))
