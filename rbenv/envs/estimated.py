@@ -46,8 +46,10 @@ def _rows(components) -> np.ndarray:
 
 
 def _feature(variance: float, floor: float, c: float) -> float:
-    """One estimate_sigma feature from a variance: clip((log10 σ + c) / 3, −1, 1)."""
-    return min(1.0, max(-1.0, (math.log10(max(math.sqrt(max(variance, 0.0)), floor)) + c) / 3.0))
+    """One estimate_sigma feature from a variance: clip((log10 max(σ, floor) + c) / 3, −1, 1)."""
+    sigma = math.sqrt(variance) if variance > 0.0 else 0.0
+    x = (math.log10(sigma if sigma > floor else floor) + c) / 3.0
+    return -1.0 if x < -1.0 else 1.0 if x > 1.0 else x
 
 
 class EstimatorLoop:

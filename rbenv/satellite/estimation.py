@@ -487,8 +487,8 @@ class ScalarMEKF:
     def P(self) -> np.ndarray:
         """The covariance (6, 6), a new array."""
         (a, b, c), (d, e, f), (g, h, i) = self.p11, self.p12, _t(self.p12)
-        return np.array((a + d, b + e, c + f, g + self.p22[0], h + self.p22[1],
-                         i + self.p22[2]))
+        return np.array((*a, *d, *b, *e, *c, *f, *g, *self.p22[0], *h, *self.p22[1], *i,
+                         *self.p22[2])).reshape(6, 6)
 
     def _noise(self, dt: float):
         if self._q_dt is None or self._q_dt[0] != dt:
