@@ -174,13 +174,16 @@ class EstimatorLoop:
         if self.orbit is not None and (self.css is not None or self.star is not None):
             sun, lit = self._sun1(t)
         if self.star is not None:
-            nadir = None if self.orbit is None else \
-                tuple(-c for c in self.orbit.direction_N(t, math))
-            q_m, valid = sn.star_tracker1(
-                self.star, self.star_chol_T, q, tuple(st.omega_B), sun, nadir,
-                0.0 if self.orbit is None else self.earth_radius_rad, rng)
-            valid = valid and st.steps % self.star_period == 0
-            f.update_attitude(q_m, self.star_R1, valid)
+            if st.steps % self.star_period == 0:
+                nadir = None if self.orbit is None else \
+                    tuple(-c for c in self.orbit.direction_N(t, math))
+                q_m, valid = sn.star_tracker1(
+                    self.star, self.star_chol_T, q, tuple(st.omega_B), sun, nadir,
+                    0.0 if self.orbit is None else self.earth_radius_rad, rng)
+                f.update_attitude(q_m, self.star_R1, valid)
+            else:  # between fixes: the draws alone, to keep the stream
+                sn.star_tracker_draws(1, rng)
+                valid = False
             self.fix = valid
         if self.mag is not None:
             field_N = tuple(float(c) for c in self.orbit.field_N(t, math))
@@ -215,12 +218,17 @@ class EstimatorLoop:
         if self.orbit is not None and (self.css is not None or self.star is not None):
             sun, lit = self._sun(t)
         if self.star is not None:
-            nadir = None if self.orbit is None else -_rows(self.orbit.direction_N(t, np))
-            q_m, valid = sn.star_tracker(self.star, q, w, sun, nadir,
-                                         0.0 if self.orbit is None else self.earth_radius_rad,
-                                         rng)
-            valid &= (np.asarray(st.steps) % self.star_period == 0)
-            f.update_attitude(q_m, self.star_R, valid)
+            due = np.asarray(st.steps) % self.star_period == 0
+            if due.any():
+                nadir = None if self.orbit is None else -_rows(self.orbit.direction_N(t, np))
+                q_m, valid = sn.star_tracker(
+                    self.star, q, w, sun, nadir,
+                    0.0 if self.orbit is None else self.earth_radius_rad, rng)
+                valid &= due
+                f.update_attitude(q_m, self.star_R, valid)
+            else:  # between fixes: the draws alone, to keep the stream
+                sn.star_tracker_draws(n, rng)
+                valid = np.zeros(n, dtype=bool)
             self.fix = valid
         if self.mag is not None:
             field_N = _rows(self.orbit.field_N(t, np))

@@ -268,6 +268,13 @@ def _cholesky_T(params: StarTracker) -> np.ndarray:
     return out
 
 
+def star_tracker_draws(n: int, rng: np.random.Generator) -> None:
+    """Take from ``rng`` what :func:`star_tracker` (or :func:`star_tracker1`) takes for n
+    satellites, without computing a fix (a step between fixes)."""
+    rng.standard_normal((n, 3))
+    rng.random(n)
+
+
 def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
                  sun_N: np.ndarray | None, nadir_N: np.ndarray | None, earth_radius_rad: float,
                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

@@ -192,6 +192,9 @@ def test_one_satellite_sensors_draw_what_the_batched_ones_draw():
                              np.array([[1e-7, 0.0, -1e-7]]), r2)
         np.testing.assert_allclose(y1, y2[0], rtol=0, atol=1e-20)
         assert r1.random() == r2.random()  # both streams at the same place
+        sn.star_tracker_draws(1, r1)  # a step between fixes takes what a fix takes
+        sn.star_tracker(star, np.array([q]), np.zeros((1, 3)), None, None, 0.0, r2)
+        assert r1.random() == r2.random()
     assert fixes == {True, False}
 
 
