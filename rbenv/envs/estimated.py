@@ -30,7 +30,7 @@ import numpy as np
 
 from rbenv.satellite import sensors as sn
 from rbenv.satellite.disturbances import parse_epoch, sun_direction_N
-from rbenv.satellite.estimation import MEKF, ScalarMEKF, _blocks
+from rbenv.satellite.estimation import MEKF, ScalarMEKF, _blocks, _qconj_cm, _qlog_cm, _qmul_cm
 from rbenv.tasks.base import _DEG
 
 __all__ = ["SIGMA_FEATURES", "EstimatorLoop"]
@@ -130,11 +130,11 @@ class EstimatorLoop:
             rng.standard_normal((n, 3))
         w = _rows(st.omega_B) if rows is None else _rows(st.omega_B)[rows]
         fix = np.zeros(n, dtype=bool)
-        if rows is None:
+        if rows is None:  # q_prev and w_est: (N, ·) views of component-major stores
             self.filter = MEKF(q_hat, np.zeros((n, 3)), P, self.sigma_v, self.sigma_u,
                                self.params.process_noise_scale)
-            self.bias, self.mag_bias, self.q_prev, self.w_est, self.fix = \
-                bias, mag_bias, q, w + bias, fix
+            self.bias, self.mag_bias, self.fix = bias, mag_bias, fix
+            self.q_prev, self.w_est = np.array(q.T).T, np.array((w + bias).T).T
             return
         f = self.filter
         f.q[rows], f.bias[rows], f.P[rows] = q_hat, 0.0, P
@@ -205,9 +205,10 @@ class EstimatorLoop:
             return
         f, rng, dt = self.filter, self.rng, self.dt
         self.field_B = None
-        q = _rows(st.q)
+        q_T = np.stack([np.asarray(c, dtype=float) for c in st.q])  # (4, N)
+        q = q_T.T
         n = q.shape[0]
-        dtheta = sn.qlog(sn.qmul(sn.qconj(self.q_prev), q))
+        dtheta = _qlog_cm(_qmul_cm(_qconj_cm(self.q_prev.T), q_T)).T
         measured, self.bias = sn.gyro_increment(dtheta, self.bias, self.sigma_v, self.sigma_u,
                                                 dt, rng)
         f.propagate(measured, dt)
@@ -239,7 +240,7 @@ class EstimatorLoop:
             s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(self.css, q, sun, lit,
                                                                          rng))
             f.update_vector(s_B, sun, cov, valid, unit=True)
-        self.w_est = measured / dt - f.bias
+        self.w_est = (measured.T / dt - f.bias.T).T
 
     # ------------------------------------------------------------------- outputs
 
@@ -257,9 +258,9 @@ class EstimatorLoop:
                      _feature(c, 1e-300, 3.0), _feature(d, 1e-30, 5.0),
                      _feature(e, 1e-30, 5.0), _feature(g, 1e-30, 5.0))
             return np.array((*obs, *feats), dtype=np.float32)
-        q_hat, w_est = f.q, self.w_est
-        q = tuple(q_hat[:, i] for i in range(4))
-        w = tuple(w_est[:, i] for i in range(3))
+        q_hat, w_est = f.q, self.w_est  # (N, ·) views of (·, N) stores: contiguous rows
+        q = tuple(q_hat.T)
+        w = tuple(w_est.T)
         obs = self.task.observe(st, q, w, xp)
         for act, _ in self.plant.observers:
             obs = obs + act.observe(self._field_view(st) if act.scene_table == "magnetorquers"

@@ -29,7 +29,7 @@ import numpy as np
 
 from rbenv.core import validation as check
 from rbenv.satellite import sensors as sn
-from rbenv.satellite.sensors import qconj, qexp, qlog, qmul, rotate_inverse, skew
+from rbenv.satellite.sensors import qconj, qlog, qmul, rotate_inverse, skew
 
 __all__ = ["MEKF", "Estimator", "monte_carlo", "process_noise", "transition_matrix"]
 
@@ -95,6 +95,59 @@ def _inverse3_cm(a: np.ndarray) -> np.ndarray:
     return c
 
 
+def _qmul_cm(a, b) -> np.ndarray:
+    """Hamilton product of quaternions stacked on the last axis, (4, N) (or 4 (N,) rows)."""
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    out = np.empty((4, np.shape(a0)[0]))
+    out[0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
+    out[1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
+    out[2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
+    out[3] = a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0
+    return out
+
+
+def _qconj_cm(q) -> tuple:
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def _qexp_cm(v: np.ndarray) -> np.ndarray:
+    """:func:`rbenv.satellite.sensors.qexp` of rotation vectors (3, N): (4, N)."""
+    angle = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    half = 0.5 * angle
+    out = np.empty((4, angle.shape[0]))
+    np.cos(half, out=out[0])
+    small = angle < 1e-4
+    if small.any():
+        ratio = np.where(small, 0.5 - angle * angle / 48.0,
+                         np.sin(half) / np.where(small, 1.0, angle))
+    else:
+        ratio = np.sin(half) / angle
+    np.multiply(ratio, v, out=out[1:])
+    return out
+
+
+def _qlog_cm(q: np.ndarray) -> np.ndarray:
+    """:func:`rbenv.satellite.sensors.qlog` of unit quaternions (4, N): (3, N)."""
+    w, u = q[0], q[1:]
+    neg = w < 0.0
+    if neg.any():
+        w, u = np.where(neg, -w, w), np.where(neg, -u, u)
+    s = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    small = s < 1e-8
+    if small.any():
+        k = np.where(small, 2.0 / np.maximum(w, 1e-300),
+                     2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
+    else:
+        k = 2.0 * np.arctan2(s, w) / s
+    return k * u
+
+
+def _normalized_cm(q: np.ndarray) -> np.ndarray:
+    q /= np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return q
+
+
 def _phi_coefficients(x: np.ndarray, y: np.ndarray, z: np.ndarray, dt: float):
     """(c1, c2, c3, |ω̂|²), each (N,), for ω̂ = (x, y, z): exp(−[ω̂×]dt) = I − c1 K + c2 K² and
     J = ∫₀^dt exp(−[ω̂×]s) ds = I dt − c2 K + c3 K², K = [ω̂×] (series below |ω̂|dt = 1e-3)."""
@@ -116,9 +169,9 @@ def _phi_coefficients(x: np.ndarray, y: np.ndarray, z: np.ndarray, dt: float):
 
 
 def _phi_rows_cm(omega_hat: np.ndarray, dt: float) -> np.ndarray:
-    """Φ's first block row [A, −J] (3, 6, N) (its second is [0, I]), entry by entry:
-    A = I − c1 K + c2 K², J = I dt − c2 K + c3 K², K² = ω̂ω̂ᵀ − |ω̂|² I."""
-    x, y, z = np.ascontiguousarray(omega_hat.T)
+    """Φ's first block row [A, −J] (3, 6, N) (its second is [0, I]) for ω̂ (3, N), entry by
+    entry: A = I − c1 K + c2 K², J = I dt − c2 K + c3 K², K² = ω̂ω̂ᵀ − |ω̂|² I."""
+    x, y, z = omega_hat
     c1, c2, c3, w2 = _phi_coefficients(x, y, z, dt)
     da, dj = 1.0 - c2 * w2, c3 * w2 - dt  # the diagonals: 1 − c2|ω̂|² and −(dt − c3|ω̂|²)
     g = np.empty((3, 6, x.shape[0]))
@@ -155,7 +208,7 @@ def transition_matrix(omega_hat: np.ndarray, dt: float) -> np.ndarray:
     """Φ (N, 6, 6) for the estimated rate ω̂ (N, 3, rad/s) held over dt."""
     n = omega_hat.shape[0]
     phi = np.zeros((n, 6, 6))
-    phi[:, :3] = _phi_rows_cm(omega_hat, dt).transpose(2, 0, 1)
+    phi[:, :3] = _phi_rows_cm(np.ascontiguousarray(omega_hat.T), dt).transpose(2, 0, 1)
     phi[:, 3:, 3:] = np.eye(3)
     return phi
 
@@ -164,17 +217,36 @@ class MEKF:
     """The filter's state for N satellites: ``q`` (N, 4), ``bias`` (N, 3, rad/s), ``P``
     (N, 6, 6); gyro noise σ_v (rad/√s) and σ_u (rad/s/√s) set its process noise.
 
-    P is held component-major, (6, 6, N) (``P`` is an (N, 6, 6) view of it): the products
-    run on the 3 × 3 blocks of Φ = [[A, −J], [0, I]] and H = [M 0] as einsums over the last
-    axis, which cost a tenth of NumPy's batched matmul on (N, 6, 6)."""
+    The state is held component-major, q (4, N), bias (3, N), P (6, 6, N) (``q``, ``bias``
+    and ``P`` are (N, ...) views of them, writes go through): each component is a contiguous
+    row, and the products run on the 3 × 3 blocks of Φ = [[A, −J], [0, I]] and H = [M 0] as
+    einsums over the last axis, which cost a tenth of NumPy's batched matmul on (N, 6, 6)."""
 
     def __init__(self, q: np.ndarray, bias: np.ndarray, P: np.ndarray, sigma_v: float,
                  sigma_u: float, noise_scale: float = 1.0):
-        self.q = np.array(q, dtype=float)
-        self.bias = np.array(bias, dtype=float)
+        self.q = q
+        self.bias = bias
         self.P = P
         self.sigma_v, self.sigma_u, self.noise_scale = sigma_v, sigma_u, noise_scale
         self._q_dt = None  # (dt, Q) of the last propagation: Q is constant per dt
+
+    @property
+    def q(self) -> np.ndarray:
+        """The attitude estimate (N, 4): a view of the (4, N) store."""
+        return self._q.T
+
+    @q.setter
+    def q(self, value) -> None:
+        self._q = np.array(np.asarray(value, dtype=float).T, order="C")
+
+    @property
+    def bias(self) -> np.ndarray:
+        """The bias estimate (N, 3, rad/s): a view of the (3, N) store."""
+        return self._b.T
+
+    @bias.setter
+    def bias(self, value) -> None:
+        self._b = np.array(np.asarray(value, dtype=float).T, order="C")
 
     @property
     def P(self) -> np.ndarray:
@@ -203,10 +275,9 @@ class MEKF:
     def propagate(self, dtheta_m: np.ndarray, dt: float) -> None:
         """Advance over dt s with the gyro increment Δθ_m (N, 3, rad): P ← ΦPΦᵀ + Q by
         blocks, G = [A, −J]: P₁₁ ← G P Gᵀ, P₁₂ ← (G P)₂, P₂₂ unchanged (then + Q)."""
-        step = dtheta_m - self.bias * dt
+        step = dtheta_m.T - self._b * dt  # (3, N)
         g = _phi_rows_cm(step / dt, dt)
-        q = qmul(self.q, qexp(step))
-        self.q = q / np.sqrt(np.einsum("ni,ni->n", q, q))[:, None]
+        self._q = _normalized_cm(_qmul_cm(self._q, _qexp_cm(step)))
         P = self._P
         gp = _matmul_cm(g, P)  # (3, 6, N)
         p11 = _matmul_t_cm(gp, g)
@@ -225,8 +296,9 @@ class MEKF:
             return
         rows = None if valid.all() else np.flatnonzero(valid)
         P = self._P if rows is None else self._P[:, :, rows]
+        residual = residual.T  # (3, N)
         if rows is not None:
-            residual = residual[rows]
+            residual = residual[:, rows]
             M = None if M is None else M[rows]
             R = R[rows] if R.ndim == 3 else R
         R = R[:, :, None] if R.ndim == 2 else R.transpose(1, 2, 0)
@@ -238,24 +310,24 @@ class MEKF:
             pht = _matmul_t_cm(P[:, :3], m)
             S = _matmul_cm(m, pht[:3]) + R
         K = _matmul_cm(pht, _inverse3_cm(0.5 * (S + S.transpose(1, 0, 2))))
-        x = np.einsum("ikn,kn->ni", K, np.ascontiguousarray(residual.T))
+        x = np.einsum("ikn,kn->in", K, np.ascontiguousarray(residual))  # (6, n)
         newP = P - _matmul_t_cm(K, pht)
         newP = 0.5 * (newP + newP.transpose(1, 0, 2))
-        q = qmul(self.q if rows is None else self.q[rows], qexp(x[:, :3]))
-        q /= np.sqrt(np.einsum("ni,ni->n", q, q))[:, None]
+        q = _normalized_cm(_qmul_cm(self._q if rows is None else self._q[:, rows],
+                                    _qexp_cm(x[:3])))
         if rows is None:
-            self._P, self.q = newP, q
-            self.bias = self.bias + x[:, 3:]
+            self._P, self._q = newP, q
+            self._b = self._b + x[3:]
         else:
             self._P[:, :, rows] = newP
-            self.q[rows] = q
-            self.bias[rows] += x[:, 3:]
+            self._q[:, rows] = q
+            self._b[:, rows] += x[3:]
 
     def update_attitude(self, q_m: np.ndarray, R: np.ndarray, valid: np.ndarray) -> None:
         """A star-tracker fix q_m (N, 4) with noise covariance R (3, 3, rad², body axes)."""
         if not np.any(valid):
             return
-        self._update(qlog(qmul(qconj(self.q), q_m)), None, R, valid)
+        self._update(_qlog_cm(_qmul_cm(_qconj_cm(self._q), q_m.T)).T, None, R, valid)
 
     def update_vector(self, y_B: np.ndarray, r_N: np.ndarray, R: np.ndarray,
                       valid: np.ndarray, unit: bool = False) -> None:
