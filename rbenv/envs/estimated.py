@@ -328,7 +328,7 @@ class EstimatorLoop:
             info["star_tracker_fix"] = self.fix.copy()
         target = getattr(st, "q_target_conj", None)
         if target is not None:
-            e = sn.qmul(_rows(target), f.q)  # q_target⁻¹ ⊗ q_est
-            s = np.sqrt(np.einsum("ni,ni->n", e[:, 1:], e[:, 1:]))
-            info["estimated_attitude_error_deg"] = 2.0 * np.arctan2(s, np.abs(e[:, 0])) * _DEG
+            e = _qmul_cm(target, f.q.T)  # q_target⁻¹ ⊗ q_est, (4, N)
+            s = np.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
+            info["estimated_attitude_error_deg"] = 2.0 * np.arctan2(s, np.abs(e[0])) * _DEG
         return info

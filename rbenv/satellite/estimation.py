@@ -96,10 +96,11 @@ def _inverse3_cm(a: np.ndarray) -> np.ndarray:
 
 
 def _qmul_cm(a, b) -> np.ndarray:
-    """Hamilton product of quaternions stacked on the last axis, (4, N) (or 4 (N,) rows)."""
+    """Hamilton product of quaternions stacked on the first axis, (4, N) (or 4 rows, each
+    (N,) or a float)."""
     a0, a1, a2, a3 = a
     b0, b1, b2, b3 = b
-    out = np.empty((4, np.shape(a0)[0]))
+    out = np.empty((4, *np.broadcast(a0, b0).shape))
     out[0] = a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3
     out[1] = a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2
     out[2] = a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1
@@ -266,11 +267,12 @@ class MEKF:
         """P's diagonal, (6, N)."""
         return self._P[np.arange(6), np.arange(6)]
 
-    def _noise(self, dt: float) -> np.ndarray:
+    def _noise(self, dt: float) -> tuple:
+        """(q11, q12, q22): Q = [[q11 I, q12 I], [q12 I, q22 I]] for dt (cached)."""
         if self._q_dt is None or self._q_dt[0] != dt:
             q = self.noise_scale * process_noise(self.sigma_v, self.sigma_u, dt)
-            self._q_dt = (dt, q[:, :, None])
-        return self._q_dt[1]
+            self._q_dt = (dt, float(q[0, 0]), float(q[0, 3]), float(q[3, 3]))
+        return self._q_dt[1:]
 
     def propagate(self, dtheta_m: np.ndarray, dt: float) -> None:
         """Advance over dt s with the gyro increment Δθ_m (N, 3, rad): P ← ΦPΦᵀ + Q by
@@ -284,7 +286,12 @@ class MEKF:
         P[:3, :3] = 0.5 * (p11 + p11.transpose(1, 0, 2))
         P[:3, 3:] = gp[:, 3:]
         P[3:, :3] = gp[:, 3:].transpose(1, 0, 2)
-        P += self._noise(dt)
+        q11, q12, q22 = self._noise(dt)  # Q's blocks are multiples of I
+        for i in range(3):
+            P[i, i] += q11
+            P[i, i + 3] += q12
+            P[i + 3, i] += q12
+            P[i + 3, i + 3] += q22
 
     def _update(self, residual: np.ndarray, M: np.ndarray | None, R: np.ndarray,
                 valid: np.ndarray) -> None:
