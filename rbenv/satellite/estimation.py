@@ -17,7 +17,11 @@ Updates (K = P Hᵀ S⁻¹, P ← P − K S Kᵀ symmetrized, then ``q̂ ← q̂
 ``b̂ ← b̂ + Δb̂``): a star-tracker quaternion (residual ``log(q̂⁻¹ ⊗ q_m)``, H = [I 0]) and
 body vectors of known inertial direction (magnetometer field, fitted Sun direction: residual
 ``y − A(q̂)ᵀ r``, H = [[A(q̂)ᵀ r ×] 0]). Rows without a measurement this step are left
-unchanged (a mask, no loop over satellites).
+unchanged (only the rows with one are computed; no loop over satellites).
+
+:class:`MEKF` holds its state component-major ((4, N), (3, N), (6, 6, N)) and runs on the 3 × 3
+blocks of Φ and H; :class:`ScalarMEKF` is the same filter for one satellite on Python floats
+(the single env's, where NumPy's per-call overhead would dominate); the two agree to round-off.
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ from rbenv.core import validation as check
 from rbenv.satellite import sensors as sn
 from rbenv.satellite.sensors import qconj, qlog, qmul, rotate_inverse, skew
 
-__all__ = ["MEKF", "Estimator", "monte_carlo", "process_noise", "transition_matrix"]
+__all__ = ["MEKF", "Estimator", "ScalarMEKF", "monte_carlo", "process_noise",
+           "transition_matrix"]
 
 _DEG = math.pi / 180.0
 
@@ -53,19 +58,6 @@ class Estimator:
             low_open=True, high=60.0))
         object.__setattr__(self, "process_noise_scale", check.number(
             "estimator.process_noise_scale", self.process_noise_scale, low=1.0, high=1e6))
-
-
-def _eye3n(n: int) -> np.ndarray:
-    return np.broadcast_to(np.eye(3)[:, :, None], (3, 3, n))
-
-
-def _skew_cm(v: np.ndarray) -> np.ndarray:
-    """[v×] (3, 3, N) of v (N, 3): the component-major layout of the filter's products."""
-    x, y, z = v[:, 0], v[:, 1], v[:, 2]
-    out = np.zeros((3, 3, v.shape[0]))
-    out[0, 1], out[0, 2], out[1, 2] = -z, y, -x
-    out[1, 0], out[2, 0], out[2, 1] = z, -y, x
-    return out
 
 
 def _matmul_cm(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -25,6 +25,11 @@ docs/estimation.md, "typical") or is marked an assumption there.
   ``max(0, n_i·ŝ_B)`` inside the field of view (zero beyond ``fov_deg`` off the normal and in
   eclipse) plus σ noise (fraction of full scale); :func:`sun_vector_fit` fits ŝ_B by least
   squares over the lit cells (Basilisk's ``cssWlsEst`` does the same).
+
+The functions ending in 1 (:func:`gyro_increment1`, :func:`star_tracker1`,
+:func:`magnetometer1`, and the quaternion helpers) are the same models for one satellite on
+Python floats, for the single env; each takes the same numbers from the generator as its
+batched twin at N = 1.
 """
 
 from __future__ import annotations
@@ -43,7 +48,9 @@ __all__ = [
     "StarTracker",
     "SunSensors",
     "gyro_increment",
+    "gyro_increment1",
     "magnetometer",
+    "magnetometer1",
     "qconj",
     "qexp",
     "qlog",
@@ -51,6 +58,8 @@ __all__ = [
     "rotate",
     "rotate_inverse",
     "star_tracker",
+    "star_tracker1",
+    "star_tracker_draws",
     "sun_sensors",
     "sun_vector_fit",
 ]
