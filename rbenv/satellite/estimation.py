@@ -149,6 +149,9 @@ def _phi_coefficients(x: np.ndarray, y: np.ndarray, z: np.ndarray, dt: float):
     a = w * dt
     a2 = a * a
     small = a < 1e-3
+    if small.all():  # every row on the series (a satellite at rest): no sine or cosine
+        return (dt - a2 * (dt / 6.0), dt * dt / 2.0 - a2 * (dt * dt / 24.0),
+                dt ** 3 / 6.0 - a2 * (dt ** 3 / 120.0), w2)
     ws = np.where(small, 1.0, w)
     ws2 = ws * ws
     c1 = np.sin(a) / ws

@@ -41,12 +41,13 @@ def _band(runs: int, dim: int = 3) -> tuple[float, float]:
 def test_transition_matrix_is_the_matrix_exponential():
     w = np.array([[0.3, -0.2, 0.5], [1e-5, 0.0, 2e-5]])
     for dt in (0.1, 2.0):
-        phi = transition_matrix(w, dt)
-        for i in range(2):
-            F = np.zeros((6, 6))
-            F[:3, :3] = -sn.skew(w[i])
-            F[:3, 3:] = -np.eye(3)
-            np.testing.assert_allclose(phi[i], scipy.linalg.expm(F * dt), atol=1e-12)
+        for rates in (w, w[1:], w[:1]):  # mixed, all on the series, none on it
+            phi = transition_matrix(rates, dt)
+            for i in range(len(rates)):
+                F = np.zeros((6, 6))
+                F[:3, :3] = -sn.skew(rates[i])
+                F[:3, 3:] = -np.eye(3)
+                np.testing.assert_allclose(phi[i], scipy.linalg.expm(F * dt), atol=1e-12)
 
 
 def test_process_noise_is_van_loans_integral():
