@@ -28,6 +28,7 @@ from pathlib import Path
 
 from rbenv.agents.flight import commands as flight
 from rbenv.agents.policies import compiled, runfolder
+from rbenv.agents.policies.envcheck import check_env_options
 from rbenv.agents.policies.evaluate import (
     check_policy,
     evaluate,
@@ -41,12 +42,9 @@ from rbenv.agents.policies.evaluate import (
 from rbenv.agents.policies.weights import ALGOS
 from rbenv.agents.training import flags, rllib, suite, tune
 from rbenv.agents.training.config import (
-    RLlibOptions,
+    ENGINES,
     RunConfig,
-    SB3Options,
-    SBXConfig,
     SessionOptions,
-    TorchRLOptions,
     TorchRLRunConfig,
     TrainConfig,
 )
@@ -56,7 +54,6 @@ from rbenv.agents.training.rllib import RLlibConfig
 from rbenv.core.errors import RbenvValueError
 
 import rbenv
-from rbenv.envs import registry
 from rbenv.satellite import usage
 
 BENCH_OUT = "bench-results"
@@ -135,25 +132,30 @@ class Parser(argparse.ArgumentParser):
 
 # --engine torchrl --quick: CI's smoke run, where the caller does not set these.
 QUICK_TORCHRL_TIMESTEPS, QUICK_REPORT_EPISODES = 16_384, 50
-# The option groups of `rbenv train`: which engine reads which configuration class.
+# The option groups of `rbenv train`: the run's fields every engine reads, then each engine's
+# config class; the session's options (SessionOptions) go with the engines that read them.
 COMMON = (RunConfig, SessionOptions)
 ENGINE_GROUPS = (
     ("sb3", "sb3 options (--engine sb3, the default: Stable-Baselines3; the train extra; "
             "--engine sbx, SAC and TD3 in JAX with SBX, reads the same options; the sbx extra)",
-     (TrainConfig, SB3Options)),
-    ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)",
-     (RLlibConfig, RLlibOptions)),
+     TrainConfig),
+    ("rllib", "rllib options (--engine rllib: PPO on Ray RLlib; the ray extra)", RLlibConfig),
     ("torchrl", "torchrl options (--engine torchrl: TorchRL's PPO on the torch env, env and "
                 "learner on --device; the ecosystem extra). It reads every common option and "
                 "--stop-success; "
-                "its --hyperparams are the learner's (rbenv.agents.training.config."
-                "TORCHRL_HYPERPARAMS)",
-     (TorchRLRunConfig, TorchRLOptions)),
+                "its --hyperparams are the learner's, in RL Zoo's names (rbenv.agents.training."
+                "config.TORCHRL_HYPERPARAMS)",
+     TorchRLRunConfig),
 )
-# The classes whose fields each engine takes from the command line.
-ENGINE_FIELDS = {"sb3": (TrainConfig, SB3Options), "sbx": (SBXConfig, SB3Options),
-                 "rllib": (RLlibConfig, RLlibOptions),
-                 "torchrl": (TorchRLRunConfig, TorchRLOptions)}
+# The config class each engine takes its run's fields from.
+ENGINE_CONFIGS = {"sb3": TrainConfig, "sbx": TrainConfig, "rllib": RLlibConfig,
+                  "torchrl": TorchRLRunConfig}
+
+
+def _reads(engine: str) -> set[str]:
+    """The flags (field names) ``engine`` reads: its config's and its session options."""
+    return ({f.name for f in dataclasses.fields(ENGINE_CONFIGS[engine])}
+            | set(SessionOptions.read_by(engine)))
 
 
 def _parser() -> Parser:
@@ -169,13 +171,15 @@ def _parser() -> Parser:
                                    "there.")
     seen: set[str] = set()
     common = t.add_argument_group("common options (every engine)")
-    for fields in COMMON:
-        flags.add_fields(common, fields, seen=seen)
+    flags.add_fields(common, RunConfig, seen=seen)
+    flags.add_fields(common, SessionOptions, seen=seen, skip=[
+        n for n in SessionOptions.READ_BY if set(SessionOptions.READ_BY[n]) != set(ENGINES)])
     add_run_arguments(common)
-    for _, title, classes in ENGINE_GROUPS:
+    for engine, title, cls in ENGINE_GROUPS:
         group = t.add_argument_group(title)
-        for fields in classes:
-            flags.add_fields(group, fields, seen=seen)
+        flags.add_fields(group, cls, seen=seen)
+        flags.add_fields(group, SessionOptions, seen=seen,
+                         skip=SessionOptions.ignored_by(engine))
     e = sub.add_parser("evaluate", help="seeded evaluation of a policy",
                        description="Seeded evaluation. Prints a table; writes files only when "
                                    "asked (--json, --plot, --video, --out).")
@@ -242,13 +246,12 @@ def _parser() -> Parser:
 def _check_train(args) -> tuple[type, type]:
     """The engine's (config, options) classes, once every given flag is one the engine reads."""
     engine = getattr(args, "engine", "sb3")
-    reads = {f.name for c in ENGINE_FIELDS[engine] for f in dataclasses.fields(c)}
-    common = {f.name for c in COMMON for f in dataclasses.fields(c)}
+    reads = _reads(engine)
     owners: dict[str, list[str]] = {}
-    for name, _, classes in ENGINE_GROUPS:
-        for f in (f for c in classes for f in dataclasses.fields(c) if f.name not in common):
-            owners.setdefault(f.name, []).append(name)
-    for cls in (*COMMON, *(c for _, _, classes in ENGINE_GROUPS for c in classes)):
+    for name, _, _ in ENGINE_GROUPS:
+        for field in sorted(_reads(name)):
+            owners.setdefault(field, []).append(name)
+    for cls in (*COMMON, *(c for _, _, c in ENGINE_GROUPS)):
         for name in flags.given(args, cls):
             if name not in reads:
                 engines = " and ".join(f"--engine {o}" for o in owners[name])
@@ -257,9 +260,7 @@ def _check_train(args) -> tuple[type, type]:
     if engine == "torchrl" and getattr(args, "quick", False) and args.resume:
         raise usage.InvalidChoiceError("quick", True, "a new run's smoke form, not one of "
                                        "--resume, which continues the run as it was saved")
-    config = {"sb3": TrainConfig, "sbx": SBXConfig, "rllib": RLlibConfig,
-              "torchrl": TorchRLRunConfig}[engine]
-    return config, ENGINE_FIELDS[engine][-1]
+    return ENGINE_CONFIGS[engine], SessionOptions
 
 
 def _train(args) -> int:
@@ -314,7 +315,7 @@ def _check_evaluate(args) -> None:
         options = {**runfolder.env_kwargs_of(_run_config(args.policy)), **options}
     if args.scene is not None:
         options["scene"] = args.scene
-    registry.check_env_options(env_id, options)
+    check_env_options(env_id, options)
     check_policy(args.policy, env_id, options)  # a baseline the scene cannot run: where it can
     for name in ("json", "plot", "video"):
         path = getattr(args, name)

@@ -14,7 +14,8 @@ satellite believes (the gyro-integrated attitude, what telemetry logs: ``sensed`
 true one. A run folder flies in its own env id and options (its ``config.json``: the action
 mode it was trained in); a scripted policy in ``SatelliteReorient-v1`` with
 ``action_mode="acceleration"``, the flight's; ``--env-kwargs`` overrides both (e.g.
-``'{"action_mode": "acceleration_lifted"}'``). Targets (issue 30, learned policy): median
+``'{"action_mode": "acceleration_lifted"}'``). On a scene with ``[estimator]`` "sensed" is
+the MEKF's estimate. Targets (the learned policy's, docs/innocube/learned-policy.md): median
 settle ≤ 60 s, mean steady ≤ 0.1°, ≥ 99 % settled.
 
 Writes ``innocube_policy.json`` (one entry per policy); ``--plot`` draws the sensed error of
@@ -100,6 +101,10 @@ def run(policy_name: str, episodes: int, seed: int, scene: str,
     starts = random_starts(episodes, seed)
     options = {key: np.array([o[key] for o in starts]) for key in starts[0]}
     obs, _ = env.reset(seed=seed, options=options)
+    # What the satellite believes: the MEKF's estimate on a scene with [estimator], else the
+    # gyro-integrated attitude.
+    sensed_key = ("estimated_attitude_error_deg" if env.unwrapped.plant.scene.estimator
+                  is not None else "sensed_attitude_error_deg")
     t, true, sensed = [], [], []
     state, first = None, np.ones(episodes, bool)
     lost = np.zeros(episodes, bool)  # loss of control (|ω| > rate limit): never settles
@@ -113,8 +118,7 @@ def run(policy_name: str, episodes: int, seed: int, scene: str,
             obs, _ = env.reset(options={"reset_mask": term})
         t.append(np.asarray(info["time_s"], float))
         true.append(np.asarray(info["attitude_error_deg"], float))
-        sensed.append(np.asarray(info.get("sensed_attitude_error_deg",
-                                          info["attitude_error_deg"]), float))
+        sensed.append(np.asarray(info.get(sensed_key, info["attitude_error_deg"]), float))
     env.close()
     t, true, sensed = (np.array(x).T for x in (t, true, sensed))  # (episodes, steps)
     sensed[lost] = true[lost] = 180.0

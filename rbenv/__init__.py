@@ -37,7 +37,9 @@ if not _os.path.isdir(_os.path.join(__path__[0], "core")) and _os.path.isfile(
         _os.path.join(_checkout, "core", "__init__.py")):
     __path__.append(_checkout)
 
+from rbenv.envs import env as _env
 from rbenv.envs import goal, registry
+from rbenv.envs import vector_env as _vector_env
 from rbenv.envs.env import SatelliteDetumbleEnv, SatelliteReorientEnv, SatelliteTrackEnv
 from rbenv.envs.vector_env import (
     SatelliteDetumbleVectorEnv,
@@ -49,12 +51,25 @@ from rbenv.satellite.scene import Scene, list_scenes, load_scene, scene_variant
 from rbenv.tasks import desaturate, detumble, reorient, track
 from rbenv.tasks.reorient import ReorientWeights as RewardWeights
 
-# The shipped tasks: one registry entry each (rbenv.envs.registry). A new task adds its line here.
-for _spec in (reorient.SPEC, detumble.SPEC, track.SPEC, desaturate.SPEC,
-              reorient.SPEC_V1, detumble.SPEC_V1, track.SPEC_V1, reorient.SPEC_V2):
-    registry.register(_spec)
-
-goal.register()  # the goal-conditioned form of Reorient-v1: its own Gymnasium id
+# The shipped ids, one registry call each (rbenv.envs.registry.register) with the classes that
+# make it. A new task adds its line here; an id without classes of its own is the same call
+# without them.
+registry.register(reorient.SPEC, env=SatelliteReorientEnv, vector_env=SatelliteReorientVectorEnv)
+registry.register(detumble.SPEC, env=SatelliteDetumbleEnv, vector_env=SatelliteDetumbleVectorEnv)
+registry.register(track.SPEC, env=SatelliteTrackEnv, vector_env=SatelliteTrackVectorEnv)
+registry.register(desaturate.SPEC, env=_env.SatelliteDesaturateEnv,
+                  vector_env=_vector_env.SatelliteDesaturateVectorEnv)
+registry.register(reorient.SPEC_V1, env=_env.SatelliteReorientV1Env,
+                  vector_env=_vector_env.SatelliteReorientV1VectorEnv)
+registry.register(detumble.SPEC_V1, env=_env.SatelliteDetumbleV1Env,
+                  vector_env=_vector_env.SatelliteDetumbleV1VectorEnv)
+registry.register(track.SPEC_V1, env=_env.SatelliteTrackV1Env,
+                  vector_env=_vector_env.SatelliteTrackV1VectorEnv)
+registry.register(reorient.SPEC_V2, env=_env.SatelliteReorientV2Env,
+                  vector_env=_vector_env.SatelliteReorientV2VectorEnv)
+# The goal-conditioned form of Reorient-v1: its own id, not a task of its own (no vector or
+# torch shell; registry.specs() and ENV_IDS leave it out).
+registry.register(goal.SPEC, env=goal.GoalReorientEnv)
 
 try:
     __version__ = version("rbenv")

@@ -24,10 +24,10 @@ from rbenv.agents.baselines.controllers import (
     env_parts,
 )
 from rbenv.agents.policies import optimality
+from rbenv.agents.policies.envcheck import plain_env
 from rbenv.agents.policies.load import load_policy
 
 import rbenv
-from rbenv.envs.registry import plain_env
 from rbenv.envs.rendering import save_video
 from rbenv.satellite.scene import DEFAULT_SCENE
 from rbenv.satellite.usage import InvalidChoiceError, invalid_choice

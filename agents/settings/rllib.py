@@ -1,7 +1,8 @@
 """RLlib's names for the shipped PPO settings: ``rbenv train --engine rllib`` reads these.
 
-The numbers are the zoo-format dict of the training entries (:data:`rbenv.agents.settings.tuned.PPO`
-for the shipped ids), renamed, so SB3 and RLlib PPO train with one set of settings. Only what
+The numbers are the id's PPO recipe for ``--engine rllib`` (zoo format:
+:meth:`rbenv.agents.settings.TrainingSettings.recipe`), renamed here and nowhere else, so SB3
+and RLlib PPO train with one set of settings. Only what
 RLlib needs and SB3 leaves at a default is written here: SB3's gradient-norm limit (0.5) and
 its unclipped value loss (RLlib clips it unless ``vf_clip_param`` is huge), and SB3's
 ``MlpPolicy`` activation (tanh) with separate policy and value networks and a

@@ -1,5 +1,5 @@
-"""The training settings of the shipped ids: scripted baselines, budgets and per-scene
-training options, over the shared hyperparameters of :mod:`rbenv.agents.settings.tuned`.
+"""The training settings of the shipped ids: scripted baselines and recipes (budgets,
+per-scene and per-engine settings), over the shared ones of :mod:`rbenv.agents.settings.tuned`.
 
 The evidence behind each number is in docs/learning-suite.md, docs/off-policy.md and
 benchmarks/results/rl/.
@@ -8,7 +8,7 @@ benchmarks/results/rl/.
 from __future__ import annotations
 
 from rbenv.agents.settings import tuned
-from rbenv.agents.settings.table import TrainingSettings
+from rbenv.agents.settings.table import Recipe, TrainingSettings
 
 _CONTROLLERS = "rbenv.agents.baselines.controllers"
 REORIENT_BASELINES = {"pd": f"{_CONTROLLERS}:QuaternionPD",
@@ -20,8 +20,7 @@ REORIENT_BASELINES = {"pd": f"{_CONTROLLERS}:QuaternionPD",
 # innocube-3u: its wheels command accelerations, and slews take 30 s and more, so failing
 # (spinning past the rate limit) must cost more than a slow slew: SAC with the default failure
 # weight learned to end every episode within 16 steps (docs/innocube/learned-policy.md).
-INNOCUBE = {(algo, "innocube-3u"): {"action_mode": "acceleration", **tuned.WHEELS_FAILURE}
-            for algo in ("ppo", "sac")}
+INNOCUBE = {"action_mode": "acceleration", **tuned.WHEELS_FAILURE}
 DETUMBLE_BASELINES = {"pd": f"{_CONTROLLERS}:RateDamping", "bdot": f"{_CONTROLLERS}:BDot"}
 TRACK_BASELINES = {"pd": f"{_CONTROLLERS}:TrackingPD"}
 
@@ -45,19 +44,22 @@ REORIENT_V1_PPO = {**REORIENT_V1_PPO_EARLIER, "n_timesteps": 600_000, "gamma": 0
 # sbx-sac-256e-b1024-g16-64; docs/performance.md). TD3 >= 99 % of the 500 held-out
 # episodes first at 200k, 250k and 250k samples (seeds 0-2); SAC at 300k, 450k and 400k.
 # SB3's TD3 with the same settings was at 0 % after 250k (seed 0), so the sb3 engine keeps
-# id_settings' recipe.
-REORIENT_V1_SBX = {("sbx", "sac"): {**tuned.MANY_ENVS, "n_timesteps": 600_000},
-                   ("sbx", "td3"): {**tuned.MANY_ENVS, "n_timesteps": 350_000}}
+# the general recipe (32 envs).
+REORIENT_V1_SBX = {Recipe("sac", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 600_000},
+                   Recipe("td3", "sbx"): {**tuned.MANY_ENVS, "n_timesteps": 350_000}}
 
 # Reorient-v1 with rbenv train --engine torchrl (TorchRL's PPO on the torch env): SB3's
-# third-sweep recipe in TorchRL's names (256 envs x 32 steps, 3 epochs of minibatches of
-# 4096, lr 2e-3, [64, 64], gamma 0.98, log std -0.5). >= 99 % of the 500 held-out episodes
-# first at 803k, 901k and 754k samples (seeds 0-2; benchmarks/time_to_solve.py path
-# torchrl-g0.98-std-0.5-1.2M, docs/performance.md); the learner's own defaults reached 41 %
-# at 800k (seed 0).
-REORIENT_V1_TORCHRL = {"num_envs": 256, "rollout": 32, "minibatch": 4096, "epochs": 3,
-                       "lr": 2e-3, "hidden": 64, "gamma": 0.98, "log_std_init": -0.5,
-                       "timesteps": 1_200_000}
+# third-sweep recipe, REORIENT_V1_PPO's (256 envs x 32 steps, 3 epochs of minibatches of
+# 4096, lr 2e-3, [64, 64], gamma 0.98, log std -0.5; TorchRL's networks are tanh anyway), and
+# its own budget. >= 99 % of the 500 held-out episodes first at 803k, 901k and 754k samples
+# (seeds 0-2; benchmarks/time_to_solve.py path torchrl-g0.98-std-0.5-1.2M,
+# docs/performance.md); the learner's own defaults reached 41 % at 800k (seed 0).
+REORIENT_V1_TORCHRL = {
+    **{k: REORIENT_V1_PPO[k] for k in ("n_envs", "n_steps", "batch_size", "n_epochs",
+                                        "learning_rate", "gamma")},
+    "policy_kwargs": {k: REORIENT_V1_PPO["policy_kwargs"][k]
+                      for k in ("net_arch", "log_std_init")},
+    "n_timesteps": 1_200_000}
 
 # Reorient-v2's PPO, the main job (rbenv train with no arguments): Reorient-v1's updates,
 # trained to the budget. Validation (200 episodes from seed 5,000,000, seed 1, 2 M steps) chose
@@ -68,89 +70,98 @@ REORIENT_V2_PPO = {**REORIENT_V1_PPO, "n_timesteps": 2_000_000}
 
 # What Reorient-v1 and -v2 share: the same episodes and observation, so the settings measured
 # on v1 for the other scenes and engines serve both (not re-measured on v2's reward).
-REORIENT_SCENES_AND_ENGINES = dict(
+REORIENT_SCENES_AND_ENGINES = {
     # The other scenes keep the PPO settings measured on them.
-    scene_settings={("ppo", scene): REORIENT_V1_PPO_EARLIER for scene in (
-        "boom-sat", "cubesat-12u-dr", "cubesat-12u-rw", "cubesat-6u-rw", "innocube-3u",
-        "microsat-100kg")},
+    **{Recipe("ppo", scene=scene): REORIENT_V1_PPO_EARLIER for scene in (
+        "cubesat-12u-dr", "cubesat-12u-rw", "microsat-100kg")},
+    Recipe("ppo", scene="cubesat-6u-rw"): {**REORIENT_V1_PPO_EARLIER,
+                                           "env_kwargs": tuned.WHEELS_FAILURE},
+    Recipe("ppo", scene="innocube-3u"): {**REORIENT_V1_PPO_EARLIER, "env_kwargs": INNOCUBE},
     # PPO on boom-sat: 89.0 % and 60.2 % held out at 1 M steps (seeds 0, 1), validation
     # still rising (v0 needs 4 M there).
-    scene_budgets={("ppo", "boom-sat"): 2_000_000},
-    scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE, **INNOCUBE},
-    engine_settings=REORIENT_V1_SBX,
-    torchrl=REORIENT_V1_TORCHRL,
-    hyperparams=tuned.ALL)
+    Recipe("ppo", scene="boom-sat"): {**REORIENT_V1_PPO_EARLIER, "n_timesteps": 2_000_000},
+    Recipe("sac", scene="innocube-3u"): {"env_kwargs": INNOCUBE},
+    **REORIENT_V1_SBX}
+# Off-policy budgets of Reorient-v1 from 3 seeds each (benchmarks/results/rl/v1/
+# <algo>-reorient-v1-seed*-keepbest.json, docs/off-policy.md): SAC's best policies at
+# 130-135k (99.0-100 % held out); TD3 validated 97-100 % from 120k on (97.4-99.8 % held out
+# at 151-300k); TQC 97.6-100 % held out with the policies of 30-62k, all 3 runs ending by
+# 70k; CrossQ learned at 100-110k on seeds 0 and 1 (100 %), not by 105k on seed 2.
+REORIENT_V1_OFF_POLICY = tuned.budgets(sac=150_000, td3=150_000, tqc=70_000, crossq=180_000)
+
+
+def _v0(ppo: int, sac: int, scenes: dict | None = None) -> dict:
+    """A v0 id's recipes: tuned's, with the suite's measured PPO and SAC budgets, and
+    ``scenes``' recipes."""
+    return {**tuned.recipes(**tuned.budgets(ppo=ppo, sac=sac)), **(scenes or {})}
 
 
 SHIPPED = (
     TrainingSettings(
         env_id="rbenv/SatelliteReorient-v0", baselines=REORIENT_BASELINES,
-        budget={"ppo": 1_000_000, "sac": 200_000},
-        # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
-        scene_budgets={("ppo", "boom-sat"): 4_000_000},
-        scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE,
-                          ("ppo", "cubesat-12u-rw"): tuned.WHEELS_FAILURE, **INNOCUBE},
-        hyperparams=tuned.ALL),
+        recipes=_v0(
+            ppo=1_000_000, sac=200_000, scenes={
+                **{Recipe("ppo", scene=scene): {"env_kwargs": tuned.WHEELS_FAILURE}
+                   for scene in ("cubesat-6u-rw", "cubesat-12u-rw")},
+                # PPO on boom-sat reorientation is at 4 % after 1 M steps, 92 % at 3.8 M.
+                Recipe("ppo", scene="boom-sat"): {"n_timesteps": 4_000_000},
+                Recipe("ppo", scene="innocube-3u"): {"env_kwargs": INNOCUBE},
+                Recipe("sac", scene="innocube-3u"): {"env_kwargs": INNOCUBE}})),
     TrainingSettings(
         env_id="rbenv/SatelliteDetumble-v0", baselines=DETUMBLE_BASELINES,
-        budget={"ppo": 300_000, "sac": 100_000},
-        # Rods and wheels at 10 s steps: measured at 1 M steps, failure weight 200.
-        scene_budgets={("ppo", "cubesat-6u-rw"): 1_000_000},
-        scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
-        hyperparams=tuned.ALL),
+        recipes=_v0(
+            ppo=300_000, sac=100_000, scenes={
+                # Rods and wheels at 10 s steps: measured at 1 M steps, failure weight 200.
+                Recipe("ppo", scene="cubesat-6u-rw"): {"n_timesteps": 1_000_000,
+                                                       "env_kwargs": tuned.WHEELS_FAILURE}})),
     TrainingSettings(
         env_id="rbenv/SatelliteTrack-v0", baselines=TRACK_BASELINES,
-        budget={"ppo": 1_000_000, "sac": 200_000},
-        scene_env_kwargs={("ppo", "cubesat-6u-rw"): tuned.WHEELS_FAILURE},
-        hyperparams=tuned.ALL),
+        recipes=_v0(ppo=1_000_000, sac=200_000, scenes={
+            Recipe("ppo", scene="cubesat-6u-rw"): {"env_kwargs": tuned.WHEELS_FAILURE}})),
     TrainingSettings(
         env_id="rbenv/SatelliteDesaturate-v0",
         baselines={"unload": f"{_CONTROLLERS}:Unload", "pd": f"{_CONTROLLERS}:WheelHoldPD"},
-        budget={"ppo": 2_000_000, "sac": 200_000}, hyperparams=tuned.ALL),
+        recipes=_v0(ppo=2_000_000, sac=200_000)),
     TrainingSettings(
         env_id="rbenv/SatelliteReorient-v1", baselines=REORIENT_BASELINES,
-        # No suite budget of its own: PPO's cells train the settings' n_timesteps.
-        # Off-policy budgets from 3 seeds each (benchmarks/results/rl/v1/
-        # <algo>-reorient-v1-seed*-keepbest.json, docs/off-policy.md): SAC's best
-        # policies at 130-135k (99.0-100 % held out); TD3 validated 97-100 % from
-        # 120k on (97.4-99.8 % held out at 151-300k); TQC 97.6-100 % held out with
-        # the policies of 30-62k, all 3 runs ending by 70k; CrossQ learned at
-        # 100-110k on seeds 0 and 1 (100 %), not by 105k on seed 2.
-        id_settings={**tuned.budgets(sac=150_000, td3=150_000, tqc=70_000, crossq=180_000),
-                     "ppo": REORIENT_V1_PPO},
-        # rbenv train stops PPO when all of 200 validation episodes succeed (checked every
-        # 50k steps), else at n_timesteps.
-        run_defaults={"ppo": {"stop_success": 1.0, "eval_every": 50_000, "eval_episodes": 200}},
-        **REORIENT_SCENES_AND_ENGINES),
+        recipes={
+            **tuned.recipes(
+                **REORIENT_V1_OFF_POLICY,
+                # rbenv train stops PPO when all of 200 validation episodes succeed (checked
+                # every 50k steps), else at n_timesteps.
+                ppo={**REORIENT_V1_PPO, "run": {"stop_success": 1.0, "eval_every": 50_000,
+                                                "eval_episodes": 200}},
+                torchrl=REORIENT_V1_TORCHRL),
+            **REORIENT_SCENES_AND_ENGINES}),
     TrainingSettings(
         env_id="rbenv/SatelliteDetumble-v1", baselines=DETUMBLE_BASELINES,
-        budget={"ppo": 300_000},
         # Off-policy budgets (benchmarks/results/rl/v1/<algo>-detumble-v1-seed*-
         # keepbest.json): SAC 100 % held out with the policies of 46-71k steps
         # (3 seeds); TD3, TQC and CrossQ 100 % at 75k (seed 0; TD3 and TQC
         # validated 100 % from 20k, CrossQ from 50k after a dip at 30-40k).
-        id_settings=tuned.budgets(sac=75_000, td3=75_000, tqc=75_000, crossq=75_000),
-        hyperparams=tuned.ALL),
+        recipes=tuned.recipes(**tuned.budgets(ppo=300_000, sac=75_000, td3=75_000,
+                                              tqc=75_000, crossq=75_000))),
     TrainingSettings(
         env_id="rbenv/SatelliteTrack-v1", baselines=TRACK_BASELINES,
-        budget={"ppo": 1_000_000},
         # Off-policy budgets (benchmarks/results/rl/v1/<algo>-track-v1-seed*-
         # keepbest.json): SAC 99.2-100 % held out with the policies of 40-65k
         # steps (3 seeds); TQC 100 % with its 20k policy (seed 0, 75k run). TD3 and
         # CrossQ do not learn it: TD3 peaked at 61 % validation at 80k and fell to
         # 0 % by 120k (58.8 % held out at best); CrossQ reached 23 % at 20k and 0 %
         # from 30k to 176k (17.2 %). Their budgets only bound the time spent.
-        id_settings=tuned.budgets(sac=75_000, td3=80_000, tqc=75_000, crossq=75_000),
-        scene_env_kwargs={("ppo", "boom-sat"): tuned.BOOM_TRACK_FUEL},
-        hyperparams=tuned.ALL),
+        recipes={**tuned.recipes(**tuned.budgets(ppo=1_000_000, sac=75_000, td3=80_000,
+                                                 tqc=75_000, crossq=75_000)),
+                 Recipe("ppo", scene="boom-sat"): {"env_kwargs": tuned.BOOM_TRACK_FUEL}}),
     TrainingSettings(
         env_id="rbenv/SatelliteReorient-v2", baselines=REORIENT_BASELINES,
         # The off-policy budgets and the other engines' settings are Reorient-v1's, measured
         # there (the same episodes and observation); not re-measured on v2's reward.
-        id_settings={**tuned.budgets(sac=150_000, td3=150_000, tqc=70_000, crossq=180_000),
-                     "ppo": REORIENT_V2_PPO},
-        # PPO trains to its budget (no early stop: a policy that succeeds is not yet a fast or
-        # frugal one); the training curve is validated every 500k steps.
-        run_defaults={"ppo": {"eval_every": 500_000, "eval_episodes": 100}},
-        **REORIENT_SCENES_AND_ENGINES),
+        recipes={
+            **tuned.recipes(
+                **REORIENT_V1_OFF_POLICY,
+                # PPO trains to its budget (no early stop: a policy that succeeds is not yet a
+                # fast or frugal one); the training curve is validated every 500k steps.
+                ppo={**REORIENT_V2_PPO, "run": {"eval_every": 500_000, "eval_episodes": 100}},
+                torchrl=REORIENT_V1_TORCHRL),
+            **REORIENT_SCENES_AND_ENGINES}),
 )

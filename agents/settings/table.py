@@ -2,8 +2,13 @@
 
 The env package (:mod:`rbenv.envs.registry`) says what an id *is*; this table says how it is
 trained and what it is compared with, keyed by the same id, as MuJoCo Playground keeps its
-``config/*_params.py`` apart from its envs. ``rbenv train``, the learning suite, the evaluation
-report's baselines and RL Zoo's files (``rbenv.agents.zoo.<algo>``) read it.
+``config/*_params.py`` apart from its envs. ``rbenv train`` (every engine), the learning suite,
+the evaluation report's baselines and RL Zoo's files (``rbenv.agents.zoo.<algo>``) read it.
+
+An entry's numbers are in one table, ``recipes``: :class:`Recipe` (algorithm, engine, scene) →
+a dict in RL Zoo's format. :meth:`TrainingSettings.recipe` merges them from the general to the
+specific; the result is all a run of that combination needs, its budget (``n_timesteps``)
+included.
 """
 
 from __future__ import annotations
@@ -11,15 +16,48 @@ from __future__ import annotations
 import copy
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from rbenv.core.errors import InvalidParameterError
 
-__all__ = ["TrainingSettings", "entries", "get", "register", "unregister", "zoo_hyperparams"]
+__all__ = ["RUN", "RUN_KEYS", "Recipe", "TrainingSettings", "entries", "get", "register",
+           "unregister", "zoo_hyperparams"]
 
-# The rbenv train fields a training entry may default per algorithm (run_defaults).
-RUN_DEFAULT_KEYS = ("stop_success", "eval_every", "eval_episodes", "keep_best")
+# The key of a recipe that holds how ``rbenv train`` watches and ends a run (not model
+# settings: RL Zoo's files drop it), and the keys it may hold.
+RUN = "run"
+RUN_KEYS = ("stop_success", "eval_every", "eval_episodes", "keep_best")
+# Keys whose dicts merge key by key from the general recipe to the specific one; every other
+# key of a more specific recipe replaces the general one's value whole (policy_kwargs too).
+MERGED = ("env_kwargs", RUN)
 _REF = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_]\w*$")
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """The key of a recipe: an algorithm ("ppo", "sac", ...), and optionally the engine
+    (``rbenv train --engine``: "sb3", "sbx", "rllib", "torchrl") and the scene (a shipped
+    scene's name) it is for; None: any."""
+
+    algo: str
+    engine: str | None = None
+    scene: str | None = None
+
+    def __repr__(self) -> str:
+        """As it is written: ``Recipe('ppo')``, ``Recipe('sac', 'sbx')``,
+        ``Recipe('ppo', scene='boom-sat')``."""
+        args = [repr(self.algo)] + ([repr(self.engine)] if self.engine else [])
+        if self.scene:
+            args.append(f"scene={self.scene!r}")
+        return f"Recipe({', '.join(args)})"
+
+    def __post_init__(self):
+        for name in ("algo", "engine", "scene"):
+            value = getattr(self, name)
+            if not (isinstance(value, str) and value) and not (value is None and name != "algo"):
+                raise InvalidParameterError(
+                    f"Recipe.{name} must be a non-empty string"
+                    + (" or None (any)" if name != "algo" else "") + f", got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -28,60 +66,52 @@ class TrainingSettings:
 
     baselines: scripted policy name → ``"module:Class"`` or a class with ``from_env(env)``
     whose instances have SB3's ``predict(obs, state)``; ``rbenv train`` compares every policy
-    with them. hyperparams: algorithm → settings in RL Zoo's format, shared by the ids
-    (:mod:`rbenv.agents.settings.tuned`; "ppo", the default algorithm, is required).
-    id_settings: algorithm → this id's own settings over the shared ones (its measured
-    ``n_timesteps``, say); :meth:`settings` merges them. budget: algorithm → the learning
-    suite's training timesteps, where they differ from the settings' ``n_timesteps``.
-    scene_budgets: (algorithm, scene) → timesteps, where a scene needs more.
-    scene_env_kwargs: (algorithm, scene) → env options that training adds on that scene (a
-    reward weight the scene needs); the env's own defaults stay as they are.
-    engine_settings: (engine, algorithm) → settings over the id's when ``rbenv train`` runs
-    that engine (``--engine sbx``'s many-env recipe, which SB3's learner did not learn with).
-    scene_settings: (algorithm, scene) → settings over the id's on that scene (the id's own
-    are measured on the default scene; a scene keeps the values measured on it).
-    run_defaults: algorithm → ``rbenv train``'s defaults for how a run of this id is watched
-    and ended, where the flags are not given (:data:`RUN_DEFAULT_KEYS`: stop at a validation
-    success rate, evaluate every so many steps on so many episodes, keep the best policy).
-    They are not model settings: RL Zoo never sees them.
-    torchrl: ``rbenv train --engine torchrl``'s learner on this id (TorchRL's PPO, whose
-    fields are not RL Zoo's: :class:`rbenv.agents.training.config.TorchRLConfig`), where it
-    differs from the learner's defaults, and ``timesteps``, its budget.
+    with them.
+
+    recipes: :class:`Recipe` → a dict in RL Zoo's format; ``Recipe("ppo")`` (PPO, the default
+    algorithm, on any engine and scene) is required. A recipe holds the model's
+    hyperparameters and ``n_timesteps`` (the budget: of ``rbenv train``, the learning suite and
+    RL Zoo alike), ``n_envs``, ``normalize``, ``env_kwargs`` (gym.make options the training
+    adds: a reward weight a scene needs, say) and ``"run"`` (:data:`RUN_KEYS`: ``rbenv
+    train``'s defaults for stopping at a validation success rate, evaluating every so many
+    steps on so many episodes, keeping the best policy; RL Zoo never sees them). A more
+    specific recipe holds only what differs: :meth:`recipe` merges
+    ``(algo)`` ← ``(algo, scene)`` ← ``(algo, engine)`` ← ``(algo, engine, scene)``.
     """
 
     env_id: str
     baselines: Mapping[str, object]
-    hyperparams: Mapping[str, dict]
-    budget: Mapping[str, int] = field(default_factory=dict)
-    id_settings: Mapping[str, dict] = field(default_factory=dict)
-    scene_budgets: Mapping[tuple, int] = field(default_factory=dict)
-    scene_env_kwargs: Mapping[tuple, dict] = field(default_factory=dict)
-    engine_settings: Mapping[tuple, dict] = field(default_factory=dict)
-    scene_settings: Mapping[tuple, dict] = field(default_factory=dict)
-    run_defaults: Mapping[str, dict] = field(default_factory=dict)
-    torchrl: Mapping[str, object] = field(default_factory=dict)
+    recipes: Mapping[Recipe, dict]
 
-    def settings(self, algo: str, engine: str = "sb3", scene: str | None = None) -> dict:
-        """``algo``'s settings on this id, RL Zoo's format: the shared ``hyperparams[algo]``
-        with ``id_settings[algo]`` over them, ``scene_settings[algo, scene]`` over those, and
-        ``engine_settings[engine, algo]`` over all (a deep copy)."""
-        return copy.deepcopy({**self.hyperparams[algo], **self.id_settings.get(algo, {}),
-                              **self.scene_settings.get((algo, scene), {}),
-                              **self.engine_settings.get((engine, algo), {})})
+    def recipe(self, algo: str, engine: str | None = None, scene: str | None = None) -> dict:
+        """``algo``'s settings on this id for ``engine`` and ``scene`` (None: the general
+        ones), RL Zoo's format plus ``"run"``: the recipes of ``(algo)``, ``(algo, scene)``,
+        ``(algo, engine)`` and ``(algo, engine, scene)`` merged in that order, the later over
+        the earlier (``env_kwargs`` and ``"run"`` key by key). A deep copy."""
+        out: dict = {}
+        keys = [Recipe(algo)]
+        if scene is not None:
+            keys.append(Recipe(algo, scene=scene))
+        if engine is not None:
+            keys.append(Recipe(algo, engine))
+            if scene is not None:
+                keys.append(Recipe(algo, engine, scene))
+        for key in keys:
+            for name, value in self.recipes.get(key, {}).items():
+                out[name] = {**out.get(name, {}), **value} if name in MERGED else value
+        return copy.deepcopy(out)
 
-    def timesteps(self, algo: str, scene: str | None = None) -> int:
-        """The suite's training budget of ``algo`` (on ``scene``, where it needs more): the
-        scene's, else ``budget``'s, else the settings' ``n_timesteps``."""
-        if (algo, scene) in self.scene_budgets:
-            return self.scene_budgets[algo, scene]
-        return self.budget.get(algo) or self.settings(algo, scene=scene)["n_timesteps"]
-
-    def training_env_kwargs(self, algo: str, scene: str | None = None) -> dict:
-        """Env options that training ``algo`` on ``scene`` adds (a deep copy; {}: none)."""
-        return copy.deepcopy(dict(self.scene_env_kwargs.get((algo, scene), {})))
+    def algos(self) -> tuple:
+        """The algorithms this id has a general recipe for."""
+        return tuple(dict.fromkeys(k.algo for k in self.recipes
+                                  if isinstance(k, Recipe) and k == Recipe(k.algo)))
 
 
 _ENTRIES: dict[str, TrainingSettings] = {}
+
+
+def _positive_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value > 0
 
 
 def _check(entry: TrainingSettings) -> None:
@@ -100,74 +130,40 @@ def _check(entry: TrainingSettings) -> None:
             raise InvalidParameterError(
                 f"{where}: baselines[{name!r}] must be 'module:Class' or a class with "
                 f"from_env(env), got {ref!r}")
-    if not isinstance(entry.hyperparams, Mapping) or "ppo" not in entry.hyperparams:
+    if not isinstance(entry.recipes, Mapping) or not isinstance(
+            entry.recipes.get(Recipe("ppo")), Mapping):
         raise InvalidParameterError(
-            f"{where}: hyperparams has no settings for 'ppo' (the default algorithm), got "
-            f"{entry.hyperparams!r}")
-    for name, table in (("budget", entry.budget), ("id_settings", entry.id_settings)):
-        if not isinstance(table, Mapping):
-            raise InvalidParameterError(f"{where}: {name} must be a dict keyed by algorithm, "
-                                        f"got {table!r}")
-    for key, kwargs in entry.scene_env_kwargs.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(kwargs, Mapping)):
+            f"{where}: recipes has no Recipe('ppo') (PPO's settings, the default algorithm), "
+            f"got {entry.recipes!r}")
+    for key, recipe in entry.recipes.items():
+        if not isinstance(key, Recipe) or not isinstance(recipe, Mapping):
             raise InvalidParameterError(
-                f"{where}: scene_env_kwargs must map (algorithm, scene) to a dict of env "
-                f"options, got {key!r}: {kwargs!r}")
-    for algo, defaults in entry.run_defaults.items():
-        if not (algo in entry.hyperparams and isinstance(defaults, Mapping)
-                and set(defaults) <= set(RUN_DEFAULT_KEYS)):
+                f"{where}: recipes must map Recipe(algo, engine, scene) to a dict of settings "
+                f"(RL Zoo format), got {key!r}: {recipe!r}")
+    general = entry.algos()
+    for key, recipe in entry.recipes.items():
+        at = f"{where}: recipes[{key!r}]"
+        if key.algo not in general:
+            raise InvalidParameterError(f"{at}: {key.algo!r} has no general recipe "
+                                        f"Recipe({key.algo!r}); add one (algorithms with one: "
+                                        f"{list(general)})")
+        for name in MERGED:
+            if not isinstance(recipe.get(name, {}), Mapping):
+                raise InvalidParameterError(f"{at}[{name!r}] must be a dict, got "
+                                            f"{recipe[name]!r}")
+        unknown = sorted(set(recipe.get(RUN, {})) - set(RUN_KEYS))
+        if unknown:
+            raise InvalidParameterError(f"{at}[{RUN!r}]: {unknown} are not run defaults; it "
+                                        f"takes {', '.join(RUN_KEYS)}")
+        if "n_timesteps" in recipe and not _positive_int(recipe["n_timesteps"]):
+            raise InvalidParameterError(f"{at}['n_timesteps'] must be a positive int of "
+                                        f"timesteps, got {recipe['n_timesteps']!r}")
+    for algo in general:
+        steps = entry.recipes[Recipe(algo)].get("n_timesteps")
+        if not _positive_int(steps):
             raise InvalidParameterError(
-                f"{where}: run_defaults must map an algorithm with hyperparams to a dict of "
-                f"{', '.join(RUN_DEFAULT_KEYS)}, got {algo!r}: {defaults!r}")
-    steps = entry.torchrl.get("timesteps", 1) if isinstance(entry.torchrl, Mapping) else None
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
-        raise InvalidParameterError(
-            f"{where}: torchrl must be a dict of TorchRL learner fields whose 'timesteps' (if "
-            f"given) is a positive int, got {entry.torchrl!r}")
-    _check_pairs(where, "scene_settings", entry.scene_settings, ("algorithm", "scene"),
-                 entry.hyperparams)
-    _check_pairs(where, "engine_settings", entry.engine_settings, ("engine", "algorithm"),
-                 entry.hyperparams)
-    for key, over in entry.engine_settings.items():
-        if "n_timesteps" in over:
-            budgets_over = over["n_timesteps"]
-            if isinstance(budgets_over, bool) or not isinstance(budgets_over, int) \
-                    or budgets_over <= 0:
-                raise InvalidParameterError(
-                    f"{where}: engine_settings[{key!r}]['n_timesteps'] must be a positive int "
-                    f"of timesteps, got {budgets_over!r}")
-    budgets = {f"budget[{a!r}]": n for a, n in entry.budget.items()}
-    budgets.update({f"scene_budgets[{key!r}]": n for key, n in entry.scene_budgets.items()})
-    algos = dict.fromkeys([*entry.hyperparams, *entry.id_settings, *entry.budget,
-                           *(algo for algo, _ in entry.scene_budgets)])
-    for algo in algos:
-        if not isinstance(entry.hyperparams.get(algo), Mapping):
-            raise InvalidParameterError(
-                f"{where}: hyperparams[{algo!r}] must be a dict of settings (RL Zoo format), "
-                f"got {entry.hyperparams.get(algo)!r}; every algorithm with a budget or "
-                "id_settings needs one")
-        if not isinstance(entry.id_settings.get(algo, {}), Mapping):
-            raise InvalidParameterError(f"{where}: id_settings[{algo!r}] must be a dict of "
-                                        f"settings, got {entry.id_settings[algo]!r}")
-        if algo not in entry.budget:
-            budgets[f"the n_timesteps of {algo!r}'s settings"] = \
-                entry.settings(algo).get("n_timesteps")
-    for name, steps in budgets.items():
-        if isinstance(steps, bool) or not isinstance(steps, int) or steps <= 0:
-            raise InvalidParameterError(
-                f"{where}: {name} must be a positive int of timesteps, got {steps!r}")
-
-
-def _check_pairs(where: str, name: str, table: Mapping, words: tuple, hyperparams) -> None:
-    """Each key of ``table`` a pair (``words``) whose "algorithm" has hyperparams, each value
-    a dict of settings; else a named error."""
-    at = words.index("algorithm")
-    for key, over in table.items():
-        if not (isinstance(key, tuple) and len(key) == 2 and isinstance(over, Mapping)
-                and key[at] in hyperparams):
-            raise InvalidParameterError(
-                f"{where}: {name} must map ({', '.join(words)}) to a dict of settings, for an "
-                f"algorithm with hyperparams, got {key!r}: {over!r}")
+                f"{where}: recipes[Recipe({algo!r})]['n_timesteps'] must be a positive int of "
+                f"timesteps (the budget of {algo} on this id), got {steps!r}")
 
 
 def register(entry: TrainingSettings) -> TrainingSettings:
@@ -192,9 +188,9 @@ def get(env_id: str) -> TrainingSettings:
             f"env_id {env_id!r} has no training settings (scripted baselines, "
             "hyperparameters, budgets), which rbenv train, the suite and the report need. Add "
             f"them with rbenv.agents.settings.register(TrainingSettings(env_id={env_id!r}, "
-            "baselines={'name': 'module:Class'}, hyperparams={'ppo': settings})) in the module "
-            "that registers the task (a shipped task: agents/settings/shipped.py); ids with "
-            f"settings: {sorted(_ENTRIES)}") from None
+            "baselines={'name': 'module:Class'}, recipes={Recipe('ppo'): settings})) in the "
+            "module that registers the task (a shipped task: agents/settings/shipped.py); ids "
+            f"with settings: {sorted(_ENTRIES)}") from None
 
 
 def entries() -> tuple:
@@ -203,5 +199,11 @@ def entries() -> tuple:
 
 
 def zoo_hyperparams(algo: str) -> dict:
-    """RL Zoo's table for ``algo``: env id → settings, for every entry that has them."""
-    return {e.env_id: e.settings(algo) for e in _ENTRIES.values() if algo in e.hyperparams}
+    """RL Zoo's table for ``algo``: env id → its general recipe without ``"run"`` (rbenv
+    train's own), for every entry that has one."""
+    table = {}
+    for e in _ENTRIES.values():
+        if algo in e.algos():
+            table[e.env_id] = e.recipe(algo)
+            table[e.env_id].pop(RUN, None)
+    return table

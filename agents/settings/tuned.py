@@ -1,12 +1,15 @@
-"""The tuned settings of each algorithm, in RL Baselines3 Zoo's format: the one source.
+"""The tuned settings of each algorithm, in RL Baselines3 Zoo's format, shared by the ids.
 
-The training entries (:mod:`rbenv.agents.settings.shipped`) point every shipped id at these
-dicts; the zoo files (``rbenv.agents.zoo.ppo``, ...) and ``rbenv train`` read them from there.
+The training entries (:mod:`rbenv.agents.settings.shipped`) start every shipped id's recipes
+from these dicts (:func:`recipes`); the zoo files (``rbenv.agents.zoo.ppo``, ...) and ``rbenv
+train`` read the entries.
 """
 
 from __future__ import annotations
 
 from rbenv.agents.settings.off_policy import recipe
+from rbenv.agents.settings.table import Recipe
+from rbenv.core.errors import InvalidParameterError
 
 # rbenv train's PPO: 64 native sub-envs, VecNormalize, 2 M steps (the README's main job).
 PPO = {
@@ -28,8 +31,8 @@ PPO = {
 }
 
 # The off-policy learners: issue 22's recipe (rbenv.agents.settings.off_policy), measured on
-# SatelliteReorient-v0/cubesat-12u (docs/off-policy.md). A task entry's id_settings give an id
-# its own measured n_timesteps (the v1 ids, via budgets() below); the rest is shared.
+# SatelliteReorient-v0/cubesat-12u (docs/off-policy.md). A task entry gives an id its own
+# measured n_timesteps (recipes() below); the rest is shared.
 SAC = recipe()
 TD3 = recipe(noise_type="normal", noise_std=0.1)
 # TQC: a 200k-step budget (issue 22 saw 99.7 % at 169k; a TQC step costs ~2x SAC's).
@@ -47,11 +50,12 @@ CROSSQ = recipe(tau=None, policy_kwargs={"net_arch": [256, 256]})
 MANY_ENVS = {"n_envs": 256, "batch_size": 1024, "gradient_steps": 16,
              "policy_kwargs": {"net_arch": [64, 64]}}
 
-# PPO's training on the wheel scenes (the training entries' scene_env_kwargs). With the default
-# failure weight (25) PPO learns to spin the bus past the rate limit within ~7 steps and end
-# the episode: the weak wheels (3.2 mN·m on cubesat-6u-rw) need 40–80 s for a manoeuvre whose
-# per-step terms cost more than failing. Held out, 0–14 % with 25; with 200: reorient 97.0 %
-# (6u-rw) and 99.8 % (12u-rw), v1 99.8 %, track 100 %, detumble 100 % (docs/results.md).
+# PPO's training env options on the wheel scenes (the env_kwargs of the entries' scene recipes).
+# With the default failure weight (25) PPO learns to spin the bus past the rate limit within ~7
+# steps and end the episode: the weak wheels (3.2 mN·m on cubesat-6u-rw) need 40–80 s for a
+# manoeuvre whose per-step terms cost more than failing. Held out, 0–14 % with 25; with 200:
+# reorient 97.0 % (6u-rw) and 99.8 % (12u-rw), v1 99.8 %, track 100 %, detumble 100 %
+# (docs/results.md).
 WHEELS_FAILURE = {"reward_weights": {"failure": 200.0}}
 
 # PPO's training of SatelliteTrack-v1 on boom-sat. v1's fuel weight (2.5) was set on
@@ -60,11 +64,32 @@ WHEELS_FAILURE = {"reward_weights": {"failure": 200.0}}
 # With 0.25: 95.8 % held out (PD 83.0 %), 24.1 g (docs/learning-suite.md).
 BOOM_TRACK_FUEL = {"reward_weights": {"fuel": 0.25}}
 
-# algorithm -> settings: what every shipped task entry points at.
+# TorchRL's PPO learner (rbenv train --engine torchrl) where an id has no recipe of its own,
+# in RL Zoo's names (translated by rbenv.agents.training.config.torchrl_fields): chosen for the
+# default scene on a CPU (docs/torch.md). Its networks are two tanh layers of net_arch's width
+# and it always normalises observations and scales rewards.
+TORCHRL_PPO = {"n_envs": 256, "n_timesteps": 800_000, "n_steps": 64, "batch_size": 2048,
+               "n_epochs": 5, "learning_rate": 1e-3, "gamma": 0.99, "gae_lambda": 0.95,
+               "clip_range": 0.2, "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0}}
+
+# algorithm -> settings: what every shipped task entry starts from.
 ALL = {"ppo": PPO, "sac": SAC, "td3": TD3, "tqc": TQC, "crossq": CROSSQ}
 
 
+def recipes(**own: dict) -> dict:
+    """The shared recipes of a task entry: ``Recipe(algo)`` for each algorithm of :data:`ALL`
+    and ``Recipe("ppo", "torchrl")`` (:data:`TORCHRL_PPO`), each with the id's ``own[algo]``
+    (or ``own["torchrl"]``) over it: ``recipes(sac={"n_timesteps": 150_000})``. New dicts."""
+    unknown = sorted(set(own) - {*ALL, "torchrl"})
+    if unknown:
+        raise InvalidParameterError(f"recipes: {unknown} are not algorithms of tuned.ALL nor "
+                                    "'torchrl'")
+    table = {Recipe(algo): {**settings, **own.get(algo, {})} for algo, settings in ALL.items()}
+    table[Recipe("ppo", "torchrl")] = {**TORCHRL_PPO, **own.get("torchrl", {})}
+    return table
+
+
 def budgets(**timesteps: int) -> dict:
-    """A task entry's ``id_settings`` giving each named algorithm its measured training budget
-    on that id: ``budgets(sac=150_000)`` → ``{"sac": {"n_timesteps": 150000}}``."""
+    """Each named algorithm's measured training budget on an id, for :func:`recipes`:
+    ``budgets(sac=150_000)`` → ``{"sac": {"n_timesteps": 150000}}``."""
     return {algo: {"n_timesteps": int(steps)} for algo, steps in timesteps.items()}

@@ -1,10 +1,13 @@
-"""What a training run is defined by: :class:`RunConfig`, every back end's fields, and
-:class:`TrainConfig`, the Stable-Baselines3 back end's (``rbenv train``).
+"""What a training run is defined by: :class:`RunConfig`, every back end's fields, and one
+subclass per run folder kind: :class:`TrainConfig` (sb3 and sbx, whose run folders are the
+same), :class:`rbenv.agents.training.rllib.RLlibConfig` (rllib) and :class:`TorchRLRunConfig`
+(torchrl); :class:`SessionOptions`, how one session runs, for every engine.
 
-:class:`rbenv.agents.training.rllib.RLlibConfig` and :class:`TorchRLRunConfig` extend
-:class:`RunConfig` likewise. The
-resolved config is saved as the run folder's ``config.json`` and read back by
-:func:`resumed_config`. Nothing here imports SB3, torch or Ray.
+Each config's ``resolve`` fills what the caller left unset from the task's recipe
+(:func:`shipped_settings`, RL Zoo's format) and checks it; :func:`torchrl_fields` is the one
+translation of a recipe to TorchRL's learner (:class:`TorchRLConfig`). The resolved config is
+saved as the run folder's ``config.json`` and read back by :func:`resumed_config`. Nothing
+here imports SB3, torch or Ray.
 """
 
 from __future__ import annotations
@@ -13,16 +16,18 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar, Literal, TypeVar
+from typing import ClassVar, Literal, TypeVar, get_args
 
 from rbenv.agents import settings
 from rbenv.agents.policies import runfolder
+from rbenv.agents.policies.envcheck import check_env_options
 from rbenv.agents.policies.runfolder import RunFolderError
 from rbenv.agents.policies.weights import ALGOS, Algo
+from rbenv.agents.settings import tuned
+from rbenv.agents.settings.table import RUN
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.envs.registry import check_env_options
 
 C = TypeVar("C", bound="RunConfig")
 # The periodic evaluation where neither the caller nor the task's run defaults set it.
@@ -117,6 +122,12 @@ class RunConfig:
         self.out = self.out or self.default_out()
         return self
 
+    @classmethod
+    def upgrade(cls, saved: dict) -> dict:
+        """A saved ``config.json`` (a dict) in this version's form: a back end whose saved
+        names changed translates the older ones here. As saved, by default."""
+        return saved
+
     def check_env(self) -> None:
         """Make the run's env once (one satellite) and close it, so that a wrong scene, env
         option or value is named before the run folder is written. Call after :meth:`resolve`.
@@ -136,10 +147,11 @@ def check_count(name: str, value, minimum: int = 1) -> int:
     return int(value)
 
 
-def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
+def resumed_config(cls: type[C], out: Path, overrides: dict | None = None,
+                   engine: str | None = None) -> C:
     """The saved configuration of the run in ``out``, for that folder, with ``overrides`` (the
     fields of ``cls.RESUME_OVERRIDES`` a caller gave, e.g. a new total of timesteps; None
-    values are ignored).
+    values are ignored). ``engine``: the engine that resumes it (None: ``cls``'s default).
 
     Raises :class:`RunFolderError` if the folder was trained by another back end or its
     config.json does not make a valid ``cls`` (an unknown scene, env option or value among
@@ -147,11 +159,16 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
     """
     out = Path(out)
     saved = runfolder.read_config(out)
-    engine = cls.__dataclass_fields__["engine"].default
+    engine = engine or cls.__dataclass_fields__["engine"].default
     if saved.get("engine", "sb3") != engine:
         raise RunFolderError(f"run folder {str(out)!r} was not trained with --engine {engine} "
                              f"(its config.json has engine {saved.get('engine', 'sb3')!r})")
     known = cls.__dataclass_fields__
+    try:
+        saved = cls.upgrade(saved)
+    except (TypeError, ValueError) as e:
+        raise RunFolderError(f"run configuration {str(out / runfolder.CONFIG)!r} is invalid: "
+                             f"{e}") from None
     saved = {**cls.LEGACY_DEFAULTS, **{k: v for k, v in saved.items()
                                         if not (v is None and k in cls.LEGACY_DEFAULTS)}}
     try:
@@ -177,9 +194,10 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None) -> C:
 
 
 OFF_POLICY = ("sac", "td3", "tqc", "crossq")
-# Keys of a zoo settings dict that are not model keyword arguments: rbenv train reads them into
-# TrainConfig's own fields (rl_zoo3's ExpManager does the same).
-ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs")
+# Keys of a recipe that are not model keyword arguments: rbenv train reads them into
+# TrainConfig's own fields (rl_zoo3's ExpManager does the same; "run" is rbenv's own).
+ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs",
+            RUN)
 
 
 def task_entry(env_id: str) -> settings.TrainingSettings:
@@ -195,22 +213,23 @@ def task_entry(env_id: str) -> settings.TrainingSettings:
     return settings.get(env_id)
 
 
-def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str = "sb3",
+def shipped_settings(algo: str, env_id: str = rbenv.ENV_ID, engine: str | None = None,
                      scene: str | None = None) -> dict:
-    """The settings shipped for ``algo`` on ``env_id`` (trained by ``engine``, on ``scene``;
-    None: the default scene's), in RL Zoo's format: its training entry's
-    (rbenv.agents.settings; the shared dicts live in rbenv.agents.settings.tuned).
+    """The recipe shipped for ``algo`` on ``env_id``, trained by ``engine`` on ``scene`` (None:
+    the general one), in RL Zoo's format plus ``"run"``: its training entry's
+    (:meth:`rbenv.agents.settings.TrainingSettings.recipe`; the shared dicts live in
+    rbenv.agents.settings.tuned).
 
-    This is the one source of ``rbenv train``'s defaults; ``rl_zoo3 --conf-file
-    rbenv.agents.zoo.<algo>`` reads the same dict. Returns a deep copy.
+    This is the one source of every engine's defaults; ``rl_zoo3 --conf-file
+    rbenv.agents.zoo.<algo>`` reads the general recipe. Returns a deep copy.
     """
     if algo not in ALGOS:
         raise InvalidParameterError(f"algo must be one of {', '.join(ALGOS)}, got {algo!r}")
     entry = task_entry(env_id)  # the training settings: one source
-    if algo not in entry.hyperparams:
+    if algo not in entry.algos():
         raise InvalidParameterError(f"the training settings of {env_id!r} have no {algo} "
-                                    f"settings; they have {sorted(entry.hyperparams)}")
-    return entry.settings(algo, engine, scene)
+                                    f"recipe; they have {sorted(entry.algos())}")
+    return entry.recipe(algo, engine, scene)
 
 
 def normalize_kwargs(setting) -> dict | None:
@@ -222,9 +241,14 @@ def normalize_kwargs(setting) -> dict | None:
     return dict(setting)
 
 
+SBX_ALGOS = ("sac", "td3")
+
+
 @dataclass
 class TrainConfig(RunConfig):
-    """A run of the SB3 back end; saved as ``config.json`` in the run folder."""
+    """A run of the SB3 back end, or of the SBX one (``engine="sbx"``: SAC or TD3 in JAX, the
+    same fields and run folder; its policy files load as SB3 policies); saved as
+    ``config.json`` in the run folder."""
 
     n_envs: int | None = None
     """Envs stepped side by side in one native vector env; unset: the shipped n_envs."""
@@ -263,8 +287,14 @@ class TrainConfig(RunConfig):
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
+        if self.engine not in ("sb3", "sbx"):
+            raise InvalidParameterError(f"engine must be sb3 or sbx for TrainConfig, got "
+                                        f"{self.engine!r}")
+        if self.engine == "sbx" and self.algo not in SBX_ALGOS:
+            raise InvalidParameterError(f"algo must be one of {', '.join(SBX_ALGOS)} for "
+                                        f"--engine sbx, got {self.algo!r}")
         shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
-        apply_run_defaults(self, self.algo)
+        apply_run_defaults(self, shipped)
         if self.stop_success is None:
             self.stop_success = 0.0
         if self.timesteps is None:
@@ -286,9 +316,8 @@ class TrainConfig(RunConfig):
         # Shipped settings first, then the caller's overrides (a resumed run's are complete).
         self.hyperparams = {**{k: v for k, v in shipped.items() if k not in ZOO_KEYS},
                             **self.hyperparams}
-        # The algorithm's env options, then the scene's for it (settings), then the caller's.
-        scene_kwargs = task_entry(self.env_id).training_env_kwargs(self.algo, self.scene)
-        self.env_kwargs = {**shipped.get("env_kwargs", {}), **scene_kwargs, **self.env_kwargs}
+        # The recipe's env options (the algorithm's, then its scene's), then the caller's.
+        self.env_kwargs = {**shipped.get("env_kwargs", {}), **self.env_kwargs}
         starts = self.hyperparams.get("learning_starts", 0)
         if self.algo in OFF_POLICY and self.timesteps <= starts:
             raise InvalidParameterError(
@@ -305,94 +334,120 @@ def check_stop_success(value) -> None:
                                     f"stop early), got {value!r}")
 
 
-def apply_run_defaults(cfg: RunConfig, algo: str) -> None:
-    """Set each field the caller left unset (None) that the task's run defaults for ``algo``
-    name (rbenv.agents.settings) and ``cfg`` has."""
-    for name, value in task_entry(cfg.env_id).run_defaults.get(algo, {}).items():
+def apply_run_defaults(cfg: RunConfig, recipe: dict) -> None:
+    """Set each field the caller left unset (None) that the run defaults of ``recipe`` (its
+    ``"run"``: :func:`shipped_settings`) name and ``cfg`` has."""
+    for name, value in recipe.get(RUN, {}).items():
         if hasattr(cfg, name) and getattr(cfg, name) is None:
             setattr(cfg, name, value)
 
 
-SBX_ALGOS = ("sac", "td3")
-
-
-@dataclass
-class SBXConfig(TrainConfig):
-    """A run of the SBX back end (SAC or TD3 in JAX): TrainConfig's fields, and its run folder
-    is an sb3 run's (the policy files load as SB3 policies); saved as ``config.json``."""
-
-    engine: Engine = "sbx"
-
-    def resolve(self) -> SBXConfig:
-        if self.algo not in SBX_ALGOS:
-            raise InvalidParameterError(f"algo must be one of {', '.join(SBX_ALGOS)} for "
-                                        f"--engine sbx, got {self.algo!r}")
-        return super().resolve()
+ENGINES: tuple[str, ...] = get_args(Engine)
 
 
 @dataclass(frozen=True)
 class SessionOptions:
-    """How one training session runs, whatever the back end; not saved with the run."""
+    """How one training session runs, for every back end; not saved with the run (a run
+    trained on one device or cluster may resume on another). Each field's docstring says which
+    engines read it (:attr:`READ_BY`); ``rbenv train`` refuses a field its engine does not
+    read."""
+
+    # field -> the engines that read it (the rest ignore it).
+    READ_BY: ClassVar[dict[str, tuple[str, ...]]] = {
+        "progress": ENGINES, "trust_pickle": ENGINES, "tensorboard": ("sb3", "sbx"),
+        "verbose": ("sb3", "sbx"), "address": ("rllib",), "device": ("torchrl",),
+        "quick": ("torchrl",)}
 
     progress: bool = True
-    """Show training progress (a bar for sb3, a line per iteration for rllib)."""
+    """Show training progress (a bar for sb3, a line per iteration for rllib and torchrl).
+    Every engine."""
     trust_pickle: bool = False
     """Let --resume unpickle a run folder written before rbenv's pickle-free format, or an RLlib
     run's checkpoints. Unpickling runs any code in the files: only for folders from a source
-    you trust."""
-
-
-@dataclass(frozen=True)
-class SB3Options(SessionOptions):
-    """How one Stable-Baselines3 training session runs."""
-
+    you trust. Every engine."""
     tensorboard: str | None = None
-    """Also log training to TensorBoard under this folder (DIR/RUN_NAME)."""
+    """Also log training to TensorBoard under this folder (DIR/RUN_NAME). sb3 and sbx."""
     verbose: int = 0
-    """Stable-Baselines3's own logging: 0 (none), 1 or 2."""
-
-
-@dataclass(frozen=True)
-class RLlibOptions(SessionOptions):
-    """How one RLlib training session runs."""
-
+    """Stable-Baselines3's own logging: 0 (none), 1 or 2. sb3 and sbx."""
     address: str | None = None
     """A running Ray cluster: 'auto' (started on this machine with ray start) or HOST:PORT of
-    its head; unset: a private Ray instance on 127.0.0.1."""
-
-
-@dataclass(frozen=True)
-class TorchRLOptions(SessionOptions):
-    """How one TorchRL training session runs (``--engine torchrl``); not saved with the run,
-    so a run trained on one device may resume on another."""
-
+    its head; unset: a private Ray instance on 127.0.0.1. rllib."""
     device: str = "cpu"
-    """The torch device of env and learner (cpu, cuda, cuda:1, ...)."""
+    """The torch device of env and learner (cpu, cuda, cuda:1, ...). torchrl."""
     quick: bool = False
     """A smoke run (CI's form): 16384 timesteps unless --timesteps is given, and 50 episodes
-    for the report; not with --resume."""
+    for the report; not with --resume. torchrl."""
+
+    @classmethod
+    def read_by(cls, engine: str) -> tuple[str, ...]:
+        """The fields ``engine`` reads."""
+        return tuple(name for name, engines in cls.READ_BY.items() if engine in engines)
+
+    @classmethod
+    def ignored_by(cls, engine: str) -> tuple[str, ...]:
+        """The fields ``engine`` does not read."""
+        return tuple(name for name in cls.READ_BY if name not in cls.read_by(engine))
+
+
+# A TorchRL learner field (TorchRLConfig) → the recipe key it is read from (RL Zoo's name).
+TORCHRL_NAMES = {"num_envs": "n_envs", "rollout": "n_steps", "minibatch": "batch_size",
+                 "epochs": "n_epochs", "lr": "learning_rate", "gamma": "gamma",
+                 "lmbda": "gae_lambda", "clip": "clip_range"}
+# The keys of a TorchRL run's hyperparams (RL Zoo's names, and TorchRL's own "compile");
+# policy_kwargs takes net_arch (two layers of one width) and log_std_init.
+TORCHRL_HYPERPARAMS = (*TORCHRL_NAMES.values(), "policy_kwargs", "compile")
+TORCHRL_POLICY_KWARGS = ("net_arch", "log_std_init")
+
+
+def torchrl_fields(recipe: dict) -> dict:
+    """:class:`TorchRLConfig`'s learner fields from a recipe in RL Zoo's names: the one
+    translation. Reads the keys of :data:`TORCHRL_NAMES`, ``policy_kwargs``' ``net_arch`` (two
+    hidden layers of one width: ``hidden``) and ``log_std_init``, ``n_timesteps``
+    (``timesteps``) and ``compile``, where present; the recipe's other keys (``normalize``,
+    ``ent_coef``, ...) are not the learner's and are left."""
+    out = {field: recipe[key] for field, key in TORCHRL_NAMES.items() if key in recipe}
+    policy = recipe.get("policy_kwargs", {})
+    if "net_arch" in policy:
+        arch = policy["net_arch"]
+        if not (isinstance(arch, list | tuple) and len(arch) == 2 and arch[0] == arch[1]):
+            raise InvalidParameterError(
+                f"policy_kwargs.net_arch must be two hidden layers of one width for --engine "
+                f"torchrl (its actor and critic are two tanh layers), got {arch!r}")
+        out["hidden"] = arch[0]
+    if "log_std_init" in policy:
+        out["log_std_init"] = policy["log_std_init"]
+    if "n_timesteps" in recipe:
+        out["timesteps"] = recipe["n_timesteps"]
+    if "compile" in recipe:
+        out["compile"] = recipe["compile"]
+    return out
+
+
+# The learner's defaults: tuned.TORCHRL_PPO, translated.
+_TORCHRL = torchrl_fields(tuned.TORCHRL_PPO)
 
 
 @dataclass
 class TorchRLConfig:
     """TorchRL's PPO learner (:func:`rbenv.agents.training.torchrl.train`, and a run of
-    ``--engine torchrl`` through :class:`TorchRLRunConfig`); the defaults were chosen for the
-    default scene on a CPU (docs/torch.md). Lengths are in samples (env steps of one sub-env)."""
+    ``--engine torchrl`` through :class:`TorchRLRunConfig`); the defaults are
+    :data:`rbenv.agents.settings.tuned.TORCHRL_PPO`'s, chosen for the default scene on a CPU
+    (docs/torch.md). Lengths are in samples (env steps of one sub-env)."""
 
     env_id: str = rbenv.ENV_ID
     scene: str | None = None
     device: str = "cpu"
-    timesteps: int = 800_000
-    num_envs: int = 256
-    rollout: int = 64  # steps per sub-env per batch
-    minibatch: int = 2048
-    epochs: int = 5
-    lr: float = 1e-3
-    gamma: float = 0.99
-    lmbda: float = 0.95
-    clip: float = 0.2
-    hidden: int = 128
-    log_std_init: float = -1.0
+    timesteps: int = _TORCHRL["timesteps"]
+    num_envs: int = _TORCHRL["num_envs"]
+    rollout: int = _TORCHRL["rollout"]  # steps per sub-env per batch
+    minibatch: int = _TORCHRL["minibatch"]
+    epochs: int = _TORCHRL["epochs"]
+    lr: float = _TORCHRL["lr"]
+    gamma: float = _TORCHRL["gamma"]
+    lmbda: float = _TORCHRL["lmbda"]
+    clip: float = _TORCHRL["clip"]
+    hidden: int = _TORCHRL["hidden"]
+    log_std_init: float = _TORCHRL["log_std_init"]
     seed: int = 0
     threads: int = 1
     compile: bool = False
@@ -424,18 +479,14 @@ class TorchRLConfig:
         return self
 
 
-# The fields of TorchRLConfig that a run's hyperparams set (the rest are the run's own).
-TORCHRL_HYPERPARAMS = ("num_envs", "rollout", "minibatch", "epochs", "lr", "gamma", "lmbda",
-                       "clip", "hidden", "log_std_init", "compile")
-
-
 @dataclass
 class TorchRLRunConfig(RunConfig):
     """A run of the TorchRL back end (``--engine torchrl``: TorchRL's PPO on the torch env);
-    saved as ``config.json``. Its ``hyperparams`` are :class:`TorchRLConfig`'s learner fields
-    (``TORCHRL_HYPERPARAMS``), resolved in full: the caller's over the task's (``torchrl`` of
-    its training settings) over the learner's defaults; its policy files are an SB3 PPO
-    policy's."""
+    saved as ``config.json``. Its ``hyperparams`` are the learner's, in RL Zoo's names
+    (:data:`TORCHRL_HYPERPARAMS`, translated by :func:`torchrl_fields`), resolved in full: the
+    caller's over the task's ``Recipe("ppo", "torchrl")`` (:func:`shipped_settings`); its
+    policy files are an SB3 PPO policy's. The recipe's ``env_kwargs`` are not applied (they
+    were measured with SB3): the env options are the caller's."""
 
     engine: Engine = "torchrl"
     stop_success: float | None = None
@@ -447,30 +498,69 @@ class TorchRLRunConfig(RunConfig):
     def default_out(self) -> str:
         return f"runs/torchrl-{self.algo}-{self.scene}-seed{self.seed}"
 
+    @classmethod
+    def upgrade(cls, saved: dict) -> dict:
+        """A config.json whose hyperparams have TorchRL's names (rbenv before the recipes:
+        num_envs, rollout, ..., hidden) in RL Zoo's names."""
+        hp = saved.get("hyperparams")
+        if not isinstance(hp, dict) or not set(hp) & {*TORCHRL_NAMES, "hidden"} - {"gamma"}:
+            return saved
+        new = {key: hp[field] for field, key in TORCHRL_NAMES.items() if field in hp}
+        policy = {}
+        if "hidden" in hp:
+            policy["net_arch"] = [hp["hidden"], hp["hidden"]]
+        if "log_std_init" in hp:
+            policy["log_std_init"] = hp["log_std_init"]
+        if policy:
+            new["policy_kwargs"] = policy
+        if "compile" in hp:
+            new["compile"] = hp["compile"]
+        unknown = sorted(set(hp) - {*TORCHRL_NAMES, "hidden", "log_std_init", "compile"})
+        if unknown:
+            raise InvalidParameterError(f"hyperparams: {unknown} are not --engine torchrl's "
+                                        "hyperparameters")
+        return {**saved, "hyperparams": new}
+
     def resolve(self) -> TorchRLRunConfig:
-        """The learner's defaults under the caller's hyperparams; the task's run defaults for
-        ppo; every field checked."""
+        """The task's torchrl recipe under the caller's hyperparams; the recipe's run defaults;
+        every field checked."""
         if self.algo != "ppo":
             raise InvalidParameterError(f"algo must be ppo for --engine torchrl, got "
                                         f"{self.algo!r}")
-        apply_run_defaults(self, self.algo)
+        shipped = shipped_settings(self.algo, self.env_id, self.engine, self.scene)
+        apply_run_defaults(self, shipped)
         if self.stop_success is None:
             self.stop_success = 0.0
         check_stop_success(self.stop_success)
-        shipped = {**{k: getattr(TorchRLConfig, k) for k in ("timesteps", *TORCHRL_HYPERPARAMS)},
-                   **task_entry(self.env_id).torchrl}
         if self.timesteps is None:
-            self.timesteps = shipped["timesteps"]
+            self.timesteps = shipped["n_timesteps"]
         super().resolve()
-        for source, names in (("hyperparams", set(self.hyperparams)),
-                              (f"the torchrl settings of {self.env_id}",
-                               set(shipped) - {"timesteps"})):
-            unknown = sorted(names - set(TORCHRL_HYPERPARAMS))
-            if unknown:
-                raise InvalidParameterError(
-                    f"{source}: {unknown} are not --engine torchrl's hyperparameters; it takes "
-                    f"{', '.join(TORCHRL_HYPERPARAMS)} (the budget is --timesteps)")
-        self.hyperparams = {k: self.hyperparams.get(k, shipped[k]) for k in TORCHRL_HYPERPARAMS}
+        unknown = sorted(set(self.hyperparams) - set(TORCHRL_HYPERPARAMS))
+        policy = self.hyperparams.get("policy_kwargs", {})
+        if not isinstance(policy, dict):
+            raise InvalidParameterError(f"hyperparams.policy_kwargs must be a dict (JSON "
+                                        f"object), got {policy!r}")
+        unknown += [f"policy_kwargs.{k}" for k in sorted(set(policy) - set(TORCHRL_POLICY_KWARGS))]
+        if unknown:
+            raise InvalidParameterError(
+                f"hyperparams: {unknown} are not --engine torchrl's hyperparameters; it takes "
+                f"{', '.join(TORCHRL_HYPERPARAMS)} (policy_kwargs: "
+                f"{', '.join(TORCHRL_POLICY_KWARGS)}; the budget is --timesteps)")
+        shipped["compile"] = TorchRLConfig.compile
+        missing = [k for k in TORCHRL_HYPERPARAMS if k not in self.hyperparams
+                   and k not in shipped]
+        missing += [f"policy_kwargs.{k}" for k in TORCHRL_POLICY_KWARGS
+                    if k not in policy and k not in shipped.get("policy_kwargs", {})]
+        if missing:
+            raise InvalidParameterError(
+                f"the torchrl recipe of {self.env_id} (Recipe('ppo', 'torchrl') of its training "
+                f"settings, over Recipe('ppo')) has no {missing}: add them, or pass them in "
+                "--hyperparams")
+        shipped_policy = {k: v for k, v in shipped.get("policy_kwargs", {}).items()
+                          if k in TORCHRL_POLICY_KWARGS}
+        self.hyperparams = {k: self.hyperparams.get(k, shipped.get(k))
+                            for k in TORCHRL_HYPERPARAMS}
+        self.hyperparams["policy_kwargs"] = {**shipped_policy, **policy}
         self.learner("cpu").check()
         return self
 
@@ -478,7 +568,8 @@ class TorchRLRunConfig(RunConfig):
         """The learner's configuration for this run on ``device``."""
         return TorchRLConfig(env_id=self.env_id, scene=self.scene, device=device,
                              timesteps=self.timesteps, seed=self.seed, threads=self.threads,
-                             env_kwargs=dict(self.env_kwargs), **self.hyperparams)
+                             env_kwargs=dict(self.env_kwargs),
+                             **torchrl_fields(self.hyperparams))
 
     def check_env(self) -> None:
         """The NumPy env's check, then the torch env made once with the run's options."""

@@ -84,7 +84,8 @@ def run(cfg: RunConfig, backend: Backend, *, resume: bool = False, force: bool =
     """
     out = Path(cfg.out or cfg.default_out())
     if resume:
-        cfg = resumed_config(type(cfg), out, {k: getattr(cfg, k) for k in cfg.RESUME_OVERRIDES})
+        cfg = resumed_config(type(cfg), out, {k: getattr(cfg, k) for k in cfg.RESUME_OVERRIDES},
+                             engine=cfg.engine)
     else:
         cfg.out = str(out)
         cfg.resolve()

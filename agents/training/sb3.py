@@ -39,7 +39,7 @@ from rbenv.agents.policies.sb3 import (
     load_stats,
 )
 from rbenv.agents.training import engine
-from rbenv.agents.training.config import SB3Options, TrainConfig
+from rbenv.agents.training.config import SessionOptions, TrainConfig
 from rbenv.agents.training.report import Trained, write_report
 from rbenv.agents.training.sb3_vec_env import SB3VecEnv
 from rbenv.core.errors import InvalidParameterError
@@ -54,7 +54,7 @@ from rbenv.satellite import usage
 
 
 @dataclass(frozen=True)
-class SB3Session(SB3Options):
+class SB3Session(SessionOptions):
     """The SB3 back end (:class:`rbenv.agents.training.engine.Backend`) with the options of one
     training session (``trust_pickle``: a resume may unpickle the checkpoints of a run folder
     written before issue 19; never needed for runs written now, which hold no pickle)."""
@@ -85,11 +85,11 @@ class SB3Session(SB3Options):
 
 @dataclass(frozen=True)
 class SBXSession(SB3Session):
-    """The SBX back end (``--engine sbx``, :class:`rbenv.agents.training.config.SBXConfig`):
-    this module's training with SBX's SAC or TD3 (JAX) in place of SB3's. SBX keeps SB3's
-    interface (``learn``, callbacks, VecNormalize, the replay buffer) and compiles each batch
-    of gradient steps into one XLA call; its policies are saved as SB3 policies
-    (:mod:`rbenv.agents.policies.weights`)."""
+    """The SBX back end (``--engine sbx``: :class:`rbenv.agents.training.config.TrainConfig`
+    with ``engine="sbx"``): this module's training with SBX's SAC or TD3 (JAX) in place of
+    SB3's. SBX keeps SB3's interface (``learn``, callbacks, VecNormalize, the replay buffer)
+    and compiles each batch of gradient steps into one XLA call; its policies are saved as SB3
+    policies (:mod:`rbenv.agents.policies.weights`)."""
 
     packages: ClassVar[tuple[str, ...]] = ("sbx", "jax", "stable_baselines3", "torch")
 

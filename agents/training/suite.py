@@ -34,7 +34,8 @@ from rbenv.agents.training.config import TrainConfig
 import rbenv
 
 RESULT_VERSION = 3  # 3: mean-throttle action, checkpoints selected on validation episodes
-# The grid's tasks and their training budgets come from the task registry (rbenv.envs.registry).
+# The grid's tasks come from the env registry (rbenv.envs.registry), their budgets from the
+# training settings (rbenv.agents.settings).
 EVAL_EPISODES, EVAL_SEED = 500, 1_000_000
 VALIDATION_EPISODES, VALIDATION_SEED = 100, 2_000_000  # checkpoint selection, not held out
 CURVE_POINTS = 10  # periodic evaluations per training run (the learning curve)
@@ -80,9 +81,9 @@ def tasks() -> dict:
 
 
 def default_timesteps(algo: str, env_id: str, scene: str) -> int:
-    """The full suite's budget for ``algo`` on ``env_id`` and ``scene`` (its training
-    settings)."""
-    return settings.get(env_id).timesteps(algo, scene)
+    """The full suite's budget for ``algo`` on ``env_id`` and ``scene``: the ``n_timesteps`` of
+    its recipe for SB3 on that scene (rbenv.agents.settings), as ``rbenv train`` trains."""
+    return settings.get(env_id).recipe(algo, "sb3", scene)["n_timesteps"]
 
 
 def grid(algos: Iterable[str], env_ids: Iterable[str], scenes: Iterable[str],
@@ -503,8 +504,8 @@ def add_arguments(p: argparse.ArgumentParser) -> argparse.ArgumentParser:
     p.add_argument("--scenes", nargs="+", default=None, help="default: every shipped scene")
     p.add_argument("--seeds", type=int, default=None, help="seeds 0..N-1 (default 3)")
     p.add_argument("--timesteps", type=int, default=None,
-                   help="one budget for every cell (default: per task, "
-                   "the task registry, rbenv.envs.registry)")
+                   help="one budget for every cell (default: per cell, the n_timesteps of "
+                   "its recipe, rbenv.agents.settings)")
     p.add_argument("--episodes", type=int, default=None,
                    help=f"held-out episodes (default {EVAL_EPISODES})")
     p.add_argument("--eval-seed", type=int, default=EVAL_SEED)

@@ -47,7 +47,7 @@ from rbenv.agents.policies import runfolder, weights
 from rbenv.agents.policies.runfolder import RunFolderError, atomic_write
 from rbenv.agents.policies.sb3 import SB3Policy
 from rbenv.agents.training import engine
-from rbenv.agents.training.config import TorchRLConfig, TorchRLOptions, TorchRLRunConfig
+from rbenv.agents.training.config import SessionOptions, TorchRLConfig, TorchRLRunConfig
 from rbenv.agents.training.report import Trained, write_report
 from rbenv.core.errors import InvalidParameterError
 from tensordict import TensorDict
@@ -360,7 +360,7 @@ def success_rate(actor, cfg: TorchRLConfig, env_kwargs: dict) -> float:
 # --- the run-folder engine --------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class TorchRLSession(TorchRLOptions):
+class TorchRLSession(SessionOptions):
     """The TorchRL back end (:class:`rbenv.agents.training.engine.Backend`) with the options of
     one training session (``device``; ``quick`` is applied by the CLI to a new run's config)."""
 
@@ -378,7 +378,7 @@ class TorchRLSession(TorchRLOptions):
     def report(self, out: Path, cfg: TorchRLRunConfig, summary: dict) -> Path:
         return write_report(out, cfg, summary, Trained(
             SB3Policy(out), name="ppo (TorchRL)", title=f"PPO (TorchRL) on `{cfg.scene}`",
-            setup=f"{cfg.hyperparams['num_envs']} envs on {summary.get('device', self.device)}",
+            setup=f"{cfg.hyperparams['n_envs']} envs on {summary.get('device', self.device)}",
             load=f"`rbenv.agents.policies.load_policy({str(out)!r})`: an SB3 PPO policy with "
                  "the observation normalisation (`obs_stats.npz`) that the bare weights lack"))
 

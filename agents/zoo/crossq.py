@@ -5,7 +5,7 @@ SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) without ``tau``: CrossQ h
 network (it normalises the critic's batches instead). Its critics are [256, 256] like the
 actor, not sb3-contrib's default 1024 x 1024, which ran at 43 env-steps/s here (issue 22).
 The v1 ids carry their own measured budgets (``n_timesteps``, in their task entries'
-``id_settings``); the other settings are shared, untuned per id.
+recipes); the other settings are shared, untuned per id.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ Issue 22's recipe (:mod:`rbenv.agents.settings.off_policy`): torque actions with
 allocation, 32 sub-envs, observation normalisation only, lr 1e-3, batch 512, 8 gradient steps
 per 32 env steps, tau 0.01, net [256, 256]. Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets
-(``n_timesteps``, in their training entries' ``id_settings``); the other settings are
+(``n_timesteps``, in their training entries' recipes); the other settings are
 shared, untuned per id.
 """
 

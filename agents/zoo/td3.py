@@ -5,7 +5,7 @@ SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with Gaussian exploration
 deviation 0.1 (the zoo's ``noise_type``/``noise_std``; ``rbenv train`` builds the same
 ``NormalActionNoise``). Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets
-(``n_timesteps``, in their training entries' ``id_settings``); the other settings are
+(``n_timesteps``, in their training entries' recipes); the other settings are
 shared, untuned per id.
 """
 

@@ -6,7 +6,7 @@ critic, 2 dropped per net) and a 200k-step budget: issue 22 measured 99.7 % held
 169k steps, and TQC's update costs about twice SAC's, so the budget is set by wall time.
 Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets
-(``n_timesteps``, in their training entries' ``id_settings``); the other settings are
+(``n_timesteps``, in their training entries' recipes); the other settings are
 shared, untuned per id.
 """
 

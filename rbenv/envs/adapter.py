@@ -107,27 +107,12 @@ class TaskAdapter:
     """Mixin of the env classes (:class:`rbenv.envs.env.AttitudeEnv`,
     :class:`rbenv.envs.vector_env.AttitudeVectorEnv`, :class:`rbenv.envs.torch_env.TorchVectorEnv`).
 
-    A shipped id's class names its entry in ``task_spec``; the generic classes take it as the
-    ``task`` option (``gym.make`` passes it for an id registered without classes of its own).
+    A shipped id's class names its entry in ``task_spec`` and carries its documentation; the
+    generic classes take the entry as the ``task`` option (``gym.make`` passes it for an id
+    registered without classes of its own).
     """
 
     task_spec: ClassVar[TaskSpec | None] = None
-    SHELLS: ClassVar[dict]  # env id -> the shipped class, each shell its own dict
-
-    def __init_subclass__(cls, spec: TaskSpec | None = None, **kwargs):
-        """``class SatelliteReorientEnv(AttitudeEnv, spec=reorient.SPEC)``: a shipped id's
-        class. It runs ``spec``, carries the documentation the shell writes for it
-        (:meth:`_id_doc`) and is listed in the shell's ``SHELLS``, which the registry reads."""
-        super().__init_subclass__(**kwargs)
-        if spec is not None:
-            cls.task_spec = spec
-            cls.__doc__ = cls._id_doc(spec)
-            cls.SHELLS[spec.env_id] = cls
-
-    @classmethod
-    def _id_doc(cls, spec: TaskSpec) -> str:
-        """The docstring of the class of ``spec``'s id: its env documentation."""
-        return spec.env_doc
 
     def _setup(self, o: dict, render_modes) -> tuple[gym.Space, gym.Space]:
         """Build plant and task from ``o`` (the shell's options by name,

@@ -31,7 +31,6 @@ class AttitudeEnv(TaskAdapter, gym.Env):
     """A satellite, its actuators and one task, as a Gymnasium env (see the subclasses)."""
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 2}
-    SHELLS: ClassVar[dict] = {}
 
     def __init__(self, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["single"]`` (the Arguments table)."""
@@ -130,16 +129,43 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             self._renderer = None
 
 
-# One class per shipped id (rbenv.envs.registry registers each as the id's entry point; the
-# base gives it its task entry and documentation).
-class SatelliteReorientEnv(AttitudeEnv, spec=reorient.SPEC): ...
-class SatelliteDetumbleEnv(AttitudeEnv, spec=detumble.SPEC): ...
-class SatelliteTrackEnv(AttitudeEnv, spec=track.SPEC): ...
-class SatelliteDesaturateEnv(AttitudeEnv, spec=desaturate.SPEC): ...
-class SatelliteReorientV1Env(AttitudeEnv, spec=reorient.SPEC_V1): ...
-class SatelliteDetumbleV1Env(AttitudeEnv, spec=detumble.SPEC_V1): ...
-class SatelliteTrackV1Env(AttitudeEnv, spec=track.SPEC_V1): ...
-class SatelliteReorientV2Env(AttitudeEnv, spec=reorient.SPEC_V2): ...
+# One class per shipped id: its task entry and its documentation (the entry's). rbenv/__init__.py
+# names each where it registers the id (rbenv.envs.registry.register).
+class SatelliteReorientEnv(AttitudeEnv):
+    __doc__ = reorient.SPEC.env_doc
+    task_spec = reorient.SPEC
 
 
-SHELLS = AttitudeEnv.SHELLS  # env id -> its class
+class SatelliteDetumbleEnv(AttitudeEnv):
+    __doc__ = detumble.SPEC.env_doc
+    task_spec = detumble.SPEC
+
+
+class SatelliteTrackEnv(AttitudeEnv):
+    __doc__ = track.SPEC.env_doc
+    task_spec = track.SPEC
+
+
+class SatelliteDesaturateEnv(AttitudeEnv):
+    __doc__ = desaturate.SPEC.env_doc
+    task_spec = desaturate.SPEC
+
+
+class SatelliteReorientV1Env(AttitudeEnv):
+    __doc__ = reorient.SPEC_V1.env_doc
+    task_spec = reorient.SPEC_V1
+
+
+class SatelliteDetumbleV1Env(AttitudeEnv):
+    __doc__ = detumble.SPEC_V1.env_doc
+    task_spec = detumble.SPEC_V1
+
+
+class SatelliteTrackV1Env(AttitudeEnv):
+    __doc__ = track.SPEC_V1.env_doc
+    task_spec = track.SPEC_V1
+
+
+class SatelliteReorientV2Env(AttitudeEnv):
+    __doc__ = reorient.SPEC_V2.env_doc
+    task_spec = reorient.SPEC_V2

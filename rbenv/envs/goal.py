@@ -27,6 +27,7 @@ from attitude k to the desired goal.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import ClassVar
 
@@ -34,11 +35,15 @@ import gymnasium as gym
 import numpy as np
 
 from rbenv.core.backend import FLOAT
+from rbenv.envs.env import SatelliteReorientV1Env
+from rbenv.envs.options import take
 from rbenv.satellite.draws import check_seed
-from rbenv.tasks import v1
-from rbenv.tasks.spec import MAX_EPISODE_STEPS
+from rbenv.tasks import reorient, v1
 
 GOAL_ID = "rbenv/SatelliteReorientGoal-v1"
+# Its registry entry: Reorient-v1's task under the goal id (rbenv/__init__.py registers it with
+# GoalReorientEnv, rbenv.envs.registry.register: another form of that task, not a task of its own).
+SPEC = dataclasses.replace(reorient.SPEC_V1, env_id=GOAL_ID, env_doc=__doc__)
 GOAL_FREE = ("reward_rate", "reward_fuel", "reward_failure")  # terms no goal changes
 
 
@@ -61,17 +66,21 @@ def _angle(a: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 class GoalReorientEnv(gym.Env):
-    """Goal-conditioned ``rbenv/SatelliteReorient-v1`` (see the module docstring); ``env`` is
-    an unwrapped v1 reorientation env (its options are this env's, ``render_mode`` too: this
-    env renders it)."""
+    """Goal-conditioned ``rbenv/SatelliteReorient-v1`` (see the module docstring), made by
+    ``gym.make(GOAL_ID, **options)``.
+
+    Its options are the v1 env's (:data:`rbenv.envs.options.OPTIONS_OF` ``["goal"]``: the env
+    options and ``render_mode``), checked by :func:`rbenv.envs.options.take` as every shell's;
+    ``self.env`` is the v1 env they make, which this env renders. It is built from its class,
+    not through ``gym.make``: the registry would call v1 out of date (Reorient-v2 exists) on
+    every goal env made, though the goal form is v1's on purpose."""
 
     metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 2}
 
-    def __init__(self, env: gym.Env):
+    def __init__(self, scene=None, **options):
+        env = SatelliteReorientV1Env(**take(type(self).__name__, "goal",
+                                            {"scene": scene, **options}))
         task = env.task
-        if task.table_name() != "reorient" or "rot6_err" not in task.observation_structure:
-            raise ValueError(f"GoalReorientEnv wraps rbenv/SatelliteReorient-v1, got task "
-                             f"{task.name!r}")
         self.env, self.task = env, task
         self.render_mode = env.render_mode
         self.metadata = {**type(self).metadata, "render_fps": env.metadata["render_fps"]}
@@ -178,23 +187,3 @@ def _info_values(infos: list, key: str) -> np.ndarray:
 
 def _box(n: int) -> gym.spaces.Box:
     return gym.spaces.Box(-1.0, 1.0, (n,), np.float32)
-
-
-def make_goal_env(**kwargs) -> GoalReorientEnv:
-    """``gym.make(GOAL_ID, **kwargs)``: the v1 reorientation env's options
-    (:data:`rbenv.envs.options.OPTIONS_OF` ``["goal"]``, checked by name here: the env
-    options and ``render_mode``). The v1 env is built from its class, not through
-    ``gym.make``: the registry would call v1 out of date (Reorient-v2 exists) on every goal
-    env made, though the goal form is v1's on purpose."""
-    from rbenv.envs.env import SatelliteReorientV1Env
-    from rbenv.envs.options import take
-
-    return GoalReorientEnv(SatelliteReorientV1Env(**take("GoalReorientEnv", "goal", kwargs)))
-
-
-def register() -> None:
-    """Register :data:`GOAL_ID` with Gymnasium (done by ``import rbenv``)."""
-    if GOAL_ID in gym.registry:
-        del gym.registry[GOAL_ID]
-    gym.register(id=GOAL_ID, entry_point="rbenv.envs.goal:make_goal_env",
-                 max_episode_steps=MAX_EPISODE_STEPS)

@@ -56,12 +56,6 @@ class AttitudeVectorEnv(VectorContract):
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 2,
                                 "autoreset_mode": AUTORESET_DEFAULT}
     mask_kind: ClassVar[str] = "a NumPy bool array"
-    SHELLS: ClassVar[dict] = {}
-
-    @classmethod
-    def _id_doc(cls, spec) -> str:
-        single = f"{spec.class_stem}Env"
-        return f"Vector form of :class:`rbenv.{single}` (see :class:`AttitudeVectorEnv`)."
 
     def __init__(self, num_envs: int = 1, scene=None, **options):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["numpy"]`` (see the class doc)."""
@@ -278,19 +272,54 @@ def _rowwise(mask: np.ndarray, value) -> np.ndarray:
     return mask.reshape(mask.shape + (1,) * (np.ndim(value) - 1))
 
 
-# One class per shipped id (rbenv.envs.registry registers each as the id's vector entry point;
-# the base gives it its task entry and documentation).
-class SatelliteReorientVectorEnv(AttitudeVectorEnv, spec=reorient.SPEC): ...
-class SatelliteDetumbleVectorEnv(AttitudeVectorEnv, spec=detumble.SPEC): ...
-class SatelliteTrackVectorEnv(AttitudeVectorEnv, spec=track.SPEC): ...
-class SatelliteDesaturateVectorEnv(AttitudeVectorEnv, spec=desaturate.SPEC): ...
-class SatelliteReorientV1VectorEnv(AttitudeVectorEnv, spec=reorient.SPEC_V1): ...
-class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv, spec=detumble.SPEC_V1): ...
-class SatelliteTrackV1VectorEnv(AttitudeVectorEnv, spec=track.SPEC_V1): ...
-class SatelliteReorientV2VectorEnv(AttitudeVectorEnv, spec=reorient.SPEC_V2): ...
+def vector_doc(spec) -> str:
+    """The docstring of the vector-env class of ``spec``'s id: a pointer to its single env's."""
+    return (f"Vector form of :class:`rbenv.{spec.class_stem}Env` "
+            f"(see :class:`AttitudeVectorEnv`).")
 
 
-SHELLS = AttitudeVectorEnv.SHELLS  # env id -> its class
+# One class per shipped id: its task entry and its documentation. rbenv/__init__.py names each
+# where it registers the id (rbenv.envs.registry.register).
+class SatelliteReorientVectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(reorient.SPEC)
+    task_spec = reorient.SPEC
+
+
+class SatelliteDetumbleVectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(detumble.SPEC)
+    task_spec = detumble.SPEC
+
+
+class SatelliteTrackVectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(track.SPEC)
+    task_spec = track.SPEC
+
+
+class SatelliteDesaturateVectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(desaturate.SPEC)
+    task_spec = desaturate.SPEC
+
+
+class SatelliteReorientV1VectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(reorient.SPEC_V1)
+    task_spec = reorient.SPEC_V1
+
+
+class SatelliteDetumbleV1VectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(detumble.SPEC_V1)
+    task_spec = detumble.SPEC_V1
+
+
+class SatelliteTrackV1VectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(track.SPEC_V1)
+    task_spec = track.SPEC_V1
+
+
+class SatelliteReorientV2VectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(reorient.SPEC_V2)
+    task_spec = reorient.SPEC_V2
+
+
 
 
 def _array_ids(st) -> set:

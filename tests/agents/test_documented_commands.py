@@ -125,7 +125,8 @@ TINY_PPO = {**TINY_SB3, "--hyperparams": json.dumps({"n_steps": 32, "batch_size"
 TINY_OFF = {**TINY_SB3, "--hyperparams": json.dumps({"learning_starts": 64, "batch_size": 32,
                                                      "buffer_size": 1000})}
 TINY_TORCHRL = {**TINY, "--no-report": None, "--hyperparams": json.dumps(
-    {"num_envs": 8, "rollout": 16, "minibatch": 64, "epochs": 2, "hidden": 16})}
+    {"n_envs": 8, "n_steps": 16, "batch_size": 64, "n_epochs": 2,
+     "policy_kwargs": {"net_arch": [16, 16]}})}
 # A run folder a line names -> the documented line that makes it, and its shortening.
 RECIPES = {
     "runs/ppo-cubesat-12u-seed0": (("docs/export.md", "train --out runs/ppo-cubesat-12u-seed0"),

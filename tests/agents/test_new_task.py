@@ -113,8 +113,9 @@ class SunHold:
 
 SPEC = TaskSpec(env_id=SUN_ID, task=PointSun, make=make_point_sun,
                 env_doc="Point body +x at the Sun (a test task).")
-TRAINING = settings.TrainingSettings(env_id=SUN_ID, baselines={"hold": SunHold},
-                                     budget={"ppo": 4096}, hyperparams={"ppo": tuned.PPO})
+TRAINING = settings.TrainingSettings(
+    env_id=SUN_ID, baselines={"hold": SunHold},
+    recipes={settings.Recipe("ppo"): {**tuned.PPO, "n_timesteps": 4096}})
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -186,14 +187,17 @@ def test_rbenv_train_refuses_an_id_without_training_settings_saying_what_to_add(
 @pytest.mark.parametrize(("change", "named"), [
     ({"baselines": {}}, "baselines"),
     ({"baselines": {"pd": 3}}, "baselines['pd']"),
-    ({"budget": {"sac": 1000}}, "hyperparams['sac']"),
-    ({"hyperparams": {"sac": {"n_timesteps": 1000}}}, "'ppo'"),
-    ({"budget": {}, "id_settings": {"ppo": {"n_timesteps": 0}}},
-     "the n_timesteps of 'ppo''s settings must be a positive int"),
-    ({"budget": {"ppo": 4096.0}}, "budget['ppo'] must be a positive int"),
-    ({"scene_budgets": {("ppo", "boom-sat"): -1}}, "scene_budgets[('ppo', 'boom-sat')]"),
-    ({"id_settings": {"sac": {"n_timesteps": 1000}}}, "hyperparams['sac']"),
-    ({"hyperparams": {}}, "hyperparams has no settings for 'ppo'"),
+    ({"recipes": {**TRAINING.recipes, settings.Recipe("sac", "sbx"): {"n_timesteps": 1000}}},
+     "'sac' has no general recipe Recipe('sac')"),
+    ({"recipes": {settings.Recipe("sac"): {"n_timesteps": 1000}}}, "no Recipe('ppo')"),
+    ({"recipes": {settings.Recipe("ppo"): {**tuned.PPO, "n_timesteps": 0}}},
+     "recipes[Recipe('ppo')]['n_timesteps'] must be a positive int"),
+    ({"recipes": {settings.Recipe("ppo"): {**tuned.PPO, "n_timesteps": 4096.0}}},
+     "['n_timesteps'] must be a positive int"),
+    ({"recipes": {**TRAINING.recipes,
+                  settings.Recipe("ppo", scene="boom-sat"): {"n_timesteps": -1}}},
+     "recipes[Recipe('ppo', scene='boom-sat')]['n_timesteps']"),
+    ({"recipes": {}}, "recipes has no Recipe('ppo')"),
 ])
 def test_incomplete_training_settings_are_refused_when_registered(change, named):
     from dataclasses import replace

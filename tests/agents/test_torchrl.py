@@ -63,9 +63,9 @@ def test_quick_cli_writes_a_run_folder_that_loads_as_a_policy(tmp_path):
     summary = json.loads((out / "training.json").read_text())
     assert summary["timesteps"] == 16_384 and summary["device"] == "cpu"
     hp = config["hyperparams"]
-    batch = hp["num_envs"] * hp["rollout"]
+    batch = hp["n_envs"] * hp["n_steps"]
     assert summary["gradient_updates"] == \
-        16_384 // batch * hp["epochs"] * -(-batch // hp["minibatch"])
+        16_384 // batch * hp["n_epochs"] * -(-batch // hp["batch_size"])
     report = (out / "report.md").read_text()
     assert "ppo (TorchRL)" in report and "| pd |" in report
     policy = load_policy(out)
@@ -114,7 +114,8 @@ def test_the_saved_policy_acts_values_and_normalises_as_the_trained_modules(tmp_
 def test_resume_restores_the_learner_and_goes_on_counting(tmp_path):
     out = tmp_path / "run"
     args = ["train", "--engine", "torchrl", "--out", str(out), "--hyperparams", json.dumps(
-        {"num_envs": 8, "rollout": 16, "minibatch": 64, "epochs": 2, "hidden": 16}),
+        {"n_envs": 8, "n_steps": 16, "batch_size": 64, "n_epochs": 2,
+         "policy_kwargs": {"net_arch": [16, 16]}}),
             "--checkpoint-every", "128", "--eval-every", "256", "--eval-episodes", "4",
             "--no-report", "--no-progress"]
     assert cli.main([*args, "--timesteps", "256"]) == 0
@@ -138,7 +139,8 @@ def test_resume_restores_the_learner_and_goes_on_counting(tmp_path):
 def test_resume_skips_a_corrupt_newest_checkpoint(tmp_path, capsys):
     out = tmp_path / "run"
     args = ["train", "--engine", "torchrl", "--out", str(out), "--hyperparams", json.dumps(
-        {"num_envs": 8, "rollout": 16, "minibatch": 128, "epochs": 1, "hidden": 8}),
+        {"n_envs": 8, "n_steps": 16, "batch_size": 128, "n_epochs": 1,
+         "policy_kwargs": {"net_arch": [8, 8]}}),
             "--checkpoint-every", "128", "--no-report", "--no-progress"]
     assert cli.main([*args, "--timesteps", "256"]) == 0
     (out / "checkpoints" / "policy_256.torchrl.pt").write_bytes(b"not a checkpoint")
@@ -160,8 +162,8 @@ def test_stop_success_ends_the_run_on_the_policy_it_evaluated(tmp_path, monkeypa
     monkeypatch.setattr(trl, "evaluate_episodes", all_succeed)
     out = tmp_path / "run"
     cfg = TorchRLRunConfig(out=str(out), seed=3, timesteps=1024, eval_every=256, eval_episodes=5,
-                           stop_success=1.0, hyperparams={"num_envs": 8, "rollout": 16,
-                                                          "minibatch": 128, "epochs": 1})
+                           stop_success=1.0, hyperparams={"n_envs": 8, "n_steps": 16,
+                                                          "batch_size": 128, "n_epochs": 1})
     engine_run(cfg, trl.TorchRLSession(progress=False), report=False)
     summary = json.loads((out / "training.json").read_text())
     assert summary["timesteps"] == 256
@@ -196,7 +198,8 @@ def test_bench_env_speed_torch_quick_writes_json_and_png(tmp_path):
 def test_checkpoints_and_evaluations_leave_the_training_as_it_is(tmp_path):
     """A run's weights do not depend on how often it is checkpointed or evaluated (saving the
     SB3 policy draws SB3's initial weights, outside the run's random numbers)."""
-    hyperparams = {"num_envs": 8, "rollout": 16, "minibatch": 64, "epochs": 2, "hidden": 16}
+    hyperparams = {"n_envs": 8, "n_steps": 16, "batch_size": 64, "n_epochs": 2,
+                   "policy_kwargs": {"net_arch": [16, 16]}}
     finals = []
     for every in (128, 10**9):
         out = tmp_path / f"every{every}"

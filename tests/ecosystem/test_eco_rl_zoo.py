@@ -20,7 +20,7 @@ from rbenv.agents.zoo import ppo
 import rbenv
 
 # Exactly one rollout of the default id's shipped PPO settings (n_envs x n_steps).
-_PPO = settings.get(rbenv.ENV_ID).settings("ppo")
+_PPO = settings.get(rbenv.ENV_ID).recipe("ppo")
 ZOO_STEPS = _PPO["n_envs"] * _PPO["n_steps"]
 ZOO_NAME = rbenv.ENV_ID.replace("/", "-")  # the zoo names its run and model files so
 ALGOS = ("ppo", "sac", "td3", "tqc", "crossq")

@@ -14,7 +14,7 @@ import pytest
 import rbenv
 from rbenv.envs import options
 from rbenv.envs.env import AttitudeEnv
-from rbenv.envs.goal import make_goal_env
+from rbenv.envs.goal import GoalReorientEnv
 from rbenv.envs.vector_env import AttitudeVectorEnv
 from rbenv.satellite.plant import make_plant
 from rbenv.tasks import build
@@ -40,13 +40,13 @@ def _shell_class(shell: str):
         from rbenv.envs.torch_env import TorchEnv, TorchVectorEnv
 
         return TorchVectorEnv if shell == "torch" else TorchEnv
-    return {"single": AttitudeEnv, "numpy": AttitudeVectorEnv, "goal": make_goal_env}[shell]
+    return {"single": AttitudeEnv, "numpy": AttitudeVectorEnv, "goal": GoalReorientEnv}[shell]
 
 
 @pytest.mark.parametrize("shell", sorted(options.OPTIONS_OF))
 def test_each_shell_takes_the_options_declared_for_it_and_refuses_the_rest(shell):
-    """One constructor per shell, ``(num_envs, scene, **options)`` (the goal env's maker:
-    its options), each checked by ``options.take``: the names it takes are
+    """One constructor per shell, ``(num_envs, scene, **options)`` (the goal env: its
+    options), each checked by ``options.take``: the names it takes are
     ``options.OPTIONS_OF[shell]``, declared once; each is accepted at its declared default, and
     a name of another shell, or ``backend`` (the registry's entry points take it), is refused
     by name."""

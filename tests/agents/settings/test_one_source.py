@@ -1,7 +1,6 @@
-"""PPO's settings have one source, rbenv.agents.settings.tuned (the training entries point at
-it):
-`rbenv train` (SB3), `rbenv train --engine rllib` and the RL Zoo file read it; none keeps a
-copy (issue 21 item 2)."""
+"""Each number has one source, the id's recipes (rbenv.agents.settings; the shared dicts in
+rbenv.agents.settings.tuned): `rbenv train` (every engine), the suite and the RL Zoo file read
+them; none keeps a copy (issue 21 item 2, issue 42 item 3)."""
 
 from __future__ import annotations
 
@@ -58,34 +57,26 @@ def test_readers_hold_no_ppo_numbers_and_import_the_source(path):
     assert imported & {"rbenv.agents", "rbenv.agents.settings", "rbenv.agents.zoo.ppo"}
 
 
-def test_a_change_in_the_source_reaches_every_reader(monkeypatch):
-    """Change tuned.PPO in place: SB3's and RLlib's defaults follow (they read, not copy)."""
+def test_a_change_in_a_recipe_reaches_every_reader(monkeypatch):
+    """Change an id's PPO recipe in place: SB3's, RLlib's and the zoo's defaults follow (they
+    read the table, not a copy)."""
+    from rbenv.agents.settings import Recipe
     from rbenv.agents.training.config import shipped_settings
     from rbenv.agents.training.rllib import RLlibConfig
 
-    monkeypatch.setitem(tuned.PPO, "learning_rate", 1.234e-4)
-    monkeypatch.setitem(tuned.PPO, "n_epochs", 7)
-    monkeypatch.setitem(tuned.PPO, "gae_lambda", 0.9)
-    # Reorient-v1 has its own PPO values (its id_settings); the rest still follows the source.
-    v1 = settings.get("rbenv/SatelliteReorient-v1")
-    assert v1.hyperparams["ppo"] is tuned.PPO
-    assert shipped_settings("ppo", v1.env_id)["gae_lambda"] == 0.9
-    assert shipped_settings("ppo", v1.env_id)["learning_rate"] == \
-        v1.id_settings["ppo"]["learning_rate"] != 1.234e-4
-    own = v1.id_settings["ppo"]
-    cfg = RLlibConfig(env_id=v1.env_id).resolve()
-    assert (cfg.hyperparams["lr"], cfg.hyperparams["train_batch_size_per_learner"]) == \
-        (own["learning_rate"], own["n_envs"] * own["n_steps"])
-    for env_id in ("rbenv/SatelliteReorient-v0", "rbenv/SatelliteTrack-v1"):
-        assert settings.get(env_id).hyperparams["ppo"] is tuned.PPO
+    for env_id in ("rbenv/SatelliteReorient-v0", "rbenv/SatelliteReorient-v1"):
+        ppo = settings.get(env_id).recipes[Recipe("ppo")]
+        monkeypatch.setitem(ppo, "learning_rate", 1.234e-4)
+        monkeypatch.setitem(ppo, "n_epochs", 7)
+        monkeypatch.setitem(ppo, "gae_lambda", 0.9)
         assert shipped_settings("ppo", env_id)["learning_rate"] == 1.234e-4
         cfg = RLlibConfig(env_id=env_id).resolve()
         assert (cfg.hyperparams["lr"], cfg.hyperparams["num_epochs"]) == (1.234e-4, 7)
-        assert cfg.hyperparams["train_batch_size_per_learner"] == \
-            tuned.PPO["n_envs"] * tuned.PPO["n_steps"]
-        assert cfg.model["fcnet_hiddens"] == tuned.PPO["policy_kwargs"]["net_arch"]
-        assert cfg.log_std_init == tuned.PPO["policy_kwargs"]["log_std_init"]
-    assert settings.zoo_hyperparams("ppo")["rbenv/SatelliteReorient-v0"]["n_epochs"] == 7
+        assert cfg.hyperparams["lambda_"] == 0.9
+        assert cfg.hyperparams["train_batch_size_per_learner"] == ppo["n_envs"] * ppo["n_steps"]
+        assert cfg.model["fcnet_hiddens"] == ppo["policy_kwargs"]["net_arch"]
+        assert cfg.log_std_init == ppo["policy_kwargs"]["log_std_init"]
+        assert settings.zoo_hyperparams("ppo")[env_id]["n_epochs"] == 7
 
 
 def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_keeps_its_settings():
@@ -113,13 +104,16 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     and the RL Zoo file use on that id; the keys it does not set are the shared dict's."""
     import importlib
 
+    from rbenv.agents.settings import shipped
     from rbenv.agents.training.config import TrainConfig, shipped_settings
 
     env_id = "rbenv/SatelliteReorient-v1"
-    own = settings.get(env_id).id_settings["ppo"]
+    own = shipped.REORIENT_V1_PPO
     zoo = importlib.import_module("rbenv.agents.zoo.ppo").hyperparams[env_id]
-    assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own}
-    # The zoo gets the same dict, with the activation's name made the class SB3 builds.
+    run = {"stop_success": 1.0, "eval_every": 50_000, "eval_episodes": 200}
+    assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own, "run": run}
+    # The zoo gets the same dict without rbenv's run defaults, with the activation's name made
+    # the class SB3 builds.
     from rbenv.agents.policies.activations import Tanh
 
     assert own["policy_kwargs"]["activation_fn"] == "tanh"
@@ -130,8 +124,9 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     assert cfg.hyperparams["batch_size"] == own["batch_size"]
     assert cfg.hyperparams["policy_kwargs"] == own["policy_kwargs"]
     assert cfg.hyperparams["gae_lambda"] == tuned.PPO["gae_lambda"]
+    assert "run" not in cfg.hyperparams
     assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
-    # How a run of it is watched and ended: the id's run defaults, where no flag is given.
+    # How a run of it is watched and ended: the recipe's run defaults, where no flag is given.
     assert (cfg.stop_success, cfg.eval_every, cfg.eval_episodes, cfg.keep_best) == \
         (1.0, 50_000, 200, False)
     given = TrainConfig(env_id=env_id, stop_success=0.0, eval_every=10_000,
@@ -141,51 +136,60 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     v0 = TrainConfig(env_id="rbenv/SatelliteReorient-v0").resolve()
     assert (v0.stop_success, v0.eval_every, v0.eval_episodes, v0.keep_best) == \
         (0.0, 200_000, 100, False)
-    # The other scenes keep the settings measured on them.
+    # The other scenes keep the settings measured on them; boom-sat its measured budget.
     boom = TrainConfig(env_id=env_id, scene="boom-sat").resolve()
-    assert boom.hyperparams["gamma"] == 0.99 and boom.timesteps == 1_500_000
+    assert boom.hyperparams["gamma"] == 0.99 and boom.timesteps == 2_000_000
     assert boom.hyperparams["policy_kwargs"] == {"net_arch": [64, 64], "log_std_init": -1.0}
     # Whole rollouts split into whole minibatches.
     assert (own["n_envs"] * own["n_steps"]) % own["batch_size"] == 0
 
 
 V1_IDS = ("rbenv/SatelliteReorient-v1", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v1")
+OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 
 
 @pytest.mark.parametrize(("env_id", "algo"), [
-    (env_id, algo) for env_id in V1_IDS for algo in settings.get(env_id).id_settings
-    if algo != "ppo"])
+    (env_id, algo) for env_id in V1_IDS for algo in OFF_POLICY])
 def test_an_ids_own_budget_reaches_train_the_zoo_and_the_suite_alike(env_id, algo):
-    """A v1 id's measured off-policy budget lives in its training entry (id_settings) only:
-    `rbenv train`'s default --timesteps, the RL Zoo file's n_timesteps and the suite's cell
-    budget are that one number, and every other setting is still the shared dict's."""
+    """A v1 id's measured off-policy budget is one number of its recipe: `rbenv train`'s
+    default --timesteps, the RL Zoo file's n_timesteps and the suite's cell budget, and every
+    other setting is still the shared dict's."""
     import importlib
 
+    from rbenv.agents.training import suite
     from rbenv.agents.training.config import TrainConfig, shipped_settings
 
     spec = settings.get(env_id)
-    steps = spec.id_settings[algo]["n_timesteps"]
+    steps = spec.recipe(algo)["n_timesteps"]
     zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
-    assert zoo == shipped_settings(algo, env_id) == spec.settings(algo)
-    assert zoo["n_timesteps"] == steps == spec.timesteps(algo, "cubesat-12u")
+    assert zoo == shipped_settings(algo, env_id) == spec.recipe(algo)
+    assert zoo["n_timesteps"] == steps == suite.default_timesteps(algo, env_id, "cubesat-12u")
     assert TrainConfig(algo=algo, env_id=env_id).resolve().timesteps == steps
     shared = {k: v for k, v in tuned.ALL[algo].items() if k != "n_timesteps"}
     assert {k: v for k, v in zoo.items() if k != "n_timesteps"} == shared
-    assert spec.settings(algo) is not spec.settings(algo)  # a copy: a caller can't edit it
+    assert steps != tuned.ALL[algo]["n_timesteps"]  # measured, not the shared one restated
+    assert spec.recipe(algo) is not spec.recipe(algo)  # a copy: a caller can't edit it
 
 
-def test_a_v1_budget_differs_from_the_shared_one_where_it_was_measured():
-    """The per-id numbers are not the shared default restated (that would be no tuning)."""
-    spec = settings.get("rbenv/SatelliteReorient-v1")
-    for algo in ("sac", "td3", "tqc", "crossq"):
-        assert spec.timesteps(algo) != tuned.ALL[algo]["n_timesteps"]
-    assert settings.get("rbenv/SatelliteReorient-v0").settings("sac") == tuned.SAC
+def test_a_budget_reaches_train_the_suite_and_the_zoo_as_one_number():
+    """One source per number: the v0 ids' PPO and SAC budgets, and a scene's, are the same
+    for `rbenv train`, the suite and the zoo."""
+    import importlib
 
+    from rbenv.agents.training import suite
+    from rbenv.agents.training.config import TrainConfig
 
-@pytest.mark.parametrize("env_id", V1_IDS)
-def test_every_v1_id_ships_a_measured_budget_for_every_off_policy_learner(env_id):
-    assert set(settings.get(env_id).id_settings) - {"ppo"} == \
-        {"sac", "td3", "tqc", "crossq"}
+    for env_id, algo, scene, steps in (
+            ("rbenv/SatelliteReorient-v0", "ppo", "cubesat-12u", 1_000_000),
+            ("rbenv/SatelliteReorient-v0", "sac", "cubesat-12u", 200_000),
+            ("rbenv/SatelliteReorient-v0", "ppo", "boom-sat", 4_000_000),
+            ("rbenv/SatelliteDetumble-v1", "ppo", "cubesat-12u", 300_000),
+            ("rbenv/SatelliteReorient-v1", "ppo", "boom-sat", 2_000_000)):
+        assert TrainConfig(algo=algo, env_id=env_id, scene=scene).resolve().timesteps == \
+            suite.default_timesteps(algo, env_id, scene) == steps
+        if scene == "cubesat-12u":
+            zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
+            assert zoo["n_timesteps"] == steps
 
 
 @pytest.mark.parametrize("algo", ["sac", "td3"])
@@ -195,78 +199,124 @@ def test_reorient_v1_trains_sac_and_td3_with_many_envs_through_sbx_only(algo):
     the shared recipe (32 envs, a quarter update per env step)."""
     import importlib
 
-    from rbenv.agents.training.config import SBXConfig, TrainConfig
+    from rbenv.agents.settings import Recipe
+    from rbenv.agents.training.config import TrainConfig
 
     env_id = "rbenv/SatelliteReorient-v1"
-    fast = SBXConfig(algo=algo, env_id=env_id).resolve()
+    fast = TrainConfig(engine="sbx", algo=algo, env_id=env_id).resolve()
     assert fast.n_envs == tuned.MANY_ENVS["n_envs"] == 256
     assert fast.hyperparams["batch_size"] == 1024 and fast.hyperparams["gradient_steps"] == 16
     assert fast.hyperparams["policy_kwargs"] == {"net_arch": [64, 64]}
     assert fast.hyperparams["gradient_steps"] / fast.n_envs == 1 / 16  # updates per env step
     assert fast.hyperparams["learning_rate"] == tuned.ALL[algo]["learning_rate"]  # shared
-    assert fast.timesteps == settings.get(env_id).engine_settings["sbx", algo]["n_timesteps"]
+    assert fast.timesteps == settings.get(env_id).recipes[Recipe(algo, "sbx")]["n_timesteps"]
     for cfg in (TrainConfig(algo=algo, env_id=env_id).resolve(),
-                SBXConfig(algo=algo, env_id="rbenv/SatelliteReorient-v0").resolve()):
+                TrainConfig(engine="sbx", algo=algo,
+                            env_id="rbenv/SatelliteReorient-v0").resolve()):
         assert cfg.n_envs == 32 and cfg.hyperparams["gradient_steps"] / cfg.n_envs == 1 / 4
     zoo = importlib.import_module(f"rbenv.agents.zoo.{algo}").hyperparams[env_id]
     assert zoo["n_envs"] == 32
 
 
-def test_engine_settings_must_name_an_algorithm_with_settings():
-    from rbenv.agents.settings.table import TrainingSettings, register
-    from rbenv.core.errors import InvalidParameterError
+def _entry(recipes: dict):
+    from rbenv.agents.settings.table import TrainingSettings
 
-    for bad in ({("sbx", "ddpg"): {}}, {"sbx": {}}, {("sbx", "sac"): {"n_timesteps": 0}}):
-        with pytest.raises(InvalidParameterError, match="engine_settings"):
-            register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
-                                      hyperparams=tuned.ALL, engine_settings=bad))
+    return TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
+                            recipes=recipes)
 
 
-@pytest.mark.parametrize("field, bad", [
-    ("scene_settings", {("ddpg", "boom-sat"): {}}),
-    ("scene_settings", {"ppo": {}}),
-    ("scene_settings", {("ppo", "boom-sat"): 0.98}),
-    ("run_defaults", {"ddpg": {"stop_success": 1.0}}),
-    ("run_defaults", {"ppo": {"learning_rate": 1e-3}}),  # a model setting, not the run's
-    ("run_defaults", {"ppo": 1.0}),
-    ("torchrl", {"timesteps": 0}),
-    ("torchrl", {"timesteps": 1.5e6}),
-    ("torchrl", [("gamma", 0.98)]),
+def test_recipes_merge_from_the_general_to_the_specific():
+    """(algo) <- (algo, scene) <- (algo, engine) <- (algo, engine, scene); env_kwargs and run
+    key by key, every other key replaced whole."""
+    from rbenv.agents.settings import Recipe
+
+    e = _entry({Recipe("ppo"): {"a": 1, "b": 1, "c": 1, "d": 1, "env_kwargs": {"x": 1},
+                                "policy_kwargs": {"net_arch": [8], "log_std_init": 0.0}},
+                Recipe("ppo", scene="s"): {"b": 2, "c": 2, "d": 2, "env_kwargs": {"y": 2},
+                                           "policy_kwargs": {"net_arch": [4]}},
+                Recipe("ppo", "e"): {"c": 3, "d": 3, "run": {"eval_every": 3}},
+                Recipe("ppo", "e", "s"): {"d": 4, "env_kwargs": {"x": 4}}})
+    assert e.recipe("ppo", "e", "s") == {"a": 1, "b": 2, "c": 3, "d": 4,
+                                         "env_kwargs": {"x": 4, "y": 2},
+                                         "policy_kwargs": {"net_arch": [4]},
+                                         "run": {"eval_every": 3}}
+    assert e.recipe("ppo", "e")["d"] == 3 and e.recipe("ppo", scene="s")["c"] == 2
+    assert e.recipe("ppo", "other", "s")["c"] == 2
+    assert e.recipe("ppo") == e.recipes[Recipe("ppo")]
+
+
+@pytest.mark.parametrize("recipes, match", [
+    ({}, r"no Recipe\('ppo'\)"),
+    ({"ppo": {"n_timesteps": 1}}, r"no Recipe\('ppo'\)"),
+    ({"RECIPE": {"n_timesteps": 1}, ("sbx", "sac"): {}}, "must map Recipe"),
+    ({"RECIPE": {"n_timesteps": 1}, "ddpg": {}}, r"'ddpg' has no general recipe"),
+    ({"RECIPE": {"n_timesteps": 1}, "sbx-sac": {"n_timesteps": 0}}, "n_timesteps'\\] must"),
+    ({"RECIPE": {"n_timesteps": 1}, "ppo-boom": 0.98}, "must map Recipe"),
+    ({"RECIPE": {"n_timesteps": 1, "run": {"learning_rate": 1e-3}}}, r"not run defaults"),
+    ({"RECIPE": {"n_timesteps": 1, "run": 1.0}}, r"\['run'\] must be a dict"),
+    ({"RECIPE": {"n_timesteps": 1, "env_kwargs": [("a", 1)]}}, r"\['env_kwargs'\] must"),
+    ({"RECIPE": {"n_timesteps": 1.5e6}}, r"n_timesteps'\] must be a positive int"),
+    ({"RECIPE": {}}, r"n_timesteps'\] must be a positive int"),
 ])
-def test_scene_settings_and_run_defaults_are_checked_at_registration(field, bad):
-    from rbenv.agents.settings.table import TrainingSettings, register
+def test_recipes_are_checked_at_registration(recipes, match):
+    from rbenv.agents.settings import Recipe
+    from rbenv.agents.settings.table import register
     from rbenv.core.errors import InvalidParameterError
 
-    with pytest.raises(InvalidParameterError, match=field):
-        register(TrainingSettings(env_id="test/NoSuch-v0", baselines={"pd": "a.b:C"},
-                                  hyperparams=tuned.ALL, **{field: bad}))
+    keys = {"RECIPE": Recipe("ppo"), "ddpg": Recipe("ddpg", scene="boom-sat"),
+            "sbx-sac": Recipe("sac", "sbx"), "ppo-boom": Recipe("ppo", scene="boom-sat")}
+    table = {Recipe("sac"): {"n_timesteps": 1}} if "sbx-sac" in recipes else {}
+    table.update({keys.get(k, k) if isinstance(k, str) else k: v for k, v in recipes.items()})
+    with pytest.raises(InvalidParameterError, match=match):
+        register(_entry(table))
 
 
-def test_an_ids_torchrl_settings_set_the_torchrl_run_under_the_callers():
+def test_a_recipe_key_is_checked():
+    from rbenv.agents.settings import Recipe
+    from rbenv.core.errors import InvalidParameterError
+
+    for bad, field in (({"algo": ""}, "algo"), ({"algo": None}, "algo"),
+                       ({"algo": "ppo", "engine": 3}, "engine"),
+                       ({"algo": "ppo", "scene": ""}, "scene")):
+        with pytest.raises(InvalidParameterError, match=f"Recipe.{field} must be"):
+            Recipe(**bad)
+
+
+def test_an_ids_torchrl_recipe_sets_the_torchrl_run_under_the_callers():
+    from rbenv.agents.settings import Recipe, shipped
     from rbenv.agents.settings.table import TrainingSettings, register, unregister
     from rbenv.agents.training.config import TorchRLConfig, TorchRLRunConfig
     from rbenv.core.errors import InvalidParameterError
 
     v1 = "rbenv/SatelliteReorient-v1"
-    shipped = settings.get(v1).torchrl
+    own = shipped.REORIENT_V1_TORCHRL
     cfg = TorchRLRunConfig(env_id=v1).resolve()
-    assert cfg.timesteps == shipped["timesteps"]
-    assert {k: cfg.hyperparams[k] for k in shipped if k != "timesteps"} == \
-        {k: v for k, v in shipped.items() if k != "timesteps"}
-    mine = TorchRLRunConfig(env_id=v1, timesteps=65_536, hyperparams={"gamma": 0.95}).resolve()
+    assert cfg.timesteps == own["n_timesteps"] == 1_200_000
+    assert {k: cfg.hyperparams[k] for k in own if k != "n_timesteps"} == \
+        {k: v for k, v in own.items() if k != "n_timesteps"}
+    learner = cfg.learner("cpu")
+    assert (learner.num_envs, learner.rollout, learner.minibatch, learner.epochs, learner.lr,
+            learner.gamma, learner.hidden, learner.log_std_init) == \
+        (256, 32, 4096, 3, 2e-3, 0.98, 64, -0.5)
+    mine = TorchRLRunConfig(env_id=v1, timesteps=65_536, hyperparams={
+        "gamma": 0.95, "policy_kwargs": {"net_arch": [32, 32]}}).resolve()
     assert mine.timesteps == 65_536 and mine.hyperparams["gamma"] == 0.95
-    assert mine.hyperparams["hidden"] == shipped["hidden"]
-    plain = TorchRLRunConfig(env_id="rbenv/SatelliteReorient-v0").resolve()  # none shipped
-    assert plain.timesteps == TorchRLConfig.timesteps
-    assert plain.hyperparams["hidden"] == TorchRLConfig.hidden
-    register(TrainingSettings(env_id="test/TorchRLTypo-v0", baselines={"pd": "a.b:C"},
-                              hyperparams=tuned.ALL, torchrl={"n_steps": 32}))
+    assert mine.learner("cpu").hidden == 32 and mine.learner("cpu").log_std_init == -0.5
+    plain = TorchRLRunConfig(env_id="rbenv/SatelliteReorient-v0").resolve()
+    assert plain.timesteps == TorchRLConfig.timesteps == tuned.TORCHRL_PPO["n_timesteps"]
+    assert plain.learner("cpu").hidden == TorchRLConfig.hidden == 128
+    with pytest.raises(InvalidParameterError, match=r"\['rollout'\] are not --engine torchrl"):
+        TorchRLRunConfig(env_id=v1, hyperparams={"rollout": 32}).resolve()
+    with pytest.raises(InvalidParameterError, match=r"net_arch must be two hidden layers"):
+        TorchRLRunConfig(env_id=v1, hyperparams={"policy_kwargs": {"net_arch": [64]}}).resolve()
+    register(TrainingSettings(env_id="test/TorchRLBare-v0", baselines={"pd": "a.b:C"},
+                              recipes={Recipe("ppo"): {"n_timesteps": 4096}}))
     try:
-        with pytest.raises(InvalidParameterError,
-                           match=r"torchrl settings of test/TorchRLTypo-v0: \['n_steps'\]"):
-            TorchRLRunConfig(env_id="test/TorchRLTypo-v0").resolve()
+        with pytest.raises(InvalidParameterError, match=r"torchrl recipe of "
+                           r"test/TorchRLBare-v0 .* has no \['n_envs'"):
+            TorchRLRunConfig(env_id="test/TorchRLBare-v0").resolve()
     finally:
-        unregister("test/TorchRLTypo-v0")
+        unregister("test/TorchRLBare-v0")
 
 
 def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
@@ -274,7 +324,7 @@ def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
     from rbenv.agents.training.rllib import RLlibConfig
 
     v1 = "rbenv/SatelliteReorient-v1"
-    watch = settings.get(v1).run_defaults["ppo"]
+    watch = settings.get(v1).recipe("ppo")["run"]
     for cls in (TrainConfig, RLlibConfig, TorchRLRunConfig):
         cfg = cls(env_id=v1).resolve()
         assert (cfg.eval_every, cfg.eval_episodes) == (watch["eval_every"],
@@ -283,3 +333,23 @@ def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
         assert cls(env_id=v1, eval_every=1000).resolve().eval_every == 1000  # the caller's wins
         plain = cls(env_id="rbenv/SatelliteReorient-v0").resolve()
         assert (plain.eval_every, plain.eval_episodes) == (200_000, 100), cls
+
+
+def test_the_packages_docstring_example_runs():
+    """agents/settings/__init__.py's example is valid code: it registers, and the recipe
+    merges as the docstring says."""
+    import textwrap
+
+    doc = settings.__doc__
+    block = doc.split("::\n\n", 1)[1].split("\n\n")
+    code = textwrap.dedent("\n\n".join(b for b in block[:2] if b.startswith("    ")))
+    assert "settings.register(" in code
+    try:
+        exec(compile(code, "agents/settings/__init__.py", "exec"), {})
+        mine = settings.get("myorg/PointSun-v0")
+        assert mine.recipe("ppo")["n_timesteps"] == 500_000
+        assert mine.recipe("ppo", "sb3", "boom-sat")["n_timesteps"] == 2_000_000
+        assert mine.recipe("ppo", "torchrl", "boom-sat")["n_timesteps"] == \
+            tuned.TORCHRL_PPO["n_timesteps"]
+    finally:
+        settings.unregister("myorg/PointSun-v0")

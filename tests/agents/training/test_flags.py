@@ -9,12 +9,12 @@ from dataclasses import dataclass, field
 import pytest
 from rbenv.agents import cli
 from rbenv.agents.training import flags
-from rbenv.agents.training.config import RLlibOptions, SB3Options, TrainConfig
+from rbenv.agents.training.config import SessionOptions, TrainConfig
 from rbenv.agents.training.rllib import RLlibConfig
 
 from rbenv.satellite.usage import InvalidChoiceError
 
-CLASSES = (TrainConfig, RLlibConfig, SB3Options, RLlibOptions)
+CLASSES = (TrainConfig, RLlibConfig, SessionOptions)
 
 
 def _train_args(argv):
@@ -44,7 +44,7 @@ def test_no_flag_given_makes_the_dataclass_defaults():
     args = _train_args([])
     assert flags.given(args, TrainConfig) == {}
     assert TrainConfig(**flags.given(args, TrainConfig)) == TrainConfig()
-    assert SB3Options(**flags.given(args, SB3Options)) == SB3Options()
+    assert SessionOptions(**flags.given(args, SessionOptions)) == SessionOptions()
 
 
 def test_given_flags_are_parsed_by_field_type():
@@ -52,7 +52,7 @@ def test_given_flags_are_parsed_by_field_type():
                         "--no-progress", "--trust-pickle", "--algo", "sac"])
     assert flags.given(args, TrainConfig) == {"timesteps": 512, "seed": 3,
                                               "env_kwargs": {"a": 1}, "algo": "sac"}
-    assert flags.given(args, SB3Options) == {"progress": False, "trust_pickle": True}
+    assert flags.given(args, SessionOptions) == {"progress": False, "trust_pickle": True}
 
 
 def test_a_choice_outside_the_literal_is_a_usage_error(capsys):

@@ -16,7 +16,7 @@ from rbenv.agents.cli import main as cli_main
 from rbenv.agents.policies import load_policy, weights
 from rbenv.agents.policies.runfolder import RunFolderError
 from rbenv.agents.policies.weights import ModelFileError
-from rbenv.agents.training.config import SBXConfig
+from rbenv.agents.training.config import TrainConfig
 from rbenv.agents.training.sb3 import algo_class, make_vec_env, model_kwargs
 from rbenv.core.errors import InvalidParameterError
 from stable_baselines3.common.vec_env import VecNormalize
@@ -32,8 +32,8 @@ SHORT = {"max_episode_steps": 30}
 
 def trained(algo: str, steps: int = 256):
     """An SBX model after a few gradient steps (weights away from their initial values)."""
-    cfg = SBXConfig(algo=algo, n_envs=4, hyperparams=dict(SMALL), env_kwargs=SHORT,
-                    timesteps=steps).resolve()
+    cfg = TrainConfig(engine="sbx", algo=algo, n_envs=4, hyperparams=dict(SMALL),
+                      env_kwargs=SHORT, timesteps=steps).resolve()
     env = VecNormalize(make_vec_env(cfg, cfg.n_envs, 0), norm_reward=False)
     model = algo_class(algo, "sbx")("MlpPolicy", env, seed=0, device="cpu",
                                     **model_kwargs(cfg, env))
@@ -124,7 +124,7 @@ def test_cli_run_folder_resume_and_evaluation(tmp_path, capsys):
 
 def test_sbx_takes_only_sac_and_td3():
     with pytest.raises(InvalidParameterError, match=r"sac, td3 for --engine sbx.*'ppo'"):
-        SBXConfig(algo="ppo").resolve()
+        TrainConfig(engine="sbx", algo="ppo").resolve()
 
 
 def test_a_missing_sbx_names_its_extra(monkeypatch, tmp_path):

@@ -27,7 +27,7 @@ def test_grid_is_seed_major_with_stable_names():
     assert [c.seed for c in cells] == [0] * 4 + [1] * 4
     assert cells[0].name == "ppo-reorient-cubesat-12u-seed0"
     assert cells[1].name == "ppo-reorient-boom-sat-seed0"
-    assert cells[2].timesteps == settings.get(DETUMBLE_V0).timesteps("ppo")
+    assert cells[2].timesteps == settings.get(DETUMBLE_V0).recipe("ppo")["n_timesteps"]
     assert len({c.name for c in cells}) == len(cells)
     assert Cell("ppo", TRACK_V0, "boom-sat", 2, 5).name == "ppo-track-boom-sat-seed2"
     assert Cell("ppo", rbenv.TRACK_ID, "boom-sat", 2, 5).name == "ppo-track_v1-boom-sat-seed2"

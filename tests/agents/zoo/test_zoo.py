@@ -37,7 +37,7 @@ def test_an_activation_named_in_the_settings_reaches_the_zoo_as_a_class(monkeypa
 
     env_id = rbenv.ENV_ID
     entry = settings.get(env_id)
-    named = {env_id: {**entry.settings("ppo"), "policy_kwargs": {"activation_fn": "tanh"}}}
+    named = {env_id: {**entry.recipe("ppo"), "policy_kwargs": {"activation_fn": "tanh"}}}
     monkeypatch.setattr("rbenv.agents.zoo.zoo_hyperparams", lambda algo: named)
     built = zoo_table("ppo")[env_id]["policy_kwargs"]["activation_fn"]
     assert built is ACTIVATIONS["tanh"] and issubclass(built, torch.nn.Module)

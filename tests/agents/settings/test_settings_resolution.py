@@ -1,0 +1,93 @@
+"""Every id x algorithm x engine x scene resolves to the numbers it resolved to on main at
+8ef0698 (data/resolution_8ef0698.json, written by resolution.py before the recipes), except
+the budgets that became the learning suite's measured ones (issue 42: one source per number;
+CHANGELOG.md lists them)."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.agents.settings.resolution import resolve_all
+
+GOLDEN = json.loads((Path(__file__).parent / "data" / "resolution_8ef0698.json").read_text())
+# The zoo's budgets that moved to the suite's (algo, id): (before, after).
+ZOO_CHANGES = {("ppo", "rbenv/SatelliteDetumble-v0"): (2_000_000, 300_000),
+               ("ppo", "rbenv/SatelliteDetumble-v1"): (2_000_000, 300_000),
+               ("ppo", "rbenv/SatelliteReorient-v0"): (2_000_000, 1_000_000),
+               ("ppo", "rbenv/SatelliteTrack-v0"): (2_000_000, 1_000_000),
+               ("ppo", "rbenv/SatelliteTrack-v1"): (2_000_000, 1_000_000),
+               ("sac", "rbenv/SatelliteDesaturate-v0"): (300_000, 200_000),
+               ("sac", "rbenv/SatelliteDetumble-v0"): (300_000, 100_000),
+               ("sac", "rbenv/SatelliteReorient-v0"): (300_000, 200_000),
+               ("sac", "rbenv/SatelliteTrack-v0"): (300_000, 200_000)}
+CHANGED = 122  # rbenv train combinations whose budget moved (beside the 9 zoo entries)
+
+
+@pytest.fixture(scope="module")
+def now():
+    return resolve_all()
+
+
+def _expected(key: str) -> dict:
+    """The golden value of ``key`` with the budget of one source: where main's ``rbenv train``
+    default differed from the suite's budget, the suite's (sbx's own recipes, and torchrl's,
+    kept)."""
+    want = copy.deepcopy(GOLDEN[key])
+    engine, algo, rest = key.split("/", 2)
+    if engine in ("sb3", "rllib") or (engine == "sbx" and want["timesteps"] ==
+                                      GOLDEN[f"sb3/{algo}/{rest}"]["timesteps"]):
+        want["timesteps"] = GOLDEN[f"suite/{algo}/{rest}"]
+    return want
+
+
+def test_every_combination_is_resolved(now):
+    assert sorted(now) == sorted(GOLDEN)
+    assert len(now) == 733
+
+
+def test_the_suite_budgets_are_unchanged(now):
+    suite = [k for k in GOLDEN if k.startswith("suite/")]
+    assert len(suite) == 260
+    assert {k: now[k] for k in suite} == {k: GOLDEN[k] for k in suite}
+
+
+@pytest.mark.parametrize("engine", ["sb3", "sbx", "rllib", "torchrl"])
+def test_each_engine_resolves_to_main_but_the_one_source_budgets(now, engine):
+    keys = [k for k in GOLDEN if k.startswith(engine + "/")]
+    assert keys
+    for key in keys:
+        assert now[key] == _expected(key), key
+
+
+def test_rbenv_train_trains_the_suite_budget(now):
+    """One source: SB3's default budget is the suite's, on every id, algorithm and scene."""
+    for key in (k for k in now if k.startswith("sb3/")):
+        assert now[key]["timesteps"] == now["suite/" + key.split("/", 1)[1]], key
+
+
+def test_zoo_tables_change_only_in_the_listed_budgets(now):
+    want = copy.deepcopy({k: v for k, v in GOLDEN.items() if k.startswith("zoo/")})
+    for (algo, env_id), (before, after) in ZOO_CHANGES.items():
+        assert want[f"zoo/{algo}"][env_id]["n_timesteps"] == before
+        want[f"zoo/{algo}"][env_id]["n_timesteps"] = after
+    assert {k: now[k] for k in want} == want
+
+
+def test_the_count_of_changes(now):
+    moved = sum(now[k] != GOLDEN[k] for k in GOLDEN if not k.startswith("zoo/"))
+    zoo = sum(now[f"zoo/{a}"][i] != GOLDEN[f"zoo/{a}"][i] for a, i in ZOO_CHANGES)
+    assert (moved, zoo) == (CHANGED, len(ZOO_CHANGES))
+
+
+def test_the_main_job_is_reorient_v2_ppo_at_2m(now):
+    from rbenv.agents.training.config import TrainConfig
+
+    cfg = TrainConfig().resolve()
+    assert (cfg.env_id, cfg.algo, cfg.scene, cfg.timesteps) == \
+        ("rbenv/SatelliteReorient-v2", "ppo", "cubesat-12u", 2_000_000)
+    assert now["sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u"] == \
+        GOLDEN["sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u"]
