@@ -143,15 +143,17 @@ def test_scalar_filter_is_the_batched_one_to_round_off(rate):
     assert np.array_equal(g.P, g.P.T)
 
 
-def test_batched_update_touches_only_the_rows_with_a_measurement():
+@pytest.mark.parametrize("valid", [[True, False, True, False, False],  # all rows, merged
+                                   [False] * 6 + [True, False]])  # the valid row alone
+def test_batched_update_touches_only_the_rows_with_a_measurement(valid):
     rng = np.random.default_rng(8)
-    n = 5
+    valid = np.array(valid)
+    n = len(valid)
     q = sn.qexp(rng.standard_normal((n, 3)))
     P = np.stack([_random_cov(rng) for _ in range(n)])
     f = MEKF(q, np.zeros((n, 3)), P, 3e-4, 2e-6)
     whole = MEKF(q, np.zeros((n, 3)), P, 3e-4, 2e-6)
     q_m = sn.qmul(q, sn.qexp(1e-4 * rng.standard_normal((n, 3))))
-    valid = np.array([True, False, True, False, False])
     f.update_attitude(q_m, 1e-8 * np.eye(3), valid)
     whole.update_attitude(q_m, 1e-8 * np.eye(3), np.ones(n, dtype=bool))
     assert np.array_equal(f.P[~valid], P[~valid]) and np.array_equal(f.q[~valid], q[~valid])
