@@ -10,7 +10,8 @@ share of steps inside it), the bias error in units of the filter's σ, the NEES 
 ``info`` alone over 200 seeded episodes of cubesat-12u with a star tracker, and the true
 estimation error of docs/innocube/innocube-3u-mekf.toml (zero action, 20 episodes). Cost: one
 single-env step and one vector-env step at N = 1024, cubesat-12u with and without the
-estimator, in one run: ``--repeats`` rounds, each timing the four in turn, the median of each
+estimator, in one run (the vector env also with the star tracker's fix steps spread over the
+rows, as after autoresets): ``--repeats`` rounds, each timing all in turn, the median of each
 and the ratio of the medians, with the 1-minute load average before and after (other
 processes on a shared machine inflate single rounds).
 """
@@ -105,11 +106,17 @@ def _single(scene, n=2000) -> float:
     return (time.perf_counter() - t) / n
 
 
-def _vector(scene, n=50, num_envs=1024) -> float:
+def _vector(scene, n=50, num_envs=1024, spread=False) -> float:
+    """Seconds per vector-env step; spread: half the rows restarted one step later, so the
+    star tracker's fix steps (every other step) fall on half the rows each step, as after
+    autoresets."""
     envs = gym.make_vec(V1, num_envs=num_envs, vectorization_mode="vector_entry_point",
-                        scene=scene)
+                        scene=scene, autoreset_mode="Disabled" if spread else "NextStep")
     envs.reset(seed=0)
     a = np.zeros(envs.action_space.shape, np.float32)
+    if spread:
+        envs.step(a)
+        envs.reset(options={"reset_mask": np.arange(num_envs) % 2 == 0})
     for _ in range(5):
         envs.step(a)
     t = time.perf_counter()
@@ -122,14 +129,19 @@ def cost(repeats: int = 5) -> None:
     est = star_scene()
     load = os.getloadavg()[0]
     rounds = np.array([(_single("cubesat-12u"), _single(est), _vector("cubesat-12u"),
-                        _vector(est)) for _ in range(repeats)])
-    s0, s1, v0, v1 = np.median(rounds, axis=0)
+                        _vector(est), _vector("cubesat-12u", spread=True),
+                        _vector(est, spread=True)) for _ in range(repeats)])
+    s0, s1, v0, v1, w0, w1 = np.median(rounds, axis=0)
+
+    def ratios(i):
+        return ", ".join(f"{r:.2f}" for r in rounds[:, i + 1] / rounds[:, i])
+
     print(f"single step: without {s0 * 1e6:.1f} µs, with the estimator {s1 * 1e6:.1f} µs, "
-          f"ratio {s1 / s0:.2f} (median of {repeats}; rounds' ratios "
-          f"{', '.join(f'{r:.2f}' for r in rounds[:, 1] / rounds[:, 0])})")
+          f"ratio {s1 / s0:.2f} (median of {repeats}; rounds' ratios {ratios(0)})")
     print(f"vector step N = 1024: without {v0 * 1e3:.2f} ms, with {v1 * 1e3:.2f} ms, ratio "
-          f"{v1 / v0:.2f} (rounds' ratios "
-          f"{', '.join(f'{r:.2f}' for r in rounds[:, 3] / rounds[:, 2])})")
+          f"{v1 / v0:.2f} (rounds' ratios {ratios(2)})")
+    print(f"vector step N = 1024, fixes spread over the rows: without {w0 * 1e3:.2f} ms, with "
+          f"{w1 * 1e3:.2f} ms, ratio {w1 / w0:.2f} (rounds' ratios {ratios(4)})")
     print(f"1-minute load average: {load:.2f} before, {os.getloadavg()[0]:.2f} after "
           f"({os.cpu_count()} CPUs)")
 
