@@ -1,7 +1,8 @@
 """The attitude estimator's validation numbers and its cost (docs/estimation.md).
 
-    python -m benchmarks.estimation            # validation, then cost
-    python -m benchmarks.estimation --no-cost  # validation only
+    python -m benchmarks.estimation              # validation, then cost
+    python -m benchmarks.estimation --no-cost    # validation only
+    python -m benchmarks.estimation --cost-only  # cost only (--repeats 5 by default)
 
 Validation: the Monte Carlo consistency of the MEKF (rbenv.satellite.estimation.monte_carlo,
 300 runs × 300 steps: the run-averaged NEES of attitude and bias, their 95 % χ² band and the
@@ -9,7 +10,10 @@ share of steps inside it), the bias error in units of the filter's σ, the NEES 
 ``info`` alone over 200 seeded episodes of cubesat-12u with a star tracker, and the true
 estimation error of docs/innocube/innocube-3u-mekf.toml (zero action, 20 episodes). Cost: one
 single-env step and one vector-env step at N = 1024, cubesat-12u with and without the
-estimator, in one run, with the 1-minute load average beside them.
+estimator, in one run (the vector env also with the star tracker's fix steps spread over the
+rows, as after autoresets): ``--repeats`` rounds, each timing all in turn, the median of each
+and the ratio of the medians, with the 1-minute load average before and after (other
+processes on a shared machine inflate single rounds).
 """
 
 from __future__ import annotations
@@ -102,11 +106,17 @@ def _single(scene, n=2000) -> float:
     return (time.perf_counter() - t) / n
 
 
-def _vector(scene, n=50, num_envs=1024) -> float:
+def _vector(scene, n=50, num_envs=1024, spread=False) -> float:
+    """Seconds per vector-env step; spread: half the rows restarted one step later, so the
+    star tracker's fix steps (every other step) fall on half the rows each step, as after
+    autoresets."""
     envs = gym.make_vec(V1, num_envs=num_envs, vectorization_mode="vector_entry_point",
-                        scene=scene)
+                        scene=scene, autoreset_mode="Disabled" if spread else "NextStep")
     envs.reset(seed=0)
     a = np.zeros(envs.action_space.shape, np.float32)
+    if spread:
+        envs.step(a)
+        envs.reset(options={"reset_mask": np.arange(num_envs) % 2 == 0})
     for _ in range(5):
         envs.step(a)
     t = time.perf_counter()
@@ -115,15 +125,23 @@ def _vector(scene, n=50, num_envs=1024) -> float:
     return (time.perf_counter() - t) / n
 
 
-def cost() -> None:
+def cost(repeats: int = 5) -> None:
     est = star_scene()
     load = os.getloadavg()[0]
-    s0, s1 = _single("cubesat-12u"), _single(est)
-    v0, v1 = _vector("cubesat-12u"), _vector(est)
+    rounds = np.array([(_single("cubesat-12u"), _single(est), _vector("cubesat-12u"),
+                        _vector(est), _vector("cubesat-12u", spread=True),
+                        _vector(est, spread=True)) for _ in range(repeats)])
+    s0, s1, v0, v1, w0, w1 = np.median(rounds, axis=0)
+
+    def ratios(i):
+        return ", ".join(f"{r:.2f}" for r in rounds[:, i + 1] / rounds[:, i])
+
     print(f"single step: without {s0 * 1e6:.1f} µs, with the estimator {s1 * 1e6:.1f} µs, "
-          f"ratio {s1 / s0:.2f}")
+          f"ratio {s1 / s0:.2f} (median of {repeats}; rounds' ratios {ratios(0)})")
     print(f"vector step N = 1024: without {v0 * 1e3:.2f} ms, with {v1 * 1e3:.2f} ms, ratio "
-          f"{v1 / v0:.2f}")
+          f"{v1 / v0:.2f} (rounds' ratios {ratios(2)})")
+    print(f"vector step N = 1024, fixes spread over the rows: without {w0 * 1e3:.2f} ms, with "
+          f"{w1 * 1e3:.2f} ms, ratio {w1 / w0:.2f} (rounds' ratios {ratios(4)})")
     print(f"1-minute load average: {load:.2f} before, {os.getloadavg()[0]:.2f} after "
           f"({os.cpu_count()} CPUs)")
 
@@ -131,10 +149,13 @@ def cost() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-cost", action="store_true", help="skip the timing")
+    parser.add_argument("--cost-only", action="store_true", help="skip the validation")
+    parser.add_argument("--repeats", type=int, default=5, help="timing rounds (median)")
     args = parser.parse_args()
-    validation()
+    if not args.cost_only:
+        validation()
     if not args.no_cost:
-        cost()
+        cost(args.repeats)
 
 
 if __name__ == "__main__":

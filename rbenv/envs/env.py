@@ -93,7 +93,8 @@ class AttitudeEnv(TaskAdapter, gym.Env):
             a = action_array(action, plant.action_shape)
         noise = plant.draw_step_noise(self._np_random, None) if plant.noisy else NO_NOISE
         st, out = transition.step(plant, self.task, st, a, noise, FLOAT, donate=True,
-                                  max_steps=self._max_steps)
+                                  max_steps=self._max_steps,
+                                  observe_truth=self._estimation is None)
         if out.diverged:  # the step updated the state it was given: the episode is over
             self._st = None
             self._diverged = True

@@ -12,7 +12,8 @@ else the field model through the estimate, never the true body field), then
 each as ``clip((log10 σ − c) / 3, −1, 1)`` with c = −3 (rad) and −5 (rad/s). Reward,
 success and termination stay the task's, on the true state. Its draws come from its own
 generator (seeded from the episode's seed), so the plant's draws are those of the same scene
-without it.
+without it. The single env runs it all on Python floats (ScalarMEKF and the sensors' float
+twins, the same draws in the same order), the vector env on component-major arrays.
 
 ``info`` gains, every step: ``q_true``, ``q_est`` (scalar-first, body to inertial),
 ``gyro_bias``, ``gyro_bias_est`` (rad/s, body axes), ``estimate_cov`` (6 × 6: the attitude error
@@ -30,7 +31,7 @@ import numpy as np
 
 from rbenv.satellite import sensors as sn
 from rbenv.satellite.disturbances import parse_epoch, sun_direction_N
-from rbenv.satellite.estimation import MEKF
+from rbenv.satellite.estimation import MEKF, ScalarMEKF, _blocks, _qconj_cm, _qlog_cm, _qmul_cm
 from rbenv.tasks.base import _DEG
 
 __all__ = ["SIGMA_FEATURES", "EstimatorLoop"]
@@ -43,6 +44,13 @@ _DEFAULT_EPOCH = "2025-03-20T12:00:00"  # [orbit.srp]'s default epoch, for the S
 def _rows(components) -> np.ndarray:
     """(N, k) float array of a state's components (floats or (N,) arrays)."""
     return np.stack([np.atleast_1d(np.asarray(c, dtype=float)) for c in components], -1)
+
+
+def _feature(variance: float, floor: float, c: float) -> float:
+    """One estimate_sigma feature from a variance: clip((log10 max(σ, floor) + c) / 3, −1, 1)."""
+    sigma = math.sqrt(variance) if variance > 0.0 else 0.0
+    x = (math.log10(sigma if sigma > floor else floor) + c) / 3.0
+    return -1.0 if x < -1.0 else 1.0 if x > 1.0 else x
 
 
 class EstimatorLoop:
@@ -68,6 +76,11 @@ class EstimatorLoop:
             self.earth_radius_rad = math.asin(self.orbit.EARTH_RADIUS / self.orbit.radius)
         if self.mag is not None:  # white noise plus the unestimated bias, counted as noise
             self.mag_R = ((self.mag.noise_nT ** 2 + self.mag.bias_nT ** 2) * 1e-18) * np.eye(3)
+        if single:  # the filter of one satellite runs on Python floats (ScalarMEKF)
+            self.star_R1 = None if self.star is None else _blocks(self.star_R)
+            self.star_chol_T = None if self.star is None else \
+                _blocks(np.linalg.cholesky(self.star_R).T)
+            self.mag_R1 = None if self.mag is None else _blocks(self.mag_R)
         self.rng = np.random.default_rng(0)
         self.filter = None
         self.field_B = None  # the magnetometer's measurement this step (N, 3), T, or None
@@ -84,12 +97,26 @@ class EstimatorLoop:
         shadow = (along < 0.0) & (np.sum(perp * perp, -1) < self.orbit.EARTH_RADIUS ** 2)
         return np.broadcast_to(s, r.shape), 1.0 - shadow
 
+    def _sun1(self, t: float) -> tuple[tuple, float]:
+        """:meth:`_sun` for one satellite: (ŝ_N, 3 floats; lit, 1.0 or 0.0)."""
+        s = sun_direction_N(self.epoch_days + t / 86400.0, math)
+        radius = self.orbit.radius
+        r = tuple(radius * c for c in self.orbit.direction_N(t, math))
+        along = r[0] * s[0] + r[1] * s[1] + r[2] * s[2]
+        perp = (r[0] - along * s[0], r[1] - along * s[1], r[2] - along * s[2])
+        shadow = along < 0.0 and \
+            perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2] < self.orbit.EARTH_RADIUS ** 2
+        return s, 1.0 - shadow
+
     # ------------------------------------------------------------------- episodes
 
     def reset(self, st, seed, rows=None) -> None:
         """Start the filter for new episodes: all satellites (rows None; ``seed`` seeds the
         generator) or the rows being reset (their truth read from ``st``)."""
         self.field_B = None  # a reset row has no measurement yet: the estimate's field
+        if self.single:
+            self._reset1(st, seed)
+            return
         if rows is None:
             self.rng = np.random.default_rng(seed)
         q = _rows(st.q) if rows is None else _rows(st.q)[rows]
@@ -104,24 +131,85 @@ class EstimatorLoop:
             rng.standard_normal((n, 3))
         w = _rows(st.omega_B) if rows is None else _rows(st.omega_B)[rows]
         fix = np.zeros(n, dtype=bool)
-        if rows is None:
+        if rows is None:  # q_prev and w_est: (N, ·) views of component-major stores
             self.filter = MEKF(q_hat, np.zeros((n, 3)), P, self.sigma_v, self.sigma_u,
                                self.params.process_noise_scale)
-            self.bias, self.mag_bias, self.q_prev, self.w_est, self.fix = \
-                bias, mag_bias, q, w + bias, fix
+            self.bias, self.mag_bias, self.fix = bias, mag_bias, fix
+            self.q_prev, self.w_est = np.array(q.T).T, np.array((w + bias).T).T
             return
         f = self.filter
         f.q[rows], f.bias[rows], f.P[rows] = q_hat, 0.0, P
         self.bias[rows], self.mag_bias[rows], self.q_prev[rows] = bias, mag_bias, q
         self.w_est[rows], self.fix[rows] = w + bias, fix
 
-    def step(self, st) -> None:
-        """After a step of the plant: measure the new truth in ``st`` and update the filter."""
+    def _reset1(self, st, seed) -> None:
+        """:meth:`reset` of the single env: the same draws, on Python floats."""
+        rng = self.rng = np.random.default_rng(seed)
+        s0, sb = self.params.initial_attitude_sigma_deg * _RAD_DEG, self.sigma_b
+        q = tuple(st.q)
+        bias = tuple(sb * x for x in rng.standard_normal(3).tolist())
+        q_hat = sn.qmul1(q, sn.qexp1(tuple(-s0 * x for x in rng.standard_normal(3).tolist())))
+        P = np.zeros((6, 6))
+        P[:3, :3] = s0 * s0 * np.eye(3)
+        P[3:, 3:] = max(sb, 1e-12) ** 2 * np.eye(3)
+        mag = 0.0 if self.mag is None else self.mag.bias_nT * 1e-9
+        self.mag_bias = tuple(mag * x for x in rng.standard_normal(3).tolist())
+        self.filter = ScalarMEKF(q_hat, (0.0, 0.0, 0.0), P, self.sigma_v, self.sigma_u,
+                                 self.params.process_noise_scale)
+        w = st.omega_B
+        self.bias, self.q_prev, self.fix = bias, q, False
+        self.w_est = (w[0] + bias[0], w[1] + bias[1], w[2] + bias[2])
+
+    def _step1(self, st) -> None:
+        """:meth:`step` of the single env: the same draws and filter, on Python floats."""
         f, rng, dt = self.filter, self.rng, self.dt
         self.field_B = None
-        q = _rows(st.q)
+        q = tuple(st.q)
+        dtheta = sn.qlog1(sn.qmul1(sn.qconj1(self.q_prev), q))
+        measured, self.bias = sn.gyro_increment1(dtheta, self.bias, self.sigma_v,
+                                                 self.sigma_u, dt, rng)
+        f.propagate(measured, dt)
+        self.q_prev = q
+        t = float(st.steps) * dt
+        sun = lit = None
+        if self.orbit is not None and (self.css is not None or self.star is not None):
+            sun, lit = self._sun1(t)
+        if self.star is not None:
+            if st.steps % self.star_period == 0:
+                nadir = None if self.orbit is None else \
+                    tuple(-c for c in self.orbit.direction_N(t, math))
+                q_m, valid = sn.star_tracker1(
+                    self.star, self.star_chol_T, q, tuple(st.omega_B), sun, nadir,
+                    0.0 if self.orbit is None else self.earth_radius_rad, rng)
+                f.update_attitude(q_m, self.star_R1, valid)
+            else:  # between fixes: the draws alone, to keep the stream
+                sn.star_tracker_draws(1, rng)
+                valid = False
+            self.fix = valid
+        if self.mag is not None:
+            field_N = tuple(float(c) for c in self.orbit.field_N(t, math))
+            y = sn.magnetometer1(self.mag, q, field_N, self.mag_bias, rng)
+            f.update_vector(y, field_N, self.mag_R1, True)
+            self.field_B = y
+        if self.css is not None:  # the least-squares fit on (1, ·) arrays
+            s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(
+                self.css, np.array([q]), np.array([sun]), np.array([lit]), rng))
+            f.update_vector(tuple(s_B[0].tolist()), sun, _blocks(cov[0]), bool(valid[0]),
+                            unit=True)
+        b = f.bias
+        self.w_est = (measured[0] / dt - b[0], measured[1] / dt - b[1], measured[2] / dt - b[2])
+
+    def step(self, st) -> None:
+        """After a step of the plant: measure the new truth in ``st`` and update the filter."""
+        if self.single:
+            self._step1(st)
+            return
+        f, rng, dt = self.filter, self.rng, self.dt
+        self.field_B = None
+        q_T = np.stack([np.asarray(c, dtype=float) for c in st.q])  # (4, N)
+        q = q_T.T
         n = q.shape[0]
-        dtheta = sn.qlog(sn.qmul(sn.qconj(self.q_prev), q))
+        dtheta = _qlog_cm(_qmul_cm(_qconj_cm(self.q_prev.T), q_T)).T
         measured, self.bias = sn.gyro_increment(dtheta, self.bias, self.sigma_v, self.sigma_u,
                                                 dt, rng)
         f.propagate(measured, dt)
@@ -132,12 +220,17 @@ class EstimatorLoop:
         if self.orbit is not None and (self.css is not None or self.star is not None):
             sun, lit = self._sun(t)
         if self.star is not None:
-            nadir = None if self.orbit is None else -_rows(self.orbit.direction_N(t, np))
-            q_m, valid = sn.star_tracker(self.star, q, w, sun, nadir,
-                                         0.0 if self.orbit is None else self.earth_radius_rad,
-                                         rng)
-            valid &= (np.asarray(st.steps) % self.star_period == 0)
-            f.update_attitude(q_m, self.star_R, valid)
+            due = np.asarray(st.steps) % self.star_period == 0
+            if due.any():
+                nadir = None if self.orbit is None else -_rows(self.orbit.direction_N(t, np))
+                q_m, valid = sn.star_tracker(
+                    self.star, q, w, sun, nadir,
+                    0.0 if self.orbit is None else self.earth_radius_rad, rng)
+                valid &= due
+                f.update_attitude(q_m, self.star_R, valid)
+            else:  # between fixes: the draws alone, to keep the stream
+                sn.star_tracker_draws(n, rng)
+                valid = np.zeros(n, dtype=bool)
             self.fix = valid
         if self.mag is not None:
             field_N = _rows(self.orbit.field_N(t, np))
@@ -148,64 +241,95 @@ class EstimatorLoop:
             s_B, cov, valid = sn.sun_vector_fit(self.css, sn.sun_sensors(self.css, q, sun, lit,
                                                                          rng))
             f.update_vector(s_B, sun, cov, valid, unit=True)
-        self.w_est = measured / dt - f.bias
+        self.w_est = (measured.T / dt - f.bias.T).T
 
     # ------------------------------------------------------------------- outputs
-
-    def _out(self, x: np.ndarray):
-        """One satellite's row (single env) or the batch."""
-        return x[0] if self.single else x
 
     def observe(self, st, xp) -> np.ndarray:
         """The observation: the task's components on the estimate, then estimate_sigma."""
         f = self.filter
-        q_hat = f.q
-        q = tuple(self._out(q_hat[:, i]) for i in range(4))
-        w = tuple(self._out(self.w_est[:, i]) for i in range(3))
         if self.single:
-            q, w = tuple(float(c) for c in q), tuple(float(c) for c in w)
+            obs = self.task.observe(st, f.q, self.w_est, xp)
+            for act, _ in self.plant.observers:
+                obs = obs + act.observe(self._field_view(st) if act.scene_table ==
+                                        "magnetorquers" else st, xp, None)
+            (a, _, _), (_, b, _), (_, _, c) = f.p11
+            (d, _, _), (_, e, _), (_, _, g) = f.p22
+            feats = (_feature(a, 1e-300, 3.0), _feature(b, 1e-300, 3.0),
+                     _feature(c, 1e-300, 3.0), _feature(d, 1e-30, 5.0),
+                     _feature(e, 1e-30, 5.0), _feature(g, 1e-30, 5.0))
+            return np.array((*obs, *feats), dtype=np.float32)
+        q_hat, w_est = f.q, self.w_est  # (N, ·) views of (·, N) stores: contiguous rows
+        q = tuple(q_hat.T)
+        w = tuple(w_est.T)
         obs = self.task.observe(st, q, w, xp)
         for act, _ in self.plant.observers:
             obs = obs + act.observe(self._field_view(st) if act.scene_table == "magnetorquers"
                                     else st, xp, None)
-        sigma = np.sqrt(np.diagonal(f.P, axis1=-2, axis2=-1))
-        feats = np.concatenate(((np.log10(sigma[:, :3]) + 3.0) / 3.0,
-                                (np.log10(np.maximum(sigma[:, 3:], 1e-30)) + 5.0) / 3.0), -1)
-        feats = np.clip(feats, -1.0, 1.0)
-        if self.single:
-            return np.array((*obs, *feats[0]), dtype=np.float32)
-        return np.stack([np.broadcast_to(np.asarray(c, dtype=np.float32), feats.shape[:1])
-                         for c in obs] + list(feats.T.astype(np.float32)), -1)
+        n, k = q_hat.shape[0], len(obs)
+        out = np.empty((n, k + SIGMA_FEATURES), dtype=np.float32)
+        for j, c in enumerate(obs):
+            out[:, j] = c
+        diag = f.covariance_diagonal()  # (6, N)
+        sigma = np.sqrt(diag)
+        feats = np.empty_like(sigma)
+        np.log10(sigma[:3], out=feats[:3])
+        np.log10(np.maximum(sigma[3:], 1e-30), out=feats[3:])
+        feats[:3] += 3.0
+        feats[3:] += 5.0
+        feats /= 3.0
+        np.clip(feats, -1.0, 1.0, out=feats)
+        out[:, k:] = feats.T
+        return out
 
     def _field_view(self, st):
         """What the rods' magnetometer observation reads instead of the true body field: the
         [magnetometer]'s measurement this step, else the field model seen through the
         estimate, A(q̂)ᵀ B_N (the true one would leak the true attitude)."""
         field = self.field_B
+        if self.single:
+            if field is None:
+                t = float(st.steps) * self.dt
+                field = sn.rotate_inverse1(self.filter.q, self.orbit.field_N(t, math))
+            view = type("FieldView", (), {})()
+            view.field_B_T = tuple(float(c) for c in field)
+            return view
         if field is None:
             n = self.filter.q.shape[0]
             t = np.broadcast_to(np.asarray(st.steps, dtype=float) * self.dt, (n,))
             field = sn.rotate_inverse(self.filter.q, _rows(self.orbit.field_N(t, np)))
         view = type("FieldView", (), {})()
-        view.field_B_T = tuple(self._out(field[:, i]) for i in range(3))
-        if self.single:
-            view.field_B_T = tuple(float(c) for c in view.field_B_T)
+        view.field_B_T = tuple(field[:, i] for i in range(3))
         return view
 
     def add_info(self, st, info: dict) -> dict:
         """``info`` with the estimate's entries (the module docstring)."""
         f = self.filter
-        out = self._out
-        info["q_true"] = out(_rows(st.q))
-        info["q_est"] = out(f.q.copy())
-        info["gyro_bias"] = out(self.bias.copy())
-        info["gyro_bias_est"] = out(f.bias.copy())
-        info["estimate_cov"] = out(f.P.copy())
+        if self.single:
+            info["q_true"] = np.array(st.q, dtype=float)
+            info["q_est"] = np.array(f.q)
+            info["gyro_bias"] = np.array(self.bias)
+            info["gyro_bias_est"] = np.array(f.bias)
+            info["estimate_cov"] = f.P
+            if self.star is not None:
+                info["star_tracker_fix"] = np.bool_(self.fix)
+            target = getattr(st, "q_target_conj", None)
+            if target is not None:
+                e = sn.qmul1(tuple(target), f.q)
+                angle = 2.0 * math.atan2(math.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]),
+                                         abs(e[0])) * _DEG
+                info["estimated_attitude_error_deg"] = angle
+            return info
+        info["q_true"] = _rows(st.q)
+        info["q_est"] = f.q.copy()
+        info["gyro_bias"] = self.bias.copy()
+        info["gyro_bias_est"] = f.bias.copy()
+        info["estimate_cov"] = f.covariance_copy()
         if self.star is not None:
-            info["star_tracker_fix"] = out(self.fix.copy())
+            info["star_tracker_fix"] = self.fix.copy()
         target = getattr(st, "q_target_conj", None)
         if target is not None:
-            e = sn.qmul(_rows(target), f.q)  # q_target⁻¹ ⊗ q_est
-            angle = 2.0 * np.arctan2(np.linalg.norm(e[:, 1:], axis=-1), np.abs(e[:, 0])) * _DEG
-            info["estimated_attitude_error_deg"] = float(angle[0]) if self.single else angle
+            e = _qmul_cm(target, f.q.T)  # q_target⁻¹ ⊗ q_est, (4, N)
+            s = np.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
+            info["estimated_attitude_error_deg"] = 2.0 * np.arctan2(s, np.abs(e[0])) * _DEG
         return info

@@ -54,7 +54,8 @@ def layout(plant: Plant, task) -> Layout:
 
 
 def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
-         own_action: bool = False, donate: bool = False, max_steps: int | None = None) -> tuple:
+         own_action: bool = False, donate: bool = False, max_steps: int | None = None,
+         observe_truth: bool = True) -> tuple:
     """``(new_state, outcome)`` after one control step of ``st`` under ``action`` (float64 or
     float32, validated shape; the actuators' commands clip it into float64 arrays or floats).
     ``st`` is not changed, unless donated. max_steps: the episode's step limit (``truncated``);
@@ -63,6 +64,9 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     own_action: the caller made ``action`` for this call, so it may be clipped in place.
     donate: the caller gives ``st`` up (it keeps only the new state), so the step updates it
     and returns it instead of a copy (JAX's buffer donation; the single env does this).
+    observe_truth: False when the caller observes something else (the estimator's loop,
+    rbenv.envs.estimated): the outcome's ``obs`` is None and the task's observation is skipped
+    (it draws nothing and changes no state).
     """
     new = st if donate else st.copy()
     contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
@@ -75,8 +79,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     if task.moving_target:
         task.advance_target(new)
     terms, success, failure = task.evaluate(new, contribution.effort, xp)
-    obs = task.observe(new, new.q, new.omega_B, xp) if noise.sensor is None and \
-        not plant.observers and plant.sensors is None else \
+    obs = None if not observe_truth else task.observe(new, new.q, new.omega_B, xp) \
+        if noise.sensor is None and not plant.observers and plant.sensors is None else \
         observe(plant, task, new, noise.sensor, xp)
     reward = sum(terms[1:], terms[0])  # left to right: one order for floats and arrays
     terminated = failure | (success & task.success_terminates)

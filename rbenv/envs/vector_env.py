@@ -173,7 +173,8 @@ class AttitudeVectorEnv(VectorContract):
     def _advance(self, a: np.ndarray) -> Step:
         st, out = transition.step(self.plant, self.task, self._st, a,
                                   self.plant.draw_step_noise(self.np_random, self.num_envs),
-                                  NUMPY, own_action=True, max_steps=self._max_steps)
+                                  NUMPY, own_action=True, max_steps=self._max_steps,
+                                  observe_truth=self._estimation is None)
         if out.diverged.any():
             transition.raise_diverged(self.plant, st, a)
         self._st = st  # an autoreset writes its rows in place

@@ -25,10 +25,16 @@ docs/estimation.md, "typical") or is marked an assumption there.
   ``max(0, n_i·ŝ_B)`` inside the field of view (zero beyond ``fov_deg`` off the normal and in
   eclipse) plus σ noise (fraction of full scale); :func:`sun_vector_fit` fits ŝ_B by least
   squares over the lit cells (Basilisk's ``cssWlsEst`` does the same).
+
+The functions ending in 1 (:func:`gyro_increment1`, :func:`star_tracker1`,
+:func:`magnetometer1`, and the quaternion helpers) are the same models for one satellite on
+Python floats, for the single env; each takes the same numbers from the generator as its
+batched twin at N = 1.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -42,7 +48,9 @@ __all__ = [
     "StarTracker",
     "SunSensors",
     "gyro_increment",
+    "gyro_increment1",
     "magnetometer",
+    "magnetometer1",
     "qconj",
     "qexp",
     "qlog",
@@ -50,6 +58,8 @@ __all__ = [
     "rotate",
     "rotate_inverse",
     "star_tracker",
+    "star_tracker1",
+    "star_tracker_draws",
     "sun_sensors",
     "sun_vector_fit",
 ]
@@ -89,23 +99,35 @@ def qconj(q: np.ndarray) -> np.ndarray:
 
 def qexp(v: np.ndarray) -> np.ndarray:
     """The unit quaternion of the rotation vector v (..., 3), rad."""
-    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = np.sqrt(np.einsum("...i,...i->...", v, v))
     half = 0.5 * angle
+    out = np.empty((*v.shape[:-1], 4))
+    out[..., 0] = np.cos(half)
     # sin(a/2)/a, with its series below 1e-4 rad (relative error < 1e-17)
     small = angle < 1e-4
-    ratio = np.where(small, 0.5 - angle * angle / 48.0,
-                     np.sin(half) / np.where(small, 1.0, angle))
-    return np.concatenate((np.cos(half), ratio * v), axis=-1)
+    if small.any():
+        ratio = np.where(small, 0.5 - angle * angle / 48.0,
+                         np.sin(half) / np.where(small, 1.0, angle))
+    else:
+        ratio = np.sin(half) / angle
+    np.multiply(ratio[..., None], v, out=out[..., 1:])
+    return out
 
 
 def qlog(q: np.ndarray) -> np.ndarray:
     """The rotation vector (..., 3, rad, |·| ≤ π) of a unit quaternion (sign taken positive)."""
-    q = np.where(q[..., :1] < 0.0, -q, q)
-    s = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
-    angle = 2.0 * np.arctan2(s, q[..., :1])
+    w, u = q[..., 0], q[..., 1:]
+    neg = w < 0.0
+    if neg.any():
+        w, u = np.where(neg, -w, w), np.where(neg[..., None], -u, u)
+    s = np.sqrt(np.einsum("...i,...i->...", u, u))
     small = s < 1e-8
-    return np.where(small, 2.0 * q[..., 1:] / np.maximum(q[..., :1], 1e-300),
-                    q[..., 1:] * angle / np.where(small, 1.0, s))
+    if small.any():
+        k = np.where(small, 2.0 / np.maximum(w, 1e-300),
+                     2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
+    else:
+        k = 2.0 * np.arctan2(s, w) / s
+    return k[..., None] * u
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -247,6 +269,21 @@ def gyro_increment(dtheta: np.ndarray, bias: np.ndarray, sigma_v: float, sigma_u
     return measured, bias + sigma_u * w_end
 
 
+@functools.lru_cache(maxsize=64)
+def _cholesky_T(params: StarTracker) -> np.ndarray:
+    """The transposed Cholesky factor of the star tracker's noise covariance (read-only)."""
+    out = np.linalg.cholesky(params.noise_cov_B()).T
+    out.flags.writeable = False
+    return out
+
+
+def star_tracker_draws(n: int, rng: np.random.Generator) -> None:
+    """Take from ``rng`` what :func:`star_tracker` (or :func:`star_tracker1`) takes for n
+    satellites, without computing a fix (a step between fixes)."""
+    rng.standard_normal((n, 3))
+    rng.random(n)
+
+
 def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
                  sun_N: np.ndarray | None, nadir_N: np.ndarray | None, earth_radius_rad: float,
                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -256,8 +293,7 @@ def star_tracker(params: StarTracker, q_BN: np.ndarray, omega_B: np.ndarray,
     or None (no orbit: no exclusion); earth_radius_rad: the Earth's angular radius seen from
     the orbit."""
     n = q_BN.shape[0]
-    chol = np.linalg.cholesky(params.noise_cov_B())
-    v = rng.standard_normal((n, 3)) @ chol.T
+    v = rng.standard_normal((n, 3)) @ _cholesky_T(params)
     drop = rng.random(n) < params.dropout_probability
     q_m = qmul(q_BN, qexp(v))
     bore_N = rotate(q_BN, np.broadcast_to(np.array(params.boresight_B), (n, 3)))
@@ -309,3 +345,101 @@ def sun_vector_fit(params: SunSensors, output: np.ndarray,
     scale = params.noise ** 2 / np.maximum(norm, 1e-12)[..., None] ** 2
     cov = scale * proj @ np.linalg.inv(hth) @ proj
     return s_hat, cov, valid
+
+
+# --------------------------------------------------------------------------- one satellite
+# The same models for one satellite on Python floats (tuples of components), for the single
+# env, where a NumPy call's overhead (about a microsecond) costs more than the arithmetic.
+# Each draws the same numbers from the generator as its batched twin at N = 1, in the same
+# order, so the two agree to round-off.
+
+
+def qexp1(v: tuple) -> tuple:
+    """:func:`qexp` of one rotation vector (3 floats, rad): 4 floats."""
+    angle = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    half = 0.5 * angle
+    ratio = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(half) / angle
+    return (math.cos(half), ratio * v[0], ratio * v[1], ratio * v[2])
+
+
+def qlog1(q: tuple) -> tuple:
+    """:func:`qlog` of one unit quaternion (4 floats): 3 floats, rad."""
+    w, x, y, z = q
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 / max(w, 1e-300) if s < 1e-8 else 2.0 * math.atan2(s, w) / s
+    return (k * x, k * y, k * z)
+
+
+def qmul1(a: tuple, b: tuple) -> tuple:
+    """:func:`qmul` of two quaternions (4 floats each)."""
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+def qconj1(q: tuple) -> tuple:
+    """The conjugate of one quaternion."""
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def rotate1(q: tuple, v: tuple) -> tuple:
+    """:func:`rotate` of one vector: A(q) v."""
+    w, u0, u1, u2 = q
+    v0, v1, v2 = v
+    t0, t1, t2 = 2.0 * (u1 * v2 - u2 * v1), 2.0 * (u2 * v0 - u0 * v2), 2.0 * (u0 * v1 - u1 * v0)
+    return (v0 + w * t0 + (u1 * t2 - u2 * t1), v1 + w * t1 + (u2 * t0 - u0 * t2),
+            v2 + w * t2 + (u0 * t1 - u1 * t0))
+
+
+def rotate_inverse1(q: tuple, v: tuple) -> tuple:
+    """:func:`rotate_inverse` of one vector: A(q)ᵀ v."""
+    return rotate1(qconj1(q), v)
+
+
+def gyro_increment1(dtheta: tuple, bias: tuple, sigma_v: float, sigma_u: float, dt: float,
+                    rng: np.random.Generator) -> tuple[tuple, tuple]:
+    """:func:`gyro_increment` for one satellite (3-tuples of floats)."""
+    v0, v1, v2, e0, e1, e2, i0, i1, i2 = rng.standard_normal(9).tolist()
+    sq, sq3, sv, h = math.sqrt(dt), math.sqrt(dt ** 3 / 12.0), sigma_v * math.sqrt(dt), 0.5 * dt
+    e0, e1, e2 = sq * e0, sq * e1, sq * e2  # W_u(dt)
+    b0, b1, b2 = bias
+    return ((dtheta[0] + b0 * dt + sigma_u * (h * e0 + sq3 * i0) + sv * v0,
+             dtheta[1] + b1 * dt + sigma_u * (h * e1 + sq3 * i1) + sv * v1,
+             dtheta[2] + b2 * dt + sigma_u * (h * e2 + sq3 * i2) + sv * v2),
+            (b0 + sigma_u * e0, b1 + sigma_u * e1, b2 + sigma_u * e2))
+
+
+def star_tracker1(params: StarTracker, chol_T: tuple, q_BN: tuple, omega_B: tuple,
+                  sun_N: tuple | None, nadir_N: tuple | None, earth_radius_rad: float,
+                  rng: np.random.Generator) -> tuple[tuple, bool]:
+    """:func:`star_tracker` for one satellite; chol_T: the transposed Cholesky factor of
+    ``params.noise_cov_B()`` as 3 rows of floats (constant: the caller holds it)."""
+    n0, n1, n2 = rng.standard_normal(3).tolist()
+    (c00, c01, c02), (c10, c11, c12), (c20, c21, c22) = chol_T
+    v = (n0 * c00 + n1 * c10 + n2 * c20, n0 * c01 + n1 * c11 + n2 * c21,
+         n0 * c02 + n1 * c12 + n2 * c22)
+    drop = rng.random() < params.dropout_probability
+    q_m = qmul1(q_BN, qexp1(v))
+    bore = rotate1(q_BN, params.boresight_B)
+    w0, w1, w2 = omega_B
+    valid = not drop and math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) <= params.max_rate_dps * _DEG
+    if valid and sun_N is not None:
+        valid = bore[0] * sun_N[0] + bore[1] * sun_N[1] + bore[2] * sun_N[2] < \
+            math.cos(params.sun_exclusion_deg * _DEG)
+    if valid and nadir_N is not None:
+        limit = min(math.pi, earth_radius_rad + params.earth_exclusion_deg * _DEG)
+        valid = bore[0] * nadir_N[0] + bore[1] * nadir_N[1] + bore[2] * nadir_N[2] < \
+            math.cos(limit)
+    return q_m, valid
+
+
+def magnetometer1(params: Magnetometer, q_BN: tuple, field_N_T: tuple, bias_T: tuple,
+                  rng: np.random.Generator) -> tuple:
+    """:func:`magnetometer` for one satellite (T, body axes)."""
+    noise = rng.standard_normal(3).tolist()
+    b = rotate_inverse1(q_BN, field_N_T)
+    s = params.noise_nT * 1e-9
+    return tuple(b[i] + bias_T[i] + s * noise[i] for i in range(3))

@@ -19,7 +19,13 @@ from scipy.stats import chi2
 
 import rbenv
 from rbenv.satellite import sensors as sn
-from rbenv.satellite.estimation import MEKF, monte_carlo, process_noise, transition_matrix
+from rbenv.satellite.estimation import (
+    MEKF,
+    ScalarMEKF,
+    monte_carlo,
+    process_noise,
+    transition_matrix,
+)
 from rbenv.satellite.scene import Scene, scene_table
 
 DEG = math.pi / 180.0
@@ -35,12 +41,13 @@ def _band(runs: int, dim: int = 3) -> tuple[float, float]:
 def test_transition_matrix_is_the_matrix_exponential():
     w = np.array([[0.3, -0.2, 0.5], [1e-5, 0.0, 2e-5]])
     for dt in (0.1, 2.0):
-        phi = transition_matrix(w, dt)
-        for i in range(2):
-            F = np.zeros((6, 6))
-            F[:3, :3] = -sn.skew(w[i])
-            F[:3, 3:] = -np.eye(3)
-            np.testing.assert_allclose(phi[i], scipy.linalg.expm(F * dt), atol=1e-12)
+        for rates in (w, w[1:], w[:1]):  # mixed, all on the series, none on it
+            phi = transition_matrix(rates, dt)
+            for i in range(len(rates)):
+                F = np.zeros((6, 6))
+                F[:3, :3] = -sn.skew(rates[i])
+                F[:3, 3:] = -np.eye(3)
+                np.testing.assert_allclose(phi[i], scipy.linalg.expm(F * dt), atol=1e-12)
 
 
 def test_process_noise_is_van_loans_integral():
@@ -94,6 +101,124 @@ def test_bias_converges_to_the_true_one_within_the_filters_sigma():
     assert 0.64 < np.mean(z < 1.0) < 0.72  # 68.3 % within 1σ (900 axes: ±4σ_binomial ≈ 6 %)
     assert np.mean(z < 3.0) > 0.99
     assert sigma.max() < 0.05 * DEG / 10.0  # the prior (0.05 °/s) shrank tenfold
+
+
+def _random_cov(rng, scale=1e-3) -> np.ndarray:
+    a = scale * rng.standard_normal((6, 6))
+    return a @ a.T + 1e-3 * scale ** 2 * np.eye(6)
+
+
+@pytest.mark.parametrize("rate", [1e-5, 0.4])  # |ω̂|dt below and above the series' 1e-3
+def test_scalar_filter_is_the_batched_one_to_round_off(rate):
+    """ScalarMEKF (the single env's filter, Python floats) against MEKF at N = 1: the same
+    propagations and updates (star tracker, a unit vector, a field vector) from a random
+    covariance agree to round-off, step after step."""
+    rng = np.random.default_rng(7)
+    q = sn.qexp(rng.standard_normal((1, 3)))
+    P, b = _random_cov(rng), 1e-4 * rng.standard_normal((1, 3))
+    f, g = MEKF(q, b, P[None], 3e-4, 2e-6), ScalarMEKF(q[0], b[0], P, 3e-4, 2e-6)
+    R = np.diag([1e-8, 2e-8, 5e-8])
+    one = np.ones(1, dtype=bool)
+    for _ in range(40):
+        d = rate * 0.5 * rng.standard_normal((1, 3))
+        f.propagate(d, 0.5)
+        g.propagate(tuple(d[0]), 0.5)
+        q_m = sn.qmul(f.q, sn.qexp(1e-4 * rng.standard_normal((1, 3))))
+        f.update_attitude(q_m, R, one)
+        g.update_attitude(tuple(q_m[0]), tuple(map(tuple, R)), True)
+        y = sn.qexp(rng.standard_normal((1, 3)))[:, 1:]
+        y /= np.linalg.norm(y)
+        r_N = sn.rotate(f.q, y + 1e-3 * rng.standard_normal((1, 3)))
+        r_N /= np.linalg.norm(r_N)
+        Rv = 1e-4 * (np.eye(3) - np.outer(y[0], y[0]))
+        f.update_vector(y, r_N, Rv, one, unit=True)
+        g.update_vector(tuple(y[0]), tuple(r_N[0]), tuple(map(tuple, Rv)), True, unit=True)
+        f.update_vector(3e-5 * y, 3e-5 * r_N, 1e-14 * np.eye(3), one)
+        g.update_vector(tuple(3e-5 * y[0]), tuple(3e-5 * r_N[0]),
+                        tuple(map(tuple, 1e-14 * np.eye(3))), True)
+        g.update_attitude(tuple(q_m[0]), tuple(map(tuple, R)), False)  # no fix: no change
+    np.testing.assert_allclose(g.q, f.q[0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(g.bias, f.bias[0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(g.P, f.P[0], rtol=1e-12, atol=1e-12 * np.abs(f.P).max())
+    assert np.array_equal(g.P, g.P.T)
+
+
+@pytest.mark.parametrize("valid", [[True, False, True, False, False],  # all rows, merged
+                                   [False] * 6 + [True, False]])  # the valid row alone
+def test_batched_update_touches_only_the_rows_with_a_measurement(valid):
+    rng = np.random.default_rng(8)
+    valid = np.array(valid)
+    n = len(valid)
+    q = sn.qexp(rng.standard_normal((n, 3)))
+    P = np.stack([_random_cov(rng) for _ in range(n)])
+    f = MEKF(q, np.zeros((n, 3)), P, 3e-4, 2e-6)
+    whole = MEKF(q, np.zeros((n, 3)), P, 3e-4, 2e-6)
+    q_m = sn.qmul(q, sn.qexp(1e-4 * rng.standard_normal((n, 3))))
+    f.update_attitude(q_m, 1e-8 * np.eye(3), valid)
+    whole.update_attitude(q_m, 1e-8 * np.eye(3), np.ones(n, dtype=bool))
+    assert np.array_equal(f.P[~valid], P[~valid]) and np.array_equal(f.q[~valid], q[~valid])
+    np.testing.assert_allclose(f.P[valid], whole.P[valid], rtol=1e-13, atol=1e-20)
+    np.testing.assert_allclose(f.q[valid], whole.q[valid], rtol=0, atol=1e-15)
+    assert not np.allclose(f.P[valid], P[valid])
+
+
+def test_one_satellite_sensors_draw_what_the_batched_ones_draw():
+    """The single env's float twins take the same numbers from the generator, in the same
+    order, as the batched models at N = 1 (so the single env's episodes are those the
+    batched filter would fly, to round-off)."""
+    q = tuple(sn.qexp(np.array([0.3, -1.2, 0.5])))
+    star = sn.StarTracker(dropout_probability=0.3, sigma_cross_arcsec=30.0)
+    chol_T = tuple(map(tuple, np.linalg.cholesky(star.noise_cov_B()).T))
+    sun = (0.6, 0.0, 0.8)
+    nadir = tuple(-np.array(sn.rotate(np.array(q), np.array([0.0, 0.3, 1.0]))) / np.hypot(0.3, 1))
+    fixes = set()
+    for seed in range(40):
+        r1, r2 = np.random.default_rng(seed), np.random.default_rng(seed)
+        m1, b1 = sn.gyro_increment1((1e-3, -2e-3, 5e-4), (1e-4, 2e-4, -3e-4), 3e-4, 2e-6, 0.5,
+                                    r1)
+        m2, b2 = sn.gyro_increment(np.array([[1e-3, -2e-3, 5e-4]]),
+                                   np.array([[1e-4, 2e-4, -3e-4]]), 3e-4, 2e-6, 0.5, r2)
+        np.testing.assert_allclose(m1, m2[0], rtol=0, atol=1e-18)
+        np.testing.assert_allclose(b1, b2[0], rtol=0, atol=1e-19)
+        for s_N, n_N in ((None, None), (sun, nadir)):
+            w = (0.01 * seed, 0.0, 0.0)  # above 3 °/s from seed 6: no fix
+            qm1, v1 = sn.star_tracker1(star, chol_T, q, w, s_N, n_N, 0.2, r1)
+            qm2, v2 = sn.star_tracker(star, np.array([q]), np.array([w]),
+                                      None if s_N is None else np.array([s_N]),
+                                      None if n_N is None else np.array([n_N]), 0.2, r2)
+            np.testing.assert_allclose(qm1, qm2[0], rtol=0, atol=1e-15)
+            assert v1 == bool(v2[0])
+            fixes.add(v1)
+        field = (2e-5, -1e-5, 3e-5)
+        y1 = sn.magnetometer1(sn.Magnetometer(), q, field, (1e-7, 0.0, -1e-7), r1)
+        y2 = sn.magnetometer(sn.Magnetometer(), np.array([q]), np.array([field]),
+                             np.array([[1e-7, 0.0, -1e-7]]), r2)
+        np.testing.assert_allclose(y1, y2[0], rtol=0, atol=1e-20)
+        assert r1.random() == r2.random()  # both streams at the same place
+        sn.star_tracker_draws(1, r1)  # a step between fixes takes what a fix takes
+        sn.star_tracker(star, np.array([q]), np.zeros((1, 3)), None, None, 0.0, r2)
+        assert r1.random() == r2.random()
+    assert fixes == {True, False}
+
+
+def test_observe_truth_false_skips_only_the_observation():
+    """transition.step(observe_truth=False), as the estimator's envs call it: obs is None,
+    everything else (state, reward, flags, info) as with the observation."""
+    from rbenv.core.backend import FLOAT
+
+    from rbenv.envs import transition
+    from rbenv.satellite.plant import NO_NOISE
+
+    env = gym.make(V1, scene="cubesat-12u").unwrapped
+    env.reset(seed=4)
+    a = np.full(env.action_space.shape, 0.3, np.float32)
+    s1, o1 = transition.step(env.plant, env.task, env._st, a, NO_NOISE, FLOAT)
+    s2, o2 = transition.step(env.plant, env.task, env._st, a, NO_NOISE, FLOAT,
+                             observe_truth=False)
+    assert o1.obs is not None and o2.obs is None
+    assert (o1.reward, o1.terminated, o1.truncated, o1.info) == \
+        (o2.reward, o2.terminated, o2.truncated, o2.info)
+    assert s1.q == s2.q and s1.omega_B == s2.omega_B
 
 
 # --------------------------------------------------------------------------- the env
@@ -267,7 +392,11 @@ def test_the_sun_sensors_shadow_is_the_srp_models():
         env.reset(seed=0)
         for _ in range(3):
             _, _, _, _, info = env.step(np.zeros(env.action_space.shape, np.float32))
-            _, lit = env._estimation._sun(np.array([env._st.steps * env.plant.control_dt]))
+            t = env._st.steps * env.plant.control_dt
+            sun, lit = env._estimation._sun(np.array([t]))
             assert bool(lit[0] == 0.0) == bool(info["eclipse"])
+            sun1, lit1 = env._estimation._sun1(float(t))  # the single env's float twin
+            assert lit1 == lit[0]
+            np.testing.assert_allclose(sun1, sun[0], rtol=0, atol=1e-15)
             seen.add(bool(info["eclipse"]))
     assert seen == {True, False}
