@@ -80,8 +80,9 @@ def test_quick_run_through_skrl(results):
 
 def test_the_measured_torchrl_path_is_what_the_registry_ships():
     from rbenv.agents import settings
+    from rbenv.agents.training.config import torchrl_fields
 
-    shipped = dict(settings.get("rbenv/SatelliteReorient-v1").torchrl)
+    shipped = torchrl_fields(settings.get("rbenv/SatelliteReorient-v1").recipe("ppo", "torchrl"))
     path = time_to_solve.PATHS["torchrl-g0.98-std-0.5-1.2M"]
-    assert path.budget == shipped.pop("timesteps")
-    assert path.hyperparams == shipped
+    assert path.budget == shipped["timesteps"]
+    assert path.hyperparams == {k: shipped[k] for k in path.hyperparams}

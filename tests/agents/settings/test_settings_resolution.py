@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 import pytest
+from rbenv.agents import settings
 
 from tests.agents.settings.resolution import resolve_all
 
@@ -53,6 +54,8 @@ def _expected(key: str) -> dict:
 def test_every_combination_is_resolved(now):
     assert sorted(now) == sorted(GOLDEN)
     assert len(now) == 733
+    ids = {key.split("/", 2)[2].rsplit("/", 1)[0] for key in now if not key.startswith("zoo/")}
+    assert ids == {entry.env_id for entry in settings.entries()}
 
 
 def test_the_suite_budgets_are_unchanged(now):
