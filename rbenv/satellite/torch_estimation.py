@@ -23,6 +23,7 @@ write into preallocated arrays); the gyro's formula is shared
 
 from __future__ import annotations
 
+import functools
 import math
 
 import torch
@@ -209,6 +210,12 @@ class TorchMEKF:
 # with the random numbers passed in.
 
 
+@functools.lru_cache(maxsize=64)
+def _constant(values: tuple, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
+    """A sensor's fixed vectors (boresight, cell normals) on the device, copied there once."""
+    return torch.tensor(values, dtype=dtype, device=device)
+
+
 def star_tracker(params, chol_T: torch.Tensor, q_BN: torch.Tensor, omega_B: torch.Tensor,
                  sun_N: torch.Tensor | None, nadir_N: torch.Tensor | None,
                  earth_radius_rad: float, normals: torch.Tensor,
@@ -217,7 +224,7 @@ def star_tracker(params, chol_T: torch.Tensor, q_BN: torch.Tensor, omega_B: torc
     the standard normals ``normals`` (N, 3) and the dropouts ``drop`` (N,) bool; chol_T: the
     transposed Cholesky factor of ``params.noise_cov_B()`` (3, 3)."""
     q_m = qmul(q_BN, qexp(normals @ chol_T))
-    bore = torch.tensor(params.boresight_B, dtype=q_BN.dtype, device=q_BN.device)
+    bore = _constant(params.boresight_B, q_BN.dtype, q_BN.device)
     bore_N = rotate(q_BN, bore.expand_as(omega_B))
     valid = ~drop & (torch.linalg.vector_norm(omega_B, dim=-1) <= params.max_rate_dps * _DEG)
     if sun_N is not None:
@@ -239,7 +246,7 @@ def sun_sensors(params, q_BN: torch.Tensor, sun_N: torch.Tensor, lit: torch.Tens
                 normals: torch.Tensor) -> torch.Tensor:
     """:func:`rbenv.satellite.sensors.sun_sensors`: cell outputs (N, M) from the standard
     normals ``normals`` (N, M); lit (N,) 1.0 or 0.0."""
-    faces = torch.tensor(params.normals_B, dtype=q_BN.dtype, device=q_BN.device)
+    faces = _constant(params.normals_B, q_BN.dtype, q_BN.device)
     cos = rotate_inverse(q_BN, sun_N) @ faces.T
     seen = (cos >= math.cos(params.fov_deg * _DEG)) & (cos > 0.0) & (lit[:, None] > 0.5)
     return torch.where(seen, cos + params.noise * normals, 0.0)
@@ -248,7 +255,7 @@ def sun_sensors(params, q_BN: torch.Tensor, sun_N: torch.Tensor, lit: torch.Tens
 def sun_vector_fit(params, output: torch.Tensor, threshold: float = 0.05) -> tuple:
     """:func:`rbenv.satellite.sensors.sun_vector_fit`: ``(s_B (N, 3), cov (N, 3, 3), valid
     (N,))`` by least squares over the cells above ``threshold``."""
-    faces = torch.tensor(params.normals_B, dtype=output.dtype, device=output.device)
+    faces = _constant(params.normals_B, output.dtype, output.device)
     use = output > threshold
     h = faces[None] * use[..., None]
     hth = torch.einsum("nmi,nmj->nij", h, h)
