@@ -13,7 +13,8 @@ each as ``clip((log10 σ − c) / 3, −1, 1)`` with c = −3 (rad) and −5 (ra
 success and termination stay the task's, on the true state. Its draws come from its own
 generator (seeded from the episode's seed), so the plant's draws are those of the same scene
 without it. The single env runs it all on Python floats (ScalarMEKF and the sensors' float
-twins, the same draws in the same order), the vector env on component-major arrays.
+twins, the same draws in the same order), the vector env on component-major arrays, the torch
+env on tensors (:mod:`rbenv.envs.torch_estimated`, the vector env's draws).
 
 ``info`` gains, every step: ``q_true``, ``q_est`` (scalar-first, body to inertial),
 ``gyro_bias``, ``gyro_bias_est`` (rad/s, body axes), ``estimate_cov`` (6 × 6: the attitude error

@@ -43,6 +43,13 @@ points: every ``check_every`` steps (default 1: the step that diverged raises, a
 env), at ``reset()`` and at :meth:`TorchVectorEnv.check`. ``check_every=0`` checks only at
 reset and on request, for a device whose host syncs are costly.
 
+**The estimator.** A scene with ``[estimator]`` runs its sensors and MEKF on the device
+(:mod:`rbenv.envs.torch_estimated`): the observation is the estimate's, and ``info`` carries
+the NumPy env's estimator keys ((N, ...) tensors). Their noise is drawn on the host from the
+NumPy env's stream, so with the same seed an episode equals the NumPy vector env's to
+round-off; a step then copies those draws to the device, and an autoreset reads the ended rows
+on the host (on every device); ``compile=True`` is refused with it.
+
 **Not supported yet** (refused by name at construction): the implicit integrators (midpoint,
 splitting), the desaturate task (its wheel-load start is NumPy row operations), the torque
 action mode (its allocators are NumPy/SciPy), domain randomization,
@@ -147,9 +154,6 @@ def check_supported(plant, task, render_mode, compiled) -> None:
         _refuse("scene", sc.name, "per-step noise (sensor noise, disturbance noise or "
                 "mid-episode thruster faults) is drawn by NumPy's generator; pick a scene "
                 "without it")
-    if sc.estimator is not None:
-        _refuse("scene", sc.name, "the attitude estimator ([estimator], rbenv.envs.estimated) "
-                "is NumPy-only yet; use backend='numpy'")
     if plant.sensors is not None:
         _refuse("scene", sc.name, "sensing as flown ([sensors]: gyro attitude, delay) is "
                 "NumPy-only yet; pick a scene without it")
@@ -209,6 +213,16 @@ class TorchVectorEnv(VectorContract):
         self._renderer = None
         self._step_fn, self._restart_fn = self._physics, self._restart_all
         self._index_restart = self.device.type == "cpu"
+        self._estimation = None  # the MEKF in the loop, for scenes with [estimator]
+        self._last_obs = None
+        if self.plant.scene.estimator is not None:
+            if o["compile"]:
+                _refuse("compile", o["compile"], "the estimator's sensor noise is drawn on the "
+                        "host each step (rbenv.envs.torch_estimated); use compile=False")
+            from rbenv.envs.torch_estimated import TorchEstimatorLoop
+
+            self._estimation = TorchEstimatorLoop(self.plant, self.task, self.xp, self._stack)
+            self._index_restart = True  # the estimator's stream needs the ended rows' count
         if validation.flag("compile", o["compile"]):
             from rbenv.envs.torch_compile import CompiledStep
 
@@ -352,11 +366,24 @@ class TorchVectorEnv(VectorContract):
         self._episodes = self._episodes + mask.to(torch.int64)
         self._st = start if self._st is None else self._mux(mask, start, self._st)
         self.diverged = torch.zeros_like(self.diverged)
-        obs = self._stack(transition.observe(self.plant, self.task, self._st, None, self.xp))
+        est = self._estimation
+        obs = None if est is not None else \
+            self._stack(transition.observe(self.plant, self.task, self._st, None, self.xp))
         zeros = torch.zeros(self.num_envs, dtype=self.dtype, device=self.device)
-        return obs, transition.info(self.plant, self.task, self._st,
-                                    transition.zero_terms(self.task, zeros),
-                                    torch.zeros_like(self._mask), self.xp)
+        values = transition.info(self.plant, self.task, self._st,
+                                 transition.zero_terms(self.task, zeros),
+                                 torch.zeros_like(self._mask), self.xp)
+        if est is not None:  # the NumPy vector env's reset of the filter, same stream
+            full = est.filter is None or bool(mask.all())
+            est.reset(self._st, est.seed_key(int(self._seeds[0]), int(self._episodes[0]),
+                                             self.num_envs),
+                      rows=None if full else torch.nonzero(mask).reshape(-1))
+            obs = est.observe(self._st)
+            if not full:  # the other rows keep their observation
+                obs = torch.where(mask.unsqueeze(1), obs, self._last_obs)
+            values = est.add_info(self._st, values)
+            self._last_obs = obs
+        return obs, values
 
     # ------------------------------------------------------------------- step
 
@@ -364,16 +391,21 @@ class TorchVectorEnv(VectorContract):
         """The transition on the batch: (new state, obs (N, d), reward, terminated, truncated,
         terms, success, diverged). No host reads (the step that ``compile=True`` compiles)."""
         new, out = transition.step(self.plant, self.task, st, action, NO_NOISE, self.xp,
-                                   own_action=True, max_steps=self._max_steps)
+                                   own_action=True, max_steps=self._max_steps,
+                                   observe_truth=self._estimation is None)
         diverged = out.diverged | torch.isnan(action).any(dim=1)
-        return (new, self._stack(out.obs), self._tensor(out.reward), out.terminated,
-                out.truncated, out.terms, out.success, diverged)
+        obs = None if out.obs is None else self._stack(out.obs)  # None: the estimator's
+        return (new, obs, self._tensor(out.reward), out.terminated, out.truncated, out.terms,
+                out.success, diverged)
 
     def _advance(self, a: torch.Tensor) -> Step:
         new, obs, reward, terminated, truncated, terms, success, diverged = \
             self._step_fn(self._st, a.clone())
         self.diverged = self.diverged | diverged
         self._last, self._step_diverged = (new, a), diverged
+        if self._estimation is not None:  # measure the new truth, observe the estimate
+            self._estimation.step(new)
+            obs = self._estimation.observe(new)
         self._steps_since_check += 1
         if self.check_every and self._steps_since_check >= self.check_every:
             self.check()
@@ -400,22 +432,35 @@ class TorchVectorEnv(VectorContract):
     def _step_info(self, s: Step) -> dict:
         values = transition.info(self.plant, self.task, s.st, s.terms, s.success, self.xp)
         values["diverged"] = self._step_diverged
+        if self._estimation is not None:
+            values = self._estimation.add_info(s.st, values)
         return values
+
+    def _finish(self, s: Step) -> None:
+        if self._estimation is not None:  # a partial reset keeps the other rows' observation
+            self._last_obs = s.obs
 
     def _restart_rows(self, done, st, obs, terms, success):
         """SAME_STEP autoreset of the rows where ``done``: new episodes, their observations,
         and zero terms and success there. On a CPU (``_index_restart``; host reads are free
         there) only the ended rows are drawn, by index; elsewhere every row is drawn and the
         ended ones selected by ``torch.where``, with no host read. The same numbers either way.
+        With the estimator, by index on every device (its stream's draws for the restarted
+        rows depend on their count: a host read).
         """
-        if self._index_restart:
+        est = self._estimation
+        if self._index_restart or est is not None:
             idx = torch.nonzero(done).reshape(-1)
             if idx.numel():
                 start = self._draw_starts(idx=idx)
                 self._episodes = self._episodes.index_add(0, idx, torch.ones_like(idx))
                 st = self._scatter(idx, start, st)
-                first = self._stack(transition.observe(self.plant, self.task, start, None,
-                                                       self.xp), idx.numel())
+                if est is None:
+                    first = self._stack(transition.observe(self.plant, self.task, start, None,
+                                                           self.xp), idx.numel())
+                else:  # the rows' filters restart (the NumPy env's order of draws)
+                    est.reset(st, None, rows=idx)
+                    first = est.observe(st)[idx]
                 obs = obs.index_copy(0, idx, first)
                 terms = type(terms)(*(self._tensor(t).index_fill(0, idx, 0.0) for t in terms))
                 success = success.index_fill(0, idx, False)
@@ -495,6 +540,8 @@ class TorchEnv(gym.Env):
         """Options: :data:`rbenv.envs.options.OPTIONS_OF` ``["torch_single"]``."""
         o = take(type(self).__name__, "torch_single", {"scene": scene, **options})
         self.env = TorchVectorEnv(1, autoreset_mode=AutoresetMode.DISABLED, **o)
+        if self.env._estimation is not None:  # the estimator's stream seeded as the single env's
+            self.env._estimation.single_key = True
         # float32 actions, as the NumPy env's (what SB3 and the checkers expect of a
         # gymnasium.Env); the vector env's spaces are in its dtype.
         self.action_space = gym.spaces.Box(-1.0, 1.0, self.env.single_action_space.shape,
@@ -526,8 +573,13 @@ class TorchEnv(gym.Env):
 
     @staticmethod
     def _info(info: dict) -> dict:
-        return {key: value[0].item() for key, value in info.items()
-                if not key.startswith("_")}
+        """Python scalars, and NumPy arrays for the estimator's vectors and covariance."""
+        out = {}
+        for key, value in info.items():
+            if not key.startswith("_"):
+                row = value[0]
+                out[key] = row.item() if row.ndim == 0 else row.cpu().numpy()
+        return out
 
     def close(self):
         self.env.close()

@@ -49,6 +49,7 @@ __all__ = [
     "SunSensors",
     "gyro_increment",
     "gyro_increment1",
+    "gyro_increment_of",
     "magnetometer",
     "magnetometer1",
     "qconj",
@@ -262,7 +263,14 @@ def gyro_increment(dtheta: np.ndarray, bias: np.ndarray, sigma_v: float, sigma_u
     """``(Δθ_m, b_next)``: the gyro's measured increment (N, 3, rad) over ``dt`` s for the true
     increment ``dtheta`` (N, 3, rad) and the bias ``bias`` (N, 3, rad/s) at the interval's
     start; sigma_v: angle random walk, rad/√s; sigma_u: rate random walk, rad/s/√s."""
-    n = rng.standard_normal((3, *dtheta.shape))
+    return gyro_increment_of(dtheta, bias, rng.standard_normal((3, *dtheta.shape)), sigma_v,
+                             sigma_u, dt)
+
+
+def gyro_increment_of(dtheta, bias, n, sigma_v: float, sigma_u: float, dt: float) -> tuple:
+    """:func:`gyro_increment` from its standard normals ``n`` (3, N, 3): the angle random walk,
+    then the pair (W_u(dt), ∫W_u). Arithmetic alone, so NumPy arrays and torch tensors (the
+    torch env's estimator, :mod:`rbenv.envs.torch_estimated`) run the one formula."""
     w_end = math.sqrt(dt) * n[1]  # W_u(dt) and ∫W_u, jointly Gaussian (exact Cholesky)
     w_int = 0.5 * dt * w_end + math.sqrt(dt ** 3 / 12.0) * n[2]
     measured = dtheta + bias * dt + sigma_u * w_int + sigma_v * math.sqrt(dt) * n[0]

@@ -12,17 +12,28 @@ measurement are kept by ``torch.where`` on the whole batch, not by indexing, so 
 data-dependent control flow (no host synchronisation on a GPU). The small-angle series are
 chosen by ``torch.where`` as well.
 
-Not yet wired into :mod:`rbenv.envs.torch_env` (which refuses a scene with ``[estimator]``):
-the sensors' models there and the draws' streams are still NumPy's.
+The sensors' measurement models of :mod:`rbenv.satellite.sensors` (star tracker, magnetometer,
+coarse sun sensors and their least-squares fit) are here on tensors too, each taking its
+standard normals (or uniforms) as arguments: the torch env's estimator
+(:mod:`rbenv.envs.torch_estimated`) draws them from the NumPy env's generator stream, so both
+backends measure the same. They restate the NumPy models' few lines on (N, ·) tensors (NumPy's
+write into preallocated arrays); the gyro's formula is shared
+(:func:`rbenv.satellite.sensors.gyro_increment_of`).
 """
 
 from __future__ import annotations
+
+import functools
+import math
 
 import torch
 
 from rbenv.satellite.estimation import process_noise
 
-__all__ = ["TorchMEKF", "qexp", "qlog", "qmul", "transition_rows"]
+__all__ = ["TorchMEKF", "magnetometer", "qconj", "qexp", "qlog", "qmul", "rotate", "rotate_inverse",
+           "star_tracker", "sun_sensors", "sun_vector_fit", "transition_rows"]
+
+_DEG = math.pi / 180.0
 
 
 def qmul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -35,7 +46,8 @@ def qmul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
                         a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0), -1)
 
 
-def _conj(q: torch.Tensor) -> torch.Tensor:
+def qconj(q: torch.Tensor) -> torch.Tensor:
+    """The conjugate of (..., 4) quaternions (the inverse of a unit quaternion)."""
     return torch.cat((q[..., :1], -q[..., 1:]), -1)
 
 
@@ -60,11 +72,16 @@ def qlog(q: torch.Tensor) -> torch.Tensor:
     return k * u
 
 
-def _rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
-    """A(q)ᵀ v: an inertial vector v (..., 3) in body axes."""
-    w, u = q[..., :1], -q[..., 1:]
+def rotate(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """A(q) v: a body vector v (..., 3) in inertial axes."""
+    w, u = q[..., :1], q[..., 1:]
     t = 2.0 * torch.linalg.cross(u, v, dim=-1)
     return v + w * t + torch.linalg.cross(u, t, dim=-1)
+
+
+def rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
+    """A(q)ᵀ v: an inertial vector v (..., 3) in body axes."""
+    return rotate(qconj(q), v)
 
 
 def _skew(v: torch.Tensor) -> torch.Tensor:
@@ -162,7 +179,7 @@ class TorchMEKF:
 
     def update_attitude(self, q_m, R, valid) -> None:
         """A star-tracker fix q_m (N, 4) with noise covariance R (3, 3, rad², body axes)."""
-        residual = qlog(qmul(_conj(self.q), self._tensor(q_m)))
+        residual = qlog(qmul(qconj(self.q), self._tensor(q_m)))
         self._update(residual, None, self._tensor(R),
                      torch.as_tensor(valid, dtype=torch.bool, device=self.q.device))
 
@@ -170,7 +187,7 @@ class TorchMEKF:
         """A body vector y_B (N, 3) of the inertial vector r_N (N, 3), noise covariance R
         ((3, 3) or (N, 3, 3)); unit: unit vectors, the residual and R projected off the
         predicted direction (as :meth:`rbenv.satellite.estimation.MEKF.update_vector`)."""
-        predicted = _rotate_inverse(self.q, self._tensor(r_N))
+        predicted = rotate_inverse(self.q, self._tensor(r_N))
         residual = self._tensor(y_B) - predicted
         R = self._tensor(R)
         if unit:
@@ -184,5 +201,73 @@ class TorchMEKF:
 
     def error(self, q_true, bias_true) -> torch.Tensor:
         """The true error state (N, 6): ``log(q̂⁻¹ ⊗ q)`` then ``b − b̂``."""
-        return torch.cat((qlog(qmul(_conj(self.q), self._tensor(q_true))),
+        return torch.cat((qlog(qmul(qconj(self.q), self._tensor(q_true))),
                           self._tensor(bias_true) - self.bias), -1)
+
+
+# --------------------------------------------------------------------------- sensors on tensors
+# rbenv.satellite.sensors' models (their docstrings give the error models), on (N, ·) tensors,
+# with the random numbers passed in.
+
+
+@functools.lru_cache(maxsize=64)
+def _constant(values: tuple, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
+    """A sensor's fixed vectors (boresight, cell normals) on the device, copied there once."""
+    return torch.tensor(values, dtype=dtype, device=device)
+
+
+def star_tracker(params, chol_T: torch.Tensor, q_BN: torch.Tensor, omega_B: torch.Tensor,
+                 sun_N: torch.Tensor | None, nadir_N: torch.Tensor | None,
+                 earth_radius_rad: float, normals: torch.Tensor,
+                 drop: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`rbenv.satellite.sensors.star_tracker`: ``(q_m (N, 4), valid (N,) bool)`` from
+    the standard normals ``normals`` (N, 3) and the dropouts ``drop`` (N,) bool; chol_T: the
+    transposed Cholesky factor of ``params.noise_cov_B()`` (3, 3)."""
+    q_m = qmul(q_BN, qexp(normals @ chol_T))
+    bore = _constant(params.boresight_B, q_BN.dtype, q_BN.device)
+    bore_N = rotate(q_BN, bore.expand_as(omega_B))
+    valid = ~drop & (torch.linalg.vector_norm(omega_B, dim=-1) <= params.max_rate_dps * _DEG)
+    if sun_N is not None:
+        valid = valid & ((bore_N * sun_N).sum(-1) < math.cos(params.sun_exclusion_deg * _DEG))
+    if nadir_N is not None:
+        limit = min(math.pi, earth_radius_rad + params.earth_exclusion_deg * _DEG)
+        valid = valid & ((bore_N * nadir_N).sum(-1) < math.cos(limit))
+    return q_m, valid
+
+
+def magnetometer(params, q_BN: torch.Tensor, field_N_T: torch.Tensor, bias_T: torch.Tensor,
+                 normals: torch.Tensor) -> torch.Tensor:
+    """:func:`rbenv.satellite.sensors.magnetometer` (T, body axes) from the standard normals
+    ``normals`` (N, 3)."""
+    return rotate_inverse(q_BN, field_N_T) + bias_T + params.noise_nT * 1e-9 * normals
+
+
+def sun_sensors(params, q_BN: torch.Tensor, sun_N: torch.Tensor, lit: torch.Tensor,
+                normals: torch.Tensor) -> torch.Tensor:
+    """:func:`rbenv.satellite.sensors.sun_sensors`: cell outputs (N, M) from the standard
+    normals ``normals`` (N, M); lit (N,) 1.0 or 0.0."""
+    faces = _constant(params.normals_B, q_BN.dtype, q_BN.device)
+    cos = rotate_inverse(q_BN, sun_N) @ faces.T
+    seen = (cos >= math.cos(params.fov_deg * _DEG)) & (cos > 0.0) & (lit[:, None] > 0.5)
+    return torch.where(seen, cos + params.noise * normals, 0.0)
+
+
+def sun_vector_fit(params, output: torch.Tensor, threshold: float = 0.05) -> tuple:
+    """:func:`rbenv.satellite.sensors.sun_vector_fit`: ``(s_B (N, 3), cov (N, 3, 3), valid
+    (N,))`` by least squares over the cells above ``threshold``."""
+    faces = _constant(params.normals_B, output.dtype, output.device)
+    use = output > threshold
+    h = faces[None] * use[..., None]
+    hth = torch.einsum("nmi,nmj->nij", h, h)
+    valid = torch.linalg.det(hth) > 1e-6
+    eye = torch.eye(3, dtype=output.dtype, device=output.device)
+    hth = torch.where(valid[:, None, None], hth, eye)
+    rhs = torch.einsum("nmi,nm->ni", h, output * use)
+    s = torch.linalg.solve(hth, rhs[..., None])[..., 0]
+    norm = torch.linalg.vector_norm(s, dim=-1, keepdim=True)
+    valid = valid & (norm[:, 0] > 0.3)
+    norm = torch.clamp(norm, min=1e-12)
+    s_hat = s / norm
+    proj = eye - s_hat[..., :, None] * s_hat[..., None, :]
+    cov = params.noise ** 2 / norm[..., None] ** 2 * proj @ torch.linalg.inv(hth) @ proj
+    return s_hat, cov, valid

@@ -14,7 +14,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import scipy.linalg
-from rbenv.core.errors import InvalidParameterError
 from scipy.stats import chi2
 
 import rbenv
@@ -323,10 +322,12 @@ def test_vector_env_estimates_every_row_with_the_truths_reward(mode):
         assert np.all(info["estimate_cov"][:, 0, 0] > 0.0)
 
 
-def test_estimator_is_numpy_only_yet_and_scenes_check_it():
+def test_the_torch_backend_takes_the_estimator():
+    """The torch env runs it (its agreement with NumPy: tests/rbenv/test_torch_estimated.py)."""
     pytest.importorskip("torch")
-    with pytest.raises(InvalidParameterError, match=r"backend=.torch.*estimator"):
-        gym.make(V1, scene=_estimator_scene(), backend="torch")
+    env = gym.make(V1, scene=_estimator_scene(), backend="torch")
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (21,) and info["estimate_cov"].shape == (6, 6)
 
 
 def test_scenes_without_the_estimator_are_unchanged():
