@@ -3,8 +3,8 @@
     python -m benchmarks.episode_drift --baseline /path/to/old/checkout [--seeds 20]
 
 :mod:`benchmarks.episode_digest` says *whether* a change moves any bit. When it does on
-purpose (issue 19: one satellite now steps exactly as one sub-env of a batch, which moves the
-single env's last bits on some CPUs), this says *how far*: every task id on every scene, each
+purpose (making one satellite step exactly as one sub-env of a batch moved the single env's
+last bits on some CPUs), this says *how far*: every task id on every scene, each
 driven by its first scripted baseline (closed loop, so a difference can grow) for ``--seeds``
 full episodes (seeds 1000 + i) on both trees. It reports the largest reward and observation
 differences over every step, and the episodes whose length or success differ. Each tree runs in

@@ -37,7 +37,7 @@ ARM_FLAGS = ("-std=c99", "-O2", "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16
              "-mfloat-abi=hard")
 CLOCKS_HZ = (40e6, 80e6)
 LOOP_S = 1.0  # InnoCube's attitude loop runs at 1 Hz
-MARGIN = 100  # the issue's requirement: the policy takes at most 1/100 of the loop
+MARGIN = 100  # the requirement: the policy takes at most 1/100 of the loop
 
 # Arm Cortex-M4 TRM (DDI 0439B) Table 7-1, FPU instruction timings (N: registers transferred).
 FPU_CYCLES = {"vadd": 1, "vsub": 1, "vmul": 1, "vnmul": 1, "vabs": 1, "vneg": 1, "vcmp": 1,

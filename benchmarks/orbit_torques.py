@@ -1,4 +1,4 @@
-"""The orbit's torques: convergence against a tight SciPy reference, the issue's step targets,
+"""The orbit's torques: convergence against a tight SciPy reference, the step targets,
 and the cost of each torque per env step.
 
 Bus: the 6U box of ``cubesat-6u-rw`` (12 kg, I = diag(0.185, 0.144, 0.061) kg·m²) with three
@@ -159,7 +159,7 @@ def convergence(cases=CASES, steps=CONV_STEPS, duration=T_CONV) -> dict:
 
 
 def targets() -> list[dict]:
-    """The issue's targets: rk4, 600 s, against the plant at 0.1 s."""
+    """The targets: rk4, 600 s, against the plant at 0.1 s."""
     rows = []
     for name, step, subs, limit in (("gravity gradient", 10.0, 4, 1e-5),
                                     ("magnetorquers", 0.5, 1, 1e-6),

@@ -7,8 +7,8 @@ Times one env step of ``SatelliteReorient-v0`` (random actions, resets inline) t
 scene ``cubesat-12u`` (the reference) and for ``cubesat-6u-rw`` with its models switched on one
 at a time: wheels only; wheels and magnetorquers with Earth's field; and the whole scene
 (wheels, rods, field and gravity gradient). All in one run, interleaved (process CPU time,
-best of rounds), so the ratios to ``cubesat-12u`` are what a user pays for each model. Target
-(issue 18): the whole ``cubesat-6u-rw`` within 1.5x of ``cubesat-12u`` per env step.
+best of rounds), so the ratios to ``cubesat-12u`` are what a user pays for each model. Target:
+the whole ``cubesat-6u-rw`` within 1.5x of ``cubesat-12u`` per env step.
 
 With ``--instructions`` (needs valgrind) it also counts the instructions of one single-env
 step of each variant with callgrind: a ratio that does not move with the machine's load.

@@ -1,6 +1,6 @@
 """SBX (JAX) against SB3 (torch): off-policy env-steps/s with the settings rbenv ships.
 
-Issue 22 allows SBX (``sbx-rl``) as an optional extra if it measurably wins. This measures
+SBX (``sbx-rl``) is an optional extra because it measurably wins. This measures
 whether it does, in one run on one machine: each algorithm's shipped settings
 (``agents/zoo/<algo>.py``: 32 native sub-envs, 8 gradient steps per vector step, batch
 512, [256, 256]) built once with SB3 (as ``rbenv train`` does, :mod:`benchmarks.train_speed`) and
@@ -151,7 +151,7 @@ def main(argv=None) -> dict:
                 f"({r['over_sb3_shipped']:.1f}x)", va="center", fontsize=8)
     ax.plot([r["env_steps_per_cpu_s"] for r in rows], y, "k|", markersize=12,
             label="per CPU-second of the process (a core of its own)")
-    ax.axvline(TARGET_STEPS_PER_S, color="C3", ls="--", lw=1, label="issue 22's target")
+    ax.axvline(TARGET_STEPS_PER_S, color="C3", ls="--", lw=1, label="target")
     ax.set_xlabel(f"env-steps/s at {TARGET_UPDATES_PER_STEP} updates per env step, learn() "
                   "end to end (1 thread)")
     ax.set_title(f"SBX (orange) against SB3 (blue), shipped settings; load "

@@ -9,7 +9,7 @@ Run ``rbenv bench env_speed --backend torch --device DEV [--compile] [--quick]``
   N = 2^10 … 2^24 on a GPU, 2^10 … 2^16 on a CPU, 2^10 and 2^12 with ``--quick`` (compiled:
   N ≥ 2^20 on a GPU, N = 4096 alone on a CPU, where one compilation takes about a minute). On a CPU
   the NumPy vector env runs at the same N in the same rounds, and each rate is also given as a
-  ratio to NumPy's (the issue's target: compiled torch ≥ NumPy at N = 4096);
+  ratio to NumPy's (the target: compiled torch ≥ NumPy at N = 4096);
 * memory per sub-env: on CUDA the peak allocated bytes over a reset and ten steps; on a CPU the
   peak RSS growth in a fresh interpreter;
 * float32: its rate, and its accuracy against float64 from the same episode starts and actions
@@ -129,7 +129,7 @@ def speed(sizes, device, compile_: bool, rounds: int) -> list[dict]:
     rows = []
     for n in sizes:
         # Each compilation (two graphs per env) takes about a minute on this CPU: compiled at
-        # N = 4096 only there (the comparison point); on a GPU at 2^20 and up, to keep
+        # N = 4096 only there (the comparison point); on a GPU at 2^20 and up, to keep
         # the whole GPU set near its 10-minute budget (not yet run on a GPU).
         compiled = compile_ and (n == 4096 if numpy else n >= 2**20)
         cases = _cases(n, device, compiled, numpy)

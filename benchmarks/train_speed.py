@@ -10,7 +10,7 @@ bar counts them). The four conditions are interleaved over several rounds and th
 so the ratios come from one run on one machine. The competing process is a pure-Python busy loop
 (one core), as a second job or an editor's indexer would be.
 
-Off-policy (issue 22): SAC, TD3, TQC and CrossQ with the settings ``rbenv train`` ships
+Off-policy: SAC, TD3, TQC and CrossQ with the settings ``rbenv train`` ships
 (``agents/zoo/<algo>.py``), and SAC variants that trade sub-envs per step, batch size,
 gradient steps and width. Each time ``learn`` end to end (after a prefilled buffer) over a fixed
 number of gradient updates, so collection, replay sampling and updates all count; the rate with
@@ -119,7 +119,7 @@ OFF_ROUNDS = 2  # interleaved rounds, median kept (quick: 1)
 
 
 def meets_target(env_steps_per_s: float, updates_per_env_step: float) -> bool:
-    """Issue 22's throughput target: 1,000 env-steps/s with 0.25 or more updates per step."""
+    """The off-policy throughput target: 1,000 env-steps/s with 0.25 or more updates per step."""
     return bool(env_steps_per_s >= TARGET_STEPS_PER_S
                 and updates_per_env_step >= TARGET_UPDATES_PER_STEP)
 

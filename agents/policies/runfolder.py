@@ -12,7 +12,7 @@ A run folder (written by ``rbenv train``, :mod:`rbenv.agents.training`)::
 
 A run folder is data: weights are tensors loaded with ``torch.load(weights_only=True)``, the
 rest JSON or ``.npz`` loaded without pickle (:mod:`rbenv.agents.policies.weights`). Run folders
-written before issue 19 (``model.zip``, ``vecnormalize.pkl``, ``model_<N>.zip``,
+written before the pickle-free format (``model.zip``, ``vecnormalize.pkl``, ``model_<N>.zip``,
 ``vecnormalize_<N>.pkl``, ``replay_buffer_<N>.pkl``) and foreign SB3 ``.zip`` files are pickles:
 unpickling runs any code their author put in them, so they load only with ``trust_pickle=True``
 (``--trust-pickle``) and are refused otherwise with :class:`UntrustedPickleError`.
@@ -45,7 +45,7 @@ LATEST = "latest.json"
 FINAL_MODEL, FINAL_STATS, SUMMARY = "policy.pt", "obs_stats.npz", "training.json"
 FINAL_CONFIG = "policy.json"
 FINAL_JAX_STATE = "policy.jax.npz"  # an SBX run's training state (weights.save_jax_state)
-# The pickle-based names of run folders written before issue 19 (need trust_pickle).
+# The pickle-based names of run folders written before the pickle-free format (need trust_pickle).
 LEGACY_MODEL, LEGACY_STATS = "model.zip", "vecnormalize.pkl"
 EVAL_LOG = Path("eval") / "evaluations.npz"
 # Everything `rbenv train` writes into a run folder; `--force` removes exactly these.
@@ -206,7 +206,7 @@ def checkpoint_pointer(directory: Path) -> Checkpoint:
     try:
         steps = int(info["timesteps"])
         model = confined(directory, info["model"], f"{pointer}: 'model'")
-        key = "stats" if "stats" in info else "vecnormalize"  # the name before issue 19
+        key = "stats" if "stats" in info else "vecnormalize"  # the pickle-based format's name
         stats = confined(directory, info[key], f"{pointer}: {key!r}")
     except KeyError as e:
         raise RunFolderError(f"checkpoint pointer {str(pointer)!r} lacks the key {e}") from None
@@ -222,7 +222,8 @@ def checkpoint_pointer(directory: Path) -> Checkpoint:
 
 def checkpoints(directory: Path, report: Callable[[str], object] = print) -> list[Checkpoint]:
     """Checkpoints to try, best first: latest.json's, then every policy_<N>.pt (and, from run
-    folders before issue 19, model_<N>.zip) by N descending, the pickle-free first at equal N.
+    folders of the pickle-based format, model_<N>.zip) by N descending, the pickle-free first
+    at equal N.
 
     Problems with latest.json are passed to ``report`` (naming the file) and skipped. A model
     file that latest.json names is listed again under its own N if the pointer claims another

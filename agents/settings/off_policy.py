@@ -1,4 +1,4 @@
-"""What the off-policy modules (sac, td3, tqc, crossq) share: the recipe of issue 22.
+"""What the off-policy modules (sac, td3, tqc, crossq) share: one recipe.
 
 Torque actions (3 axes, ``pinv`` allocation to the 12 thrusters), 32 native sub-envs,
 observations normalised and rewards not (as the SB3 maintainers and the RL Zoo's ``sac.yml``

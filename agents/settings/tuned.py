@@ -30,12 +30,12 @@ PPO = {
     "monitor_kwargs": {"info_keywords": ("is_success",)},
 }
 
-# The off-policy learners: issue 22's recipe (rbenv.agents.settings.off_policy), measured on
+# The off-policy learners: the shared recipe (rbenv.agents.settings.off_policy), measured on
 # SatelliteReorient-v0/cubesat-12u (docs/off-policy.md). A task entry gives an id its own
 # measured n_timesteps (recipes() below); the rest is shared.
 SAC = recipe()
 TD3 = recipe(noise_type="normal", noise_std=0.1)
-# TQC: a 200k-step budget (issue 22 saw 99.7 % at 169k; a TQC step costs ~2x SAC's).
+# TQC: a 200k-step budget (99.7 % held out at 169k on Reorient-v0; a TQC step costs ~2x SAC's).
 TQC = recipe(n_timesteps=200_000)
 # CrossQ has no target network (no tau); its critics are [256, 256], not sb3-contrib's default
 # 1024 x 1024, which ran at 43 env-steps/s here.

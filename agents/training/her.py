@@ -1,4 +1,4 @@
-"""What SB3's ``HerReplayBuffer`` needs to learn ``rbenv/SatelliteReorientGoal-v1`` (issue 22).
+"""What SB3's ``HerReplayBuffer`` needs to learn ``rbenv/SatelliteReorientGoal-v1`` .
 
 Two pieces, measured in ``docs/off-policy.md`` (its HER section) and used by
 ``benchmarks/rl/her.py``:

@@ -57,7 +57,8 @@ from rbenv.satellite import usage
 class SB3Session(SessionOptions):
     """The SB3 back end (:class:`rbenv.agents.training.engine.Backend`) with the options of one
     training session (``trust_pickle``: a resume may unpickle the checkpoints of a run folder
-    written before issue 19; never needed for runs written now, which hold no pickle)."""
+    written before rbenv's pickle-free format; never needed for runs written now, which hold no
+    pickle)."""
 
     packages: ClassVar[tuple[str, ...]] = ("stable_baselines3", "torch")
 

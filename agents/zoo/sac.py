@@ -3,7 +3,7 @@
     python -m rl_zoo3.train --algo sac --env rbenv/SatelliteReorient-v1 --gym-packages rbenv \\
         --conf-file rbenv.agents.zoo.sac
 
-Issue 22's recipe (:mod:`rbenv.agents.settings.off_policy`): torque actions with ``pinv``
+The shared off-policy recipe (:mod:`rbenv.agents.settings.off_policy`): torque actions with ``pinv``
 allocation, 32 sub-envs, observation normalisation only, lr 1e-3, batch 512, 8 gradient steps
 per 32 env steps, tau 0.01, net [256, 256]. Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets

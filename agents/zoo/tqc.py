@@ -2,7 +2,7 @@
 rbenv.agents.zoo.tqc``), the same that ``rbenv train --algo tqc`` uses.
 
 SAC's recipe (:mod:`rbenv.agents.settings.off_policy`) with TQC's own defaults (25 quantiles per
-critic, 2 dropped per net) and a 200k-step budget: issue 22 measured 99.7 % held out after
+critic, 2 dropped per net) and a 200k-step budget: 99.7 % held out was measured after
 169k steps, and TQC's update costs about twice SAC's, so the budget is set by wall time.
 Measured on ``SatelliteReorient-v0``/cubesat-12u
 (``docs/off-policy.md``); the v1 ids carry their own measured budgets

@@ -1,4 +1,4 @@
-"""SAC or TQC with SB3's ``HerReplayBuffer`` on ``rbenv/SatelliteReorientGoal-v1`` (issue 22).
+"""SAC or TQC with SB3's ``HerReplayBuffer`` on ``rbenv/SatelliteReorientGoal-v1``.
 
 Trains on the goal-conditioned form of Reorient-v1 (:mod:`rbenv.envs.goal`) with the off-policy
 recipe of :mod:`rbenv.agents.settings.off_policy` where it applies (torque actions with ``pinv``

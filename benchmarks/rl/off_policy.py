@@ -1,4 +1,4 @@
-"""Long ``rbenv train`` runs of the off-policy learners with their shipped settings (issue 22).
+"""Long ``rbenv train`` runs of the off-policy learners with their shipped settings.
 
 Each run is an ordinary ``rbenv train`` run folder (kept outside git). ``collect`` copies what
 the tables need from it into ``benchmarks/results/rl/off_policy/<name>.json``: the settings,
@@ -25,7 +25,7 @@ import numpy as np
 from benchmarks.common import fmt
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "rl" / "off_policy"
-# Issue 22's targets on SatelliteReorient-v0 and -v1/cubesat-12u (PPO: success, and its
+# The off-policy targets on SatelliteReorient-v0 and -v1/cubesat-12u (PPO: success, and its
 # propellant at most the PD's on the same episodes). A run trained with --keep-best is judged
 # on the policy it kept (training.json's "kept" names its step) after its whole wall time.
 TARGET_SUCCESS = {"sac": 0.99, "tqc": 0.95, "td3": 0.95, "crossq": 0.95, "ppo": 0.99}
@@ -99,7 +99,7 @@ def collect(run: Path, name: str, command: str, load_log: Path | None = None,
 
 
 def _target(algo: str, result: dict, minutes, pd: dict | None, env_id: str = "") -> str:
-    """Whether a held-out result meets issue 22's target for ``algo`` on ``env_id`` (on
+    """Whether a held-out result meets the off-policy target for ``algo`` on ``env_id`` (on
     Detumble and Track: the best off-policy learner >= 95 %, no time budget)."""
     if algo not in TARGET_SUCCESS:
         return "—"

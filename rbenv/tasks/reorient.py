@@ -398,7 +398,7 @@ OPTIONS_TABLE
 
     **Version History**
 
-    * v2: the time–propellant trade made explicit (issue 45): a time cost per control step
+    * v2: the time–propellant trade made explicit: a time cost per control step
       until the episode ends replaces v1's error and rate terms (weights 0; ``error`` pushed
       little at the end of a slew and ``rate`` taxed a fast one), the fuel weight, now the
       one trade knob, defaults to 1.5, and the progress shaping weighs 25 (v1: 10).

@@ -3,7 +3,7 @@ the success thresholds, and a reward that pays completing the task, never hoveri
 
 Each formula of the v1 observation and reward is written here once; the v1 task classes
 (:class:`rbenv.tasks.reorient.ReorientV1`, ...) measure their errors exactly as v0 does and
-hand them to these functions. Issue 22 gives the reasons (the v0 reward pays a policy for
+hand them to these functions. The reasons (the v0 reward pays a policy for
 staying inside the thresholds without finishing the hold; the canonical error quaternion
 flips sign near 180° and its vector part is 0.009 at the 1° threshold).
 
@@ -144,7 +144,7 @@ def version_history(v0_id: str, extra: str = "") -> str:
     """The Version History paragraph of a v1 env docstring (Gymnasium's convention)."""
     return f"""**Version History**
 
-    * v1: new observation and reward (issue 22; :mod:`rbenv.tasks.v1`). The observation is
+    * v1: new observation and reward (:mod:`rbenv.tasks.v1`). The observation is
       continuous in the attitude (two rotation-matrix columns instead of a sign-flipped
       quaternion) and carries error features equal to 1/2 at the success thresholds; the
       reward pays success once, at completion, instead of every step inside the thresholds
