@@ -32,7 +32,7 @@ import numpy as np
 
 from rbenv.satellite import sensors as sn
 from rbenv.satellite.disturbances import parse_epoch, sun_direction_N
-from rbenv.satellite.estimation import MEKF, ScalarMEKF, _blocks, _qconj_cm, _qlog_cm, _qmul_cm
+from rbenv.satellite.estimation import MEKF, ScalarMEKF, _blocks, _qconj_cm, _qmul_cm
 from rbenv.tasks.base import _DEG
 
 __all__ = ["SIGMA_FEATURES", "EstimatorLoop"]
@@ -210,7 +210,7 @@ class EstimatorLoop:
         q_T = np.stack([np.asarray(c, dtype=float) for c in st.q])  # (4, N)
         q = q_T.T
         n = q.shape[0]
-        dtheta = _qlog_cm(_qmul_cm(_qconj_cm(self.q_prev.T), q_T)).T
+        dtheta = sn.qlog_cm(_qmul_cm(_qconj_cm(self.q_prev.T), q_T)).T
         measured, self.bias = sn.gyro_increment(dtheta, self.bias, self.sigma_v, self.sigma_u,
                                                 dt, rng)
         f.propagate(measured, dt)

@@ -104,38 +104,6 @@ def _qconj_cm(q) -> tuple:
     return (q[0], -q[1], -q[2], -q[3])
 
 
-def _qexp_cm(v: np.ndarray) -> np.ndarray:
-    """:func:`rbenv.satellite.sensors.qexp` of rotation vectors (3, N): (4, N)."""
-    angle = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    half = 0.5 * angle
-    out = np.empty((4, angle.shape[0]))
-    np.cos(half, out=out[0])
-    small = angle < 1e-4
-    if small.any():
-        ratio = np.where(small, 0.5 - angle * angle / 48.0,
-                         np.sin(half) / np.where(small, 1.0, angle))
-    else:
-        ratio = np.sin(half) / angle
-    np.multiply(ratio, v, out=out[1:])
-    return out
-
-
-def _qlog_cm(q: np.ndarray) -> np.ndarray:
-    """:func:`rbenv.satellite.sensors.qlog` of unit quaternions (4, N): (3, N)."""
-    w, u = q[0], q[1:]
-    neg = w < 0.0
-    if neg.any():
-        w, u = np.where(neg, -w, w), np.where(neg, -u, u)
-    s = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-    small = s < 1e-8
-    if small.any():
-        k = np.where(small, 2.0 / np.maximum(w, 1e-300),
-                     2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
-    else:
-        k = 2.0 * np.arctan2(s, w) / s
-    return k * u
-
-
 def _normalized_cm(q: np.ndarray) -> np.ndarray:
     q /= np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return q
@@ -274,7 +242,7 @@ class MEKF:
         blocks, G = [A, −J]: P₁₁ ← G P Gᵀ, P₁₂ ← (G P)₂, P₂₂ unchanged (then + Q)."""
         step = dtheta_m.T - self._b * dt  # (3, N)
         g = _phi_rows_cm(step / dt, dt)
-        self._q = _normalized_cm(_qmul_cm(self._q, _qexp_cm(step)))
+        self._q = _normalized_cm(_qmul_cm(self._q, sn.qexp_cm(step)))
         P = self._P
         gp = _matmul_cm(g, P)  # (3, 6, N)
         p11 = _matmul_t_cm(gp, g)
@@ -327,7 +295,7 @@ class MEKF:
         newP = P - _matmul_t_cm(K, pht)
         newP = 0.5 * (newP + newP.transpose(1, 0, 2))
         q = _normalized_cm(_qmul_cm(self._q if rows is None else np.take(self._q, rows, axis=1),
-                                    _qexp_cm(x[:3])))
+                                    sn.qexp_cm(x[:3])))
         if rows is not None:
             self._P[:, :, rows] = newP
             self._q[:, rows] = q
@@ -344,7 +312,7 @@ class MEKF:
         """A star-tracker fix q_m (N, 4) with noise covariance R (3, 3, rad², body axes)."""
         if not np.any(valid):
             return
-        self._update(_qlog_cm(_qmul_cm(_qconj_cm(self._q), q_m.T)).T, None, R, valid)
+        self._update(sn.qlog_cm(_qmul_cm(_qconj_cm(self._q), q_m.T)).T, None, R, valid)
 
     def update_vector(self, y_B: np.ndarray, r_N: np.ndarray, R: np.ndarray,
                       valid: np.ndarray, unit: bool = False) -> None:

@@ -54,7 +54,9 @@ __all__ = [
     "magnetometer1",
     "qconj",
     "qexp",
+    "qexp_cm",
     "qlog",
+    "qlog_cm",
     "qmul",
     "rotate",
     "rotate_inverse",
@@ -98,12 +100,13 @@ def qconj(q: np.ndarray) -> np.ndarray:
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
-def qexp(v: np.ndarray) -> np.ndarray:
-    """The unit quaternion of the rotation vector v (..., 3), rad."""
-    angle = np.sqrt(np.einsum("...i,...i->...", v, v))
+def qexp_cm(v: np.ndarray) -> np.ndarray:
+    """The unit quaternions (4, ...) of rotation vectors v (3, ..., rad), components first (the
+    MEKF's layout: each component a contiguous row)."""
+    angle = np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
     half = 0.5 * angle
-    out = np.empty((*v.shape[:-1], 4))
-    out[..., 0] = np.cos(half)
+    out = np.empty((4, *angle.shape))
+    out[0] = np.cos(half)
     # sin(a/2)/a, with its series below 1e-4 rad (relative error < 1e-17)
     small = angle < 1e-4
     if small.any():
@@ -111,24 +114,36 @@ def qexp(v: np.ndarray) -> np.ndarray:
                          np.sin(half) / np.where(small, 1.0, angle))
     else:
         ratio = np.sin(half) / angle
-    np.multiply(ratio[..., None], v, out=out[..., 1:])
+    np.multiply(ratio, v, out=out[1:])
     return out
 
 
-def qlog(q: np.ndarray) -> np.ndarray:
-    """The rotation vector (..., 3, rad, |·| ≤ π) of a unit quaternion (sign taken positive)."""
-    w, u = q[..., 0], q[..., 1:]
+def qexp(v: np.ndarray) -> np.ndarray:
+    """The unit quaternion of the rotation vector v (..., 3), rad (:func:`qexp_cm`)."""
+    return np.moveaxis(qexp_cm(np.moveaxis(v, -1, 0)), 0, -1)
+
+
+def qlog_cm(q: np.ndarray) -> np.ndarray:
+    """The rotation vectors (3, ..., rad, |·| ≤ π) of unit quaternions q (4, ...), components
+    first (sign taken positive)."""
+    w, u = q[0], q[1:]
     neg = w < 0.0
     if neg.any():
-        w, u = np.where(neg, -w, w), np.where(neg[..., None], -u, u)
-    s = np.sqrt(np.einsum("...i,...i->...", u, u))
+        w, u = np.where(neg, -w, w), np.where(neg, -u, u)
+    s = np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
     small = s < 1e-8
     if small.any():
         k = np.where(small, 2.0 / np.maximum(w, 1e-300),
                      2.0 * np.arctan2(s, w) / np.where(small, 1.0, s))
     else:
         k = 2.0 * np.arctan2(s, w) / s
-    return k[..., None] * u
+    return k * u
+
+
+def qlog(q: np.ndarray) -> np.ndarray:
+    """The rotation vector (..., 3, rad, |·| ≤ π) of a unit quaternion (sign taken positive;
+    :func:`qlog_cm`)."""
+    return np.moveaxis(qlog_cm(np.moveaxis(q, -1, 0)), 0, -1)
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
