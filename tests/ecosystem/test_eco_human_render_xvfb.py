@@ -53,13 +53,18 @@ CHILD = textwrap.dedent("""
 
 @pytest.fixture
 def xvfb():
-    """A fresh Xvfb on a display number it picks itself (``-displayfd``); yields ':N'."""
+    """A fresh Xvfb on a display number it picks itself (``-displayfd``); yields ':N'.
+
+    ``-noreset``: by default Xvfb resets itself when its last client disconnects, and a client
+    that connects during the reset is refused. The child closes the env's window (the last
+    client) and then connects again for a screenshot, so the server must not reset.
+    """
     exe = shutil.which("Xvfb")
     if exe is None:
         pytest.skip("Xvfb is not installed (Debian package xvfb; .ci/run installs it as root)")
     proc = subprocess.Popen(
         [exe, "-displayfd", "1", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24", "-br",
-         "-nolisten", "tcp"],
+         "-noreset", "-nolisten", "tcp"],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     try:
         number = proc.stdout.readline().strip()
