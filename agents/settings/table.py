@@ -181,9 +181,15 @@ def unregister(env_id: str) -> None:
 
 def get(env_id: str) -> TrainingSettings:
     """``env_id``'s entry; the error says what to add, and where."""
+    if not isinstance(env_id, str):
+        hint = (f" (a task entry: pass its .env_id, {env_id.env_id!r})"
+                if isinstance(getattr(env_id, "env_id", None), str) else "")
+        raise InvalidParameterError(
+            f"env_id must be a Gymnasium id string such as 'rbenv/SatelliteReorient-v2', got "
+            f"{type(env_id).__name__} {env_id!r}{hint}")
     try:
         return _ENTRIES[env_id]
-    except (KeyError, TypeError):
+    except KeyError:
         raise InvalidParameterError(
             f"env_id {env_id!r} has no training settings (scripted baselines, "
             "hyperparameters, budgets), which rbenv train, the suite and the report need. Add "

@@ -353,3 +353,17 @@ def test_the_packages_docstring_example_runs():
             tuned.TORCHRL_PPO["n_timesteps"]
     finally:
         settings.unregister("myorg/PointSun-v0")
+
+
+def test_settings_lookup_by_a_task_entry_names_the_type_and_the_id_to_pass():
+    from rbenv.core.errors import InvalidParameterError
+
+    from rbenv.envs import registry
+
+    spec = registry.get("rbenv/SatelliteReorient-v2")
+    with pytest.raises(InvalidParameterError,
+                       match=r"env_id must be a Gymnasium id string .* got TaskSpec .* "
+                             r"pass its \.env_id, 'rbenv/SatelliteReorient-v2'"):
+        settings.get(spec)
+    with pytest.raises(InvalidParameterError, match=r"got int 3$"):
+        settings.get(3)
