@@ -1,7 +1,7 @@
 """Optimised open-loop throttle sequences for one reorientation episode (a reference, SciPy).
 
 Direct single shooting: the unknowns are the throttles of each control step (optionally held
-over blocks of steps), the dynamics are integrated here with RK4 on ``(q, ω_B)`` (written
+over blocks of steps), the dynamics are integrated with open_loop's RK4 on ``(q, ω_B)`` (written
 independently of :mod:`core`), and SciPy's SLSQP minimises the propellant subject to
 
 * the rate limit at every control step (with a margin),
@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 from rbenv.agents.baselines.bounds import episode_starts
 from rbenv.agents.baselines.controllers import baseline
-from rbenv.agents.baselines.open_loop import _expand, _qmul, _resample
+from rbenv.agents.baselines.open_loop import _expand, _qmul, _resample, _rk4
 from scipy.optimize import minimize
 
 import rbenv
@@ -87,24 +87,6 @@ class Problem:
         c = self.q_target * np.array([1.0, -1.0, -1.0, -1.0])
         e = _qmul(np.broadcast_to(c, q.shape), q)
         return (e[..., 1:] ** 2).sum(axis=-1)
-
-
-def _derivative(q, w, tau, inertia, inv):
-    """q̇ = ½ q ⊗ (0, ω_B), ω̇_B = I⁻¹(τ − ω × Iω)."""
-    zero = np.zeros((*q.shape[:-1], 1))
-    q_dot = 0.5 * _qmul(q, np.concatenate([zero, w], axis=-1))
-    w_dot = (tau - np.cross(w, w @ inertia.T)) @ inv.T
-    return q_dot, w_dot
-
-
-def _rk4(q, w, tau, inertia, inv, h):
-    k1 = _derivative(q, w, tau, inertia, inv)
-    k2 = _derivative(q + 0.5 * h * k1[0], w + 0.5 * h * k1[1], tau, inertia, inv)
-    k3 = _derivative(q + 0.5 * h * k2[0], w + 0.5 * h * k2[1], tau, inertia, inv)
-    k4 = _derivative(q + h * k3[0], w + h * k3[1], tau, inertia, inv)
-    q = q + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-    w = w + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-    return q / np.linalg.norm(q, axis=-1, keepdims=True), w
 
 
 @dataclass
