@@ -114,6 +114,30 @@ def vector_env_loop(env_id: str, n: int, steps: int = 4,
     return run, steps * n
 
 
+
+def variant_costs(env_id: str, variants: dict[str, dict], reference: str, *, single_steps: int,
+                  n_vector: int, rounds: int, ratio_key: str) -> dict[str, dict]:
+    """µs per env step of each variant (its ``gym.make`` keyword arguments), one env and the
+    native vector env of ``n_vector``, timed in one interleaved :func:`best_times` call, with
+    each figure's ratio to the ``reference`` variant's (keys ``single_vs_<ratio_key>``,
+    ``vector_vs_<ratio_key>``)."""
+    fns, per = {}, {}
+    for name, kwargs in variants.items():
+        loops = {"single": single_env_loop(env_id, single_steps, **kwargs),
+                 "vector": vector_env_loop(env_id, n_vector, **kwargs)}
+        for kind, (fn, count) in loops.items():
+            fns[(name, kind)] = fn
+            per[(name, kind)] = count
+    times = best_times(fns, rounds=rounds)
+    out = {}
+    for (name, kind), t in times.items():
+        out.setdefault(name, {})[f"{kind}_us"] = 1e6 * t / per[(name, kind)]
+    ref = out[reference]
+    for row in out.values():
+        row[f"single_vs_{ratio_key}"] = row["single_us"] / ref["single_us"]
+        row[f"vector_vs_{ratio_key}"] = row["vector_us"] / ref["vector_us"]
+    return out
+
 # What every A/B probe (a program run by :func:`run_in_tree` in a fresh interpreter on each
 # source tree) starts with: the imports, the best-of-rounds CPU timer, and the single-env loop.
 PROBE_PRELUDE = r"""

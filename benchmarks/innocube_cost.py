@@ -56,23 +56,10 @@ def variants() -> dict:
 
 
 def measure(rounds: int = 7, n_vector: int = N_VECTOR) -> dict:
-    fns, per = {}, {}
-    for name, scene in variants().items():
-        kw = {"scene": scene, "action_mode": "acceleration"}
-        loops = {"single": common.single_env_loop(ENV_ID, 320, **kw),
-                 "vector": common.vector_env_loop(ENV_ID, n_vector, **kw)}
-        for kind, (fn, count) in loops.items():
-            fns[(name, kind)] = fn
-            per[(name, kind)] = count
-    times = common.best_times(fns, rounds=rounds)
-    out = {}
-    for (name, kind), t in times.items():
-        out.setdefault(name, {})[f"{kind}_us"] = 1e6 * t / per[(name, kind)]
-    ref = out["reference (all off)"]
-    for row in out.values():
-        row["single_vs_reference"] = row["single_us"] / ref["single_us"]
-        row["vector_vs_reference"] = row["vector_us"] / ref["vector_us"]
-    return out
+    kwargs = {name: {"scene": scene, "action_mode": "acceleration"}
+              for name, scene in variants().items()}
+    return common.variant_costs(ENV_ID, kwargs, "reference (all off)", single_steps=320,
+                                n_vector=n_vector, rounds=rounds, ratio_key="reference")
 
 
 def main(argv=()) -> dict:

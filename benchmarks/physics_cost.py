@@ -49,22 +49,10 @@ def _single(scene, steps: int = 400):
 
 
 def measure(rounds: int = 7) -> dict:
-    fns, per = {}, {}
-    for name, scene in _variants().items():
-        loops = {"single": _single(scene),
-                 "vector": common.vector_env_loop(rbenv.ENV_ID, N_VECTOR, scene=scene)}
-        for kind, (fn, count) in loops.items():
-            fns[(name, kind)] = fn
-            per[(name, kind)] = count
-    times = common.best_times(fns, rounds=rounds)
-    out = {}
-    for (name, kind), t in times.items():
-        out.setdefault(name, {})[f"{kind}_us"] = 1e6 * t / per[(name, kind)]
-    ref = out["cubesat-12u (thrusters)"]
-    for row in out.values():
-        row["single_vs_12u"] = row["single_us"] / ref["single_us"]
-        row["vector_vs_12u"] = row["vector_us"] / ref["vector_us"]
-    return out
+    kwargs = {name: {"scene": scene} for name, scene in _variants().items()}
+    return common.variant_costs(rbenv.ENV_ID, kwargs, "cubesat-12u (thrusters)",
+                                single_steps=400, n_vector=N_VECTOR, rounds=rounds,
+                                ratio_key="12u")
 
 
 # One variant's single env under callgrind: its name and the step count come as arguments.
