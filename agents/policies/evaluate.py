@@ -231,7 +231,13 @@ def evaluate(policy, *, episodes: int = 100, seed: int = 0, scene: str | None = 
            if k not in ("traces", "scene", "observation")}
     result = EvalResult(policy=str(label), scene=parts[0]["scene"], seed=seed,
                         traces=parts[0]["traces"], observation=parts[0]["observation"], **cat)
-    bounds = optimality.episode_bounds(episodes, seed, env_id, env_kwargs)
+    return with_optimality(result, env_id, env_kwargs)
+
+
+def with_optimality(result: EvalResult, env_id: str, env_kwargs: dict) -> EvalResult:
+    """``result`` with its per-episode ratios to the lower bounds of its episodes (the same
+    seeds, id and env options), or the reason there are none."""
+    bounds = optimality.episode_bounds(result.episodes, result.seed, env_id, env_kwargs)
     if isinstance(bounds, str):
         result.optimality = {"defined": False, "reason": bounds}
     else:

@@ -88,6 +88,10 @@ class RunConfig:
     """Episodes of the final report's evaluation, the same for the policy and the baselines."""
     report_seed: int = 1_000_000
     """Seed of the report's first episode (episode i is seeded report_seed + i)."""
+    report_mpc: bool = False
+    """Evaluate the MPC beside the policy in the report (reorientation; the mpc extra; minutes
+    for 500 episodes). Without it the report shows the MPC's recorded results where its
+    episodes are the recorded ones (rbenv.agents.policies.recorded)."""
     threads: int | None = None
     """Torch intra-op threads; unset: 1 (fastest for these small networks, and robust to other
     busy processes), or with --resume the run's own. Part of what makes a run repeatable."""
@@ -123,6 +127,10 @@ class RunConfig:
         self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
                            "report_episodes", "threads"))
         self.check_dicts(("env_kwargs", "hyperparams"))
+        if self.report_mpc and "mpc" not in task_entry(self.env_id).baselines:
+            raise InvalidParameterError(
+                f"report_mpc=True needs a task with an MPC baseline (reorientation); "
+                f"{self.env_id} has {sorted(task_entry(self.env_id).baselines)}")
         self.out = self.out or self.default_out()
         return self
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 from rbenv.agents.baselines.controllers import applicable_baselines, env_parts
+from rbenv.agents.policies import recorded
 from rbenv.agents.policies.evaluate import evaluate, format_table, plot_episodes
 from rbenv.agents.policies.runfolder import EVAL_LOG, atomic_write, write_json
 from rbenv.agents.training.config import RunConfig
@@ -33,7 +34,9 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     results = [evaluate(trained.policy, name=trained.name, **kwargs),
                *(evaluate(name, **kwargs) for name in applicable_baselines(
                    cfg.env_id, cfg.scene, cfg.env_kwargs))]
-    table = format_table(results)
+    mpc, notes = mpc_rows(cfg, kwargs)
+    results += mpc
+    table = "\n".join([format_table(results), *(f"\n{n}" for n in notes)])
     plot_episodes(results, run_dir / "episode.png")
     curve = plot_training_curve(run_dir, run_dir / "training_curve.png")
     write_json(run_dir / "evaluation.json", [r.summary() for r in results])
@@ -64,6 +67,17 @@ def write_report(run_dir, cfg: RunConfig, summary: dict, trained: Trained) -> Pa
     print(table)
     print(f"report: {path}")
     return path
+
+
+def mpc_rows(cfg: RunConfig, kwargs: dict) -> tuple[list, list[str]]:
+    """The MPC beside the policy: evaluated here with ``--report-mpc``, else its recorded
+    results where they stand for the report's episodes (with the line that says so), else
+    nothing."""
+    if cfg.report_mpc:
+        return [evaluate("mpc", **kwargs)], []
+    rec = recorded.lookup("mpc", cfg.env_id, cfg.scene, cfg.env_kwargs,
+                          cfg.report_episodes, cfg.report_seed)
+    return ([rec.result], [rec.note]) if rec else ([], [])
 
 
 def success_rule(cfg: RunConfig) -> str:
