@@ -3,7 +3,7 @@
 ``python -m benchmarks.mpc_record`` evaluates :class:`rbenv.agents.baselines.mpc.ModelPredictive`
 (the ``mpc`` extra) on the 500 episodes every ``rbenv train`` report uses by default (seeds
 1,000,000 + i, cubesat-12u, Reorient-v2; Reorient-v1 shares those episodes) and writes, per
-episode, what the report needs to ``agents/policies/recorded/mpc-<scene>.json``
+episode, what the report needs to ``agents/policies/records/mpc-<scene>.json``
 (:mod:`rbenv.agents.policies.recorded`; the schema is there). A few minutes on one core.
 ``tests/agents/policies/test_recorded.py`` reruns the first episodes against the record.
 """

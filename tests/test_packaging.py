@@ -71,7 +71,7 @@ def test_the_wheel_holds_only_the_rbenv_package(wheel):
         assert f"rbenv/{sub}/__init__.py" in names, sub
     assert "rbenv/scenes/cubesat-12u.toml" in names  # the shipped scenes, package data
     # the MPC's recorded evaluation, which rbenv train's report reads
-    assert "rbenv/agents/policies/recorded/mpc-cubesat-12u.json" in names
+    assert "rbenv/agents/policies/records/mpc-cubesat-12u.json" in names
 
 
 def test_every_package_folder_is_listed_for_the_wheel():

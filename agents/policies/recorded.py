@@ -11,7 +11,7 @@ record's scene, seed and episode count, and no env option but reward weights (wh
 neither the episodes nor what the MPC does). ``rbenv train --report-mpc`` evaluates it afresh
 instead, on any scene. A test reruns the first episodes and compares them with the record.
 
-A record is JSON (``recorded/<policy>-<scene>.json``): ``policy``, ``env_ids``,
+A record is JSON (``records/<policy>-<scene>.json``): ``policy``, ``env_ids``,
 ``scene``, ``seed``, ``episodes``, ``command``, ``recorded`` (date and commit), and
 ``per_episode``: ``success`` (bool), ``settle_time_s`` (s, null when not successful),
 ``fuel_kg`` (kg), ``final_error_deg`` (deg), ``episode_time_s`` (s), each a list of
@@ -29,7 +29,7 @@ import numpy as np
 from rbenv.agents.policies.evaluate import EvalResult, with_optimality
 from rbenv.core.errors import InvalidParameterError
 
-RECORDS = Path(__file__).with_name("recorded")
+RECORDS = Path(__file__).with_name("records")
 PER_EPISODE = ("success", "settle_time_s", "fuel_kg", "final_error_deg", "episode_time_s")
 # Env options that change neither an episode's initial state and dynamics nor the MPC's
 # commands: a recorded evaluation stands for runs that set only these.
@@ -103,6 +103,6 @@ def lookup(policy: str, env_id: str, scene, env_kwargs: dict, episodes: int,
             or data["episodes"] != episodes):
         return None
     note = (f"{data['policy']} (recorded): these same {episodes} episodes, recorded "
-            f"{data['recorded']} by `{data['command']}` (rbenv/agents/policies/recorded/"
+            f"{data['recorded']} by `{data['command']}` (rbenv/agents/policies/records/"
             f"{path.name}), not rerun here; `--report-mpc` reruns it (the mpc extra; minutes).")
     return Recorded(as_result(data, env_kwargs), note)

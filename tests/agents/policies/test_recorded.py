@@ -13,7 +13,6 @@ from rbenv.agents.policies import recorded
 from rbenv.agents.policies.evaluate import evaluate, format_table
 from rbenv.agents.training.config import TrainConfig
 from rbenv.agents.training.report import mpc_rows
-
 from rbenv.core.errors import InvalidParameterError
 
 V1, V2 = "rbenv/SatelliteReorient-v1", "rbenv/SatelliteReorient-v2"
