@@ -2,6 +2,7 @@
 
     python -m benchmarks.task_table [--ids ID ...] [--seeds 0 1 2] [--runs DIR] [--jobs 2]
                                     [--episodes 500] [--seed 1000000] [--out DIR] [--quick]
+    python -m benchmarks.task_table --table-only     # table.md from the folder's JSON files
 
 For each id (default: the ids of :data:`OWN_IDS`) on its default scene (the task's
 ``default_scene``, else the package's, as ``gym.make(env_id)`` has it), trains PPO with the
@@ -310,6 +311,9 @@ def main(argv=None) -> list[dict]:
     p.add_argument("--out", type=Path, default=None,
                    help=f"where the JSON and table.md go (default {DEFAULT_OUT}; --quick: a "
                         "temporary folder)")
+    p.add_argument("--table-only", action="store_true",
+                   help="train and evaluate nothing: rebuild OUT/table.md from the JSON files "
+                        "in OUT (after another benchmark's file, such as reorient.json, lands)")
     p.add_argument("--quick", action="store_true",
                    help=f"CI form: one seed, {QUICK_TIMESTEPS} steps, {QUICK_EPISODES} episodes")
     args = p.parse_args(argv)
@@ -323,7 +327,7 @@ def main(argv=None) -> list[dict]:
     runs_dir = args.runs or (Path(tmp) / "runs" if args.quick else Path("runs/task_table"))
     out = args.out or (Path(tmp) if args.quick else DEFAULT_OUT)
     rows = []
-    for env_id in args.ids:
+    for env_id in [] if args.table_only else args.ids:
         r = row(env_id, seeds, runs_dir, episodes, args.seed, args.jobs,
                 QUICK_TIMESTEPS if args.quick else None)
         rows.append(r)

@@ -107,3 +107,23 @@ def test_quick_run_writes_the_row_and_merges_the_folder(tmp_path):
     again = json.loads((tmp_path / "detumble.json").read_text())["rows"][0]
     assert again["policy"]["runs"][0]["training_cpu_s"] == run["training_cpu_s"]
     assert again["policy"]["runs"][0]["success_rate"] == run["success_rate"]
+
+
+def test_table_only_merges_every_json_of_the_folder_without_training(tmp_path):
+    def row(env_id, runs, ok):
+        return {"env_id": env_id, "scene": "cubesat-12u", "command": f"cmd {env_id}",
+                "episodes": 500, "seed": 1_000_000, "time_measure": task_table.SETTLE,
+                "cost_measure": task_table.PROPELLANT,
+                "policy": {"algo": "ppo", "runs": runs}, "baselines": {"pd": fig(1.0, 2.0, 0.67)},
+                "best_baseline": "pd",
+                "verdict": {"pass": ok, "per_seed": [ok] * len(runs), "text": "x"}}
+    runs = [{**fig(1.0, 1.5, 0.41), "seed": 0}, {**fig(1.0, 2.0, 0.45), "seed": 1}]
+    (tmp_path / "a.json").write_text(json.dumps({"rows": [row("rbenv/B-v0", runs, True)]}))
+    (tmp_path / "b.json").write_text(json.dumps({"rows": [row("rbenv/A-v1", runs[:1], False)]}))
+    task_table.main(["--table-only", "--out", str(tmp_path), "--runs", str(tmp_path / "runs")])
+    lines = (tmp_path / "table.md").read_text().splitlines()
+    assert not (tmp_path / "runs").exists()
+    assert lines[2].startswith("| A-v1 |") and "**fails** (0/1 seeds pass)" in lines[2]
+    assert lines[3].startswith("| B-v0 |") and "| passes |" in lines[3]
+    # The policy's figures are ranges over its seeds.
+    assert "| 100.0 % (0,1) | 1.5–2.0 | 0.41–0.45 |" in lines[3]
