@@ -161,7 +161,7 @@ def verdict(runs: list[dict], baselines: dict, best: str) -> dict:
             why.append(f"success {100 * r['success_rate']:.1f} % < {100 * b['success_rate']:.1f} %")
         for m in ("time", "cost"):
             if (r[m] is None and b[m] is not None) or (None not in (r[m], b[m]) and r[m] > b[m]):
-                why.append(f"{m} {common.fmt(r[m], '.3g')} > {common.fmt(b[m], '.3g')}")
+                why.append(f"{m} {common.fmt(r[m], '.4g')} > {common.fmt(b[m], '.4g')}")
         if not why:
             why.append("equal to the baseline on both measures")
         missing.append(f"seed {r['seed']}: {', '.join(why)}")
