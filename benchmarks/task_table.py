@@ -11,6 +11,8 @@ RUNS/<slug>-seedS``, for each seed (a finished run is reused, an unfinished one 
 most ``--jobs`` at a time), then evaluates each policy and every scripted baseline of the id
 that runs on the scene on the same held-out episodes (``--seed`` … ``--seed + --episodes - 1``)
 with :func:`rbenv.agents.policies.evaluate.evaluate`, the function ``rbenv evaluate`` runs.
+The scene is passed to ``rbenv train`` explicitly: its own default is cubesat-12u for every id,
+where Desaturate (wheels) cannot run.
 
 The measures, all read from :meth:`EvalResult.summary` (lower is better for both):
 
@@ -55,7 +57,9 @@ Schema of ``<task>.json`` (the contract for every file of the folder):
        "verdict": {"pass": true, "per_seed": [true, true, true], "text": "passes"}}]}
 
 ``time`` and ``cost`` are null where not measured (no successful episode: no settle time;
-Track: no time measure); ``final_error_deg`` is the final attitude error median.
+Track: no time measure); ``final_error_deg`` is the final attitude error median;
+``training_cpu_s`` is training.json's ``session_cpu_time_s`` (the last session's, for a resumed
+run) and ``training_wall_s`` its ``wall_time_s`` (every session's).
 """
 
 from __future__ import annotations
