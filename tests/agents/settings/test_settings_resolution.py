@@ -25,10 +25,11 @@ ZOO_CHANGES = {("ppo", "rbenv/SatelliteDetumble-v0"): (2_000_000, 300_000),
                ("sac", "rbenv/SatelliteDetumble-v0"): (300_000, 100_000),
                ("sac", "rbenv/SatelliteReorient-v0"): (300_000, 200_000),
                ("sac", "rbenv/SatelliteTrack-v0"): (300_000, 200_000)}
-# rbenv train combinations whose budget moved (122), or whose env options RLlib and TorchRL now
+# rbenv train combinations whose budget moved (118), or whose env options RLlib and TorchRL now
 # take from the recipe (20: 10 id x scene pairs, 6 of them with a moved RLlib budget too),
-# beside the 9 zoo entries.
-CHANGED = 136
+# beside the 9 zoo entries. Track-v0's and Track-v1's PPO on cubesat-12u (sb3, rllib) moved to
+# the suite's 1 M and back to 2 M with their own recipes; their regenerated entries match again.
+CHANGED = 132
 
 
 @pytest.fixture(scope="module")

@@ -202,14 +202,18 @@ def test_a_scene_entry_of_the_training_settings_adds_its_env_options_to_training
     assert tuned.WHEELS_FAILURE["reward_weights"]["failure"] == 200.0
 
 
-def test_track_v1_on_boom_sat_trains_with_the_lower_fuel_weight_and_only_there():
-    from rbenv.agents.settings import tuned
+def test_track_v1_trains_with_its_scenes_fuel_weights_and_only_there():
+    """boom-sat: the lower fuel weight; cubesat-12u: the higher one of its own recipe."""
+    from rbenv.agents.settings import shipped, tuned
     from rbenv.agents.training.config import TrainConfig
 
     track = "rbenv/SatelliteTrack-v1"
     boom = TrainConfig(algo="ppo", env_id=track, scene="boom-sat").resolve()
     assert boom.env_kwargs["reward_weights"] == tuned.BOOM_TRACK_FUEL["reward_weights"]
-    for env_id, scene in ((track, "cubesat-12u"), ("rbenv/SatelliteTrack-v0", "boom-sat"),
+    small = TrainConfig(algo="ppo", env_id=track, scene="cubesat-12u").resolve()
+    assert small.env_kwargs["reward_weights"] == {"fuel": 3.0}
+    assert shipped.TRACK_V1_PPO_12U["env_kwargs"] == small.env_kwargs
+    for env_id, scene in ((track, "cubesat-12u-dr"), ("rbenv/SatelliteTrack-v0", "boom-sat"),
                           ("rbenv/SatelliteReorient-v1", "boom-sat")):
         cfg = TrainConfig(algo="ppo", env_id=env_id, scene=scene).resolve()
         assert "reward_weights" not in cfg.env_kwargs, (env_id, scene)
