@@ -28,6 +28,8 @@ from rbenv.agents.settings.table import RUN
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
+from rbenv.envs import registry
+from rbenv.satellite.scene import DEFAULT_SCENE
 
 C = TypeVar("C", bound="RunConfig")
 # The periodic evaluation where neither the caller nor the task's run defaults set it.
@@ -63,8 +65,9 @@ class RunConfig:
     --resume, a new total."""
     seed: int = 0
     """Seed of the model and the training envs."""
-    scene: str = "cubesat-12u"
-    """The spacecraft: a shipped scene's name or a scene TOML file."""
+    scene: str | None = None
+    """The spacecraft: a shipped scene's name or a scene TOML file; unset: the task's own
+    default, the scene gym.make(env_id) uses (cubesat-12u; Desaturate's cubesat-6u-rw)."""
     env_id: str = rbenv.ENV_ID
     """The task: a registered id (rbenv.envs.registry), e.g. rbenv/SatelliteDetumble-v1."""
     out: str | None = None
@@ -99,6 +102,10 @@ class RunConfig:
     """Add the env options of the task's recipe for this algorithm, engine and scene (a reward
     weight a scene needs, InnoCube's action mode; rbenv.agents.settings) under --env-kwargs;
     false: the env's own defaults and --env-kwargs alone."""
+
+    def __post_init__(self):
+        if self.scene is None:
+            self.scene = default_scene(self.env_id)
 
     def default_out(self) -> str:
         """The run folder when ``out`` is not given."""
@@ -216,6 +223,16 @@ OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 # TrainConfig's own fields (rl_zoo3's ExpManager does the same; "run" is rbenv's own).
 ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs",
             RUN)
+
+
+def default_scene(env_id: str) -> str | None:
+    """The scene ``gym.make(env_id)`` uses, or None for an id the registry does not hold (which
+    :meth:`RunConfig.resolve` names)."""
+    try:
+        spec = registry.get(env_id)
+    except InvalidParameterError:
+        return None
+    return spec.default_scene or DEFAULT_SCENE
 
 
 def task_entry(env_id: str) -> settings.TrainingSettings:

@@ -37,7 +37,7 @@ def test_every_field_is_a_flag_whose_help_is_its_docstring_and_default(capsys):
         for f in dataclasses.fields(cls):
             assert flags.flag(f.name) in text, f.name
             assert docs[f.name] in text, f.name
-    assert "(default: 200000)" in text and "(default: 'cubesat-12u')" in text
+    assert "(default: 200000)" in text and "(default: 'ppo')" in text
 
 
 def test_no_flag_given_makes_the_dataclass_defaults():
@@ -83,3 +83,21 @@ def test_field_docs_reads_the_string_under_each_field_through_bases():
         on two lines."""
 
     assert flags.field_docs(Child) == {"a": "The a.", "c": "The c, on two lines."}
+
+
+def test_an_unset_scene_is_the_tasks_own_default():
+    """rbenv train --env-id rbenv/SatelliteDesaturate-v0 trains where gym.make(env_id) runs:
+    the wheel scene, not the package's default thruster scene (which the task cannot run on)."""
+    import gymnasium as gym
+    from rbenv.agents.training.config import TrainConfig
+
+    cfg = TrainConfig(env_id="rbenv/SatelliteDesaturate-v0").resolve()
+    env = gym.make("rbenv/SatelliteDesaturate-v0")
+    try:
+        assert cfg.scene == env.unwrapped.plant.scene.name == "cubesat-6u-rw"
+    finally:
+        env.close()
+    assert cfg.out == "runs/ppo-cubesat-6u-rw-seed0"
+    assert TrainConfig().resolve().scene == "cubesat-12u"
+    assert TrainConfig(env_id="rbenv/SatelliteDesaturate-v0", scene="cubesat-12u-rw").scene \
+        == "cubesat-12u-rw"
