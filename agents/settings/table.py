@@ -205,11 +205,24 @@ def entries() -> tuple:
 
 
 def zoo_hyperparams(algo: str) -> dict:
-    """RL Zoo's table for ``algo``: env id → its general recipe without ``"run"`` (rbenv
-    train's own), for every entry that has one."""
+    """RL Zoo's table for ``algo``: env id → its recipe on the scene ``gym.make(env_id)`` uses
+    (the zoo's env, and rbenv train's without --scene) without ``"run"`` (rbenv train's own),
+    for every entry that has one."""
     table = {}
     for e in _ENTRIES.values():
         if algo in e.algos():
-            table[e.env_id] = e.recipe(algo)
+            table[e.env_id] = e.recipe(algo, scene=default_scene(e.env_id))
             table[e.env_id].pop(RUN, None)
     return table
+
+
+def default_scene(env_id: str) -> str | None:
+    """The scene ``gym.make(env_id)`` uses; None for an id the registry does not hold."""
+    from rbenv.envs import registry
+    from rbenv.satellite.scene import DEFAULT_SCENE
+
+    try:
+        spec = registry.get(env_id)
+    except InvalidParameterError:
+        return None
+    return spec.default_scene or DEFAULT_SCENE

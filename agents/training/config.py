@@ -28,8 +28,6 @@ from rbenv.agents.settings.table import RUN
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
-from rbenv.envs import registry
-from rbenv.satellite.scene import DEFAULT_SCENE
 
 C = TypeVar("C", bound="RunConfig")
 # The periodic evaluation where neither the caller nor the task's run defaults set it.
@@ -105,7 +103,7 @@ class RunConfig:
 
     def __post_init__(self):
         if self.scene is None:
-            self.scene = default_scene(self.env_id)
+            self.scene = settings.table.default_scene(self.env_id)
 
     def default_out(self) -> str:
         """The run folder when ``out`` is not given."""
@@ -223,16 +221,6 @@ OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 # TrainConfig's own fields (rl_zoo3's ExpManager does the same; "run" is rbenv's own).
 ZOO_KEYS = ("policy", "n_envs", "n_timesteps", "normalize", "env_kwargs", "monitor_kwargs",
             RUN)
-
-
-def default_scene(env_id: str) -> str | None:
-    """The scene ``gym.make(env_id)`` uses, or None for an id the registry does not hold (which
-    :meth:`RunConfig.resolve` names)."""
-    try:
-        spec = registry.get(env_id)
-    except InvalidParameterError:
-        return None
-    return spec.default_scene or DEFAULT_SCENE
 
 
 def task_entry(env_id: str) -> settings.TrainingSettings:
