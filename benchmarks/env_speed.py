@@ -105,7 +105,7 @@ def single_env() -> list[dict]:
     for env_id in rbenv.ENV_IDS:
         spec = rbenv.envs.registry.get(env_id)
         scenes = rbenv.list_scenes() if env_id == REORIENT_V0 else \
-            [spec.default_scene or "cubesat-12u"]
+            [spec.scene]
         for scene in scenes:
             env = gym.make(env_id, scene=scene)
             cases[f"{env_id} {scene}"] = _single_stepper(env, _actions(env.action_space,

@@ -81,7 +81,6 @@ from rbenv.core.errors import InvalidParameterError
 
 import rbenv
 from benchmarks import common
-from rbenv.satellite.scene import DEFAULT_SCENE
 
 # The ids this benchmark trains by default; the Reorient ids' rows come from reorient.json.
 OWN_IDS = ("rbenv/SatelliteDetumble-v0", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v0",
@@ -93,11 +92,6 @@ QUICK_TIMESTEPS, QUICK_EPISODES = 8192, 10
 DEFAULT_OUT = common.RESULTS / "task_table"
 # The run's final state: rbenv train writes it when the budget is reached.
 FINISHED = "training.json"
-
-
-def default_scene(env_id: str) -> str:
-    """The scene ``gym.make(env_id)`` uses: the task's own default, else the package's."""
-    return rbenv.envs.registry.get(env_id).default_scene or DEFAULT_SCENE
 
 
 def task_name(env_id: str) -> str:
@@ -201,7 +195,7 @@ def train(env_id: str, scene: str, seed: int, out: Path, timesteps: int | None) 
 def row(env_id: str, seeds, runs_dir: Path, episodes: int, seed: int, jobs: int,
         timesteps: int | None = None, command: str | None = None) -> dict:
     """One row of the table (the module docstring's schema)."""
-    scene = default_scene(env_id)
+    scene = rbenv.envs.registry.get(env_id).scene
     shipped_settings("ppo", env_id, None, scene)  # a named error for an id without settings
     folders = {s: runs_dir / f"{slug(env_id, scene)}-seed{s}" for s in seeds}
     with ThreadPoolExecutor(max_workers=jobs) as pool:

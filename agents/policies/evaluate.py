@@ -29,7 +29,6 @@ from rbenv.agents.policies.load import load_policy
 
 import rbenv
 from rbenv.envs.rendering import save_video
-from rbenv.satellite.scene import DEFAULT_SCENE
 from rbenv.satellite.usage import InvalidChoiceError, invalid_choice
 
 ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id's baselines
@@ -114,7 +113,7 @@ def _check_runs_on(policy: str, env_id: str, options: dict) -> None:
         return
     spec = rbenv.envs.registry.get(env_id)
     able = [s for s in rbenv.list_scenes() if spec.runs_on(s) and runs({**options, "scene": s})]
-    scene = options.get("scene") or spec.default_scene or DEFAULT_SCENE
+    scene = options.get("scene") or spec.scene
     raise InvalidChoiceError("policy", policy, (
         f"{policy!r} cannot act on scene {scene!r} (its actuators lack what it needs); it runs "
         f"on {', '.join(able) or 'no shipped scene'} (--scene)"))

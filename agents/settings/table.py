@@ -219,10 +219,8 @@ def zoo_hyperparams(algo: str) -> dict:
 def default_scene(env_id: str) -> str | None:
     """The scene ``gym.make(env_id)`` uses; None for an id the registry does not hold."""
     from rbenv.envs import registry
-    from rbenv.satellite.scene import DEFAULT_SCENE
 
     try:
-        spec = registry.get(env_id)
+        return registry.get(env_id).scene
     except InvalidParameterError:
         return None
-    return spec.default_scene or DEFAULT_SCENE

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from rbenv.core.errors import InvalidParameterError
 from rbenv.satellite.plant import Plant, make_plant
-from rbenv.satellite.scene import DEFAULT_SCENE, load_scene
+from rbenv.satellite.scene import load_scene
 from rbenv.tasks.base import Task, option_table
 from rbenv.tasks.detumble import Detumble
 from rbenv.tasks.reorient import Reorient
@@ -30,7 +30,7 @@ def build(spec: TaskSpec, scene=None, *, integrator=None, control_dt=None, subst
           compiled=False) -> tuple[Plant, Task]:
     """The plant and the task of ``spec`` for these env options (validated)."""
     if scene is None:
-        scene = spec.default_scene or DEFAULT_SCENE
+        scene = spec.scene
     scene = load_scene(scene).for_task(spec.task.table_name())
     plant = make_plant(scene, integrator=integrator, control_dt=control_dt, substeps=substeps,
                        action_mode=action_mode, allocator=allocator, randomize=randomize,

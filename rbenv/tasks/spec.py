@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from rbenv.core.errors import InvalidParameterError
-from rbenv.satellite.scene import load_scene
+from rbenv.satellite.scene import DEFAULT_SCENE, load_scene
 from rbenv.tasks.base import Task
 
 __all__ = ["MAX_EPISODE_STEPS", "TaskSpec"]
@@ -60,6 +60,11 @@ class TaskSpec:
                                         f"subclass, got {self.task!r}")
         if not callable(self.make):
             raise InvalidParameterError(f"{where}: make must be callable, got {self.make!r}")
+
+    @property
+    def scene(self) -> str:
+        """The scene ``gym.make(env_id)`` uses: :attr:`default_scene`, else the package's."""
+        return self.default_scene or DEFAULT_SCENE
 
     @property
     def name(self) -> str:

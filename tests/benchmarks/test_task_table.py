@@ -55,8 +55,10 @@ def test_a_row_passes_only_when_every_seed_does():
 
 
 def test_default_scenes_are_the_tasks_own():
-    assert task_table.default_scene("rbenv/SatelliteDesaturate-v0") == "cubesat-6u-rw"
-    assert task_table.default_scene("rbenv/SatelliteTrack-v1") == "cubesat-12u"
+    from rbenv.envs import registry
+
+    assert registry.get("rbenv/SatelliteDesaturate-v0").scene == "cubesat-6u-rw"
+    assert registry.get("rbenv/SatelliteTrack-v1").scene == "cubesat-12u"
     assert task_table.slug("rbenv/SatelliteTrack-v1", "cubesat-12u") == "track-v1-cubesat-12u"
 
 
