@@ -123,7 +123,7 @@ class RunConfig:
 
     def resolve(self: C) -> C:
         """Fill the defaults that depend on other fields and validate; back ends extend it."""
-        task_entry(self.env_id)  # a named error for an id it does not hold
+        baselines = task_entry(self.env_id).baselines  # a named error for an unknown id
         if self.threads is None:
             self.threads = 1
         self.eval_every = GENERIC_EVAL_EVERY if self.eval_every is None else self.eval_every
@@ -132,10 +132,10 @@ class RunConfig:
         self.check_counts(("timesteps", "checkpoint_every", "eval_every", "eval_episodes",
                            "report_episodes", "threads"))
         self.check_dicts(("env_kwargs", "hyperparams"))
-        if self.report_mpc and "mpc" not in task_entry(self.env_id).baselines:
+        if self.report_mpc and "mpc" not in baselines:
             raise InvalidParameterError(
                 f"report_mpc=True needs a task with an MPC baseline (reorientation); "
-                f"{self.env_id} has {sorted(task_entry(self.env_id).baselines)}")
+                f"{self.env_id} has {sorted(baselines)}")
         self.out = self.out or self.default_out()
         return self
 
