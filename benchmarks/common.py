@@ -199,6 +199,23 @@ def machine() -> dict:
     return info
 
 
+def commit(tree: Path) -> str | None:
+    """The commit checked out in ``tree``, short, plus "+changes" when tracked files differ
+    from it; None outside git (or without git)."""
+    import subprocess
+
+    def git(*args):
+        return subprocess.run(["git", "-C", str(tree), *args], capture_output=True,
+                              text=True).stdout.strip()
+
+    try:
+        head = git("rev-parse", "--short", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no") if head else ""
+    except OSError:
+        return None
+    return (head + ("+changes" if dirty else "")) if head else None
+
+
 def _jsonable(obj):
     if isinstance(obj, dict):
         return {str(k): _jsonable(v) for k, v in obj.items()}

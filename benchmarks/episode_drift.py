@@ -76,19 +76,6 @@ def compare(old: dict, new: dict) -> dict:
             "max_abs_obs_diff": obs, "length_or_success_differs": parted}
 
 
-def _commit(tree: Path) -> str | None:
-    """The checked-out commit of ``tree`` (None outside git), plus "+changes" when dirty."""
-    import subprocess
-
-    def git(*args):
-        return subprocess.run(["git", "-C", str(tree), *args], capture_output=True,
-                              text=True).stdout.strip()
-
-    head = git("rev-parse", "--short", "HEAD")
-    return (head + ("+changes" if git("status", "--porcelain", "--untracked-files=no") else "")
-            ) if head else None
-
-
 def main(argv=()) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--baseline", required=True, help="source tree of the old revision")
@@ -101,7 +88,7 @@ def main(argv=()) -> dict:
     trees = {"old": Path(args.baseline).resolve(), "new": Path(args.new).resolve()}
     runs = {name: common.run_in_tree(tree, PROBE, str(args.seeds))
             for name, tree in trees.items()}
-    data = {"trees": {k: {"path": str(v), "commit": _commit(v)} for k, v in trees.items()},
+    data = {"trees": {k: {"path": str(v), "commit": common.commit(v)} for k, v in trees.items()},
             "seeds": args.seeds,
             **compare(runs["old"], runs["new"])}
     out = Path(args.out) if args.out else common.RESULTS

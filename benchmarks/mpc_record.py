@@ -14,26 +14,14 @@ import argparse
 import datetime
 import json
 import math
-import subprocess
 import time
 from pathlib import Path
 
 from rbenv.agents.policies import recorded
 
+from benchmarks import common
+
 ENV_IDS = ("rbenv/SatelliteReorient-v2", "rbenv/SatelliteReorient-v1")
-
-
-def commit() -> str:
-    """The checkout's commit (and '+changes' when the tree differs from it), or 'unknown'."""
-    here = Path(__file__).parent
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, check=True,
-                              capture_output=True, text=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=here, check=True, capture_output=True, text=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("+changes" if dirty.strip() else "")
 
 
 def record(episodes: int, seed: int, scene: str, out: Path | None = None) -> Path:
@@ -52,7 +40,8 @@ def record(episodes: int, seed: int, scene: str, out: Path | None = None) -> Pat
                    + (f" --episodes {episodes}" if episodes != 500 else "")
                    + (f" --seed {seed}" if seed != 1_000_000 else "")
                    + (f" --scene {scene}" if scene != "cubesat-12u" else ""),
-        "recorded": f"{datetime.date.today().isoformat()}, commit {commit()}",
+        "recorded": f"{datetime.date.today().isoformat()}, commit "
+                    f"{common.commit(Path(__file__).parent) or 'unknown'}",
         "wall_s": round(time.perf_counter() - t0, 1),
         "per_episode": {"success": [bool(v) for v in r.success],
                         **{k: values(getattr(r, k)) for k in recorded.PER_EPISODE[1:]}},
