@@ -75,9 +75,10 @@ def test_the_wheel_holds_only_the_rbenv_package(wheel):
 
 
 def test_every_package_folder_is_listed_for_the_wheel():
-    """pyproject's packages list names every folder with an __init__.py under the mapped ones."""
+    """pyproject's packages list names every folder with an __init__.py under the mapped ones,
+    and the data-only folders its package-data names (and nothing else)."""
     tool = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
-    found = set()
+    found = set(tool["package-data"])
     for package, folder in tool["package-dir"].items():
         for init in (ROOT / folder).rglob("__init__.py"):
             rel = init.parent.relative_to(ROOT / folder)
