@@ -204,7 +204,8 @@ def _parser() -> Parser:
     e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
                    help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, "
                         "low, high)] with the env's clip bounds (thrusters 0..1, wheels and "
-                        "rods -1..1), mode (SB3's deterministic mu), auto (default): "
+                        "rods -1..1), mode (SB3's deterministic mu), auto (default): the run's "
+                        "own policy_action (its config.json) where it names one, else "
                         "mean_throttle for PPO/A2C in throttle mode on a scene with thrusters, "
                         "else mode")
     e.add_argument("--json", default=None, help="write the summary as JSON to this file")

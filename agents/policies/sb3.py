@@ -130,7 +130,9 @@ class RunPolicy(TrainedOn):
     action (the Gaussian's mean μ; the env clips it). ``"mean_throttle"``: the mean action
     E[clip(μ + σε, low, high)] of the stochastic policy that was trained, each entry between
     the bounds where the env clips it (a thruster's throttle [0, 1], a wheel's or a rod's
-    [-1, 1]; :func:`expected_throttle`). ``"auto"`` (default): ``mean_throttle`` for an
+    [-1, 1]; :func:`expected_throttle`). ``"auto"`` (default): the run's ``policy_action``
+    (its config.json, :class:`rbenv.agents.training.config.RunConfig`) where it names one;
+    else ``mean_throttle`` for an
     unsquashed Gaussian policy (PPO, A2C) acting in throttle mode on a scene with thrusters,
     where clip(μ, 0, 1) switches off every thruster whose mean is below zero but which the
     trained policy fires through its noise, and ``mode`` otherwise.
@@ -145,6 +147,9 @@ class RunPolicy(TrainedOn):
     def _resolve_action(self, action: str) -> str:
         validation.choice("action", action, POLICY_ACTIONS)
         gaussian = _is_unsquashed_gaussian(self.model)
+        if action == "auto":  # the run's own choice (config.json's policy_action), if any
+            action = (self.config or {}).get("policy_action") or "auto"
+            validation.choice("policy_action", action, POLICY_ACTIONS)
         if action == "auto":
             throttle = self.env_kwargs.get("action_mode", "throttle") == "throttle" \
                 and _has_thrusters(self.config)

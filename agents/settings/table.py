@@ -26,7 +26,7 @@ __all__ = ["RUN", "RUN_KEYS", "Recipe", "TrainingSettings", "entries", "get", "r
 # The key of a recipe that holds how ``rbenv train`` watches and ends a run (not model
 # settings: RL Zoo's files drop it), and the keys it may hold.
 RUN = "run"
-RUN_KEYS = ("stop_success", "eval_every", "eval_episodes", "keep_best")
+RUN_KEYS = ("stop_success", "eval_every", "eval_episodes", "keep_best", "policy_action")
 # Keys whose dicts merge key by key from the general recipe to the specific one; every other
 # key of a more specific recipe replaces the general one's value whole (policy_kwargs too).
 MERGED = ("env_kwargs", RUN)

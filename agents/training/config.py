@@ -35,6 +35,8 @@ GENERIC_EVAL_EVERY, GENERIC_EVAL_EPISODES = 200_000, 100
 
 
 Engine = Literal["sb3", "sbx", "rllib", "torchrl"]
+# How a trained policy acts when evaluated: rbenv.agents.policies.sb3.POLICY_ACTIONS.
+PolicyAction = Literal["auto", "mean_throttle", "mode"]
 
 
 @dataclass
@@ -48,7 +50,8 @@ class RunConfig:
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = ("timesteps", "threads")
     # What a config.json written before a field existed meant by its absence, or by null where
     # null now means "the task's default".
-    LEGACY_DEFAULTS: ClassVar[dict] = {}
+    # A run saved before policy_action acted by the auto rule.
+    LEGACY_DEFAULTS: ClassVar[dict] = {"policy_action": "auto"}
 
     engine: Engine = "sb3"
     """The training back end: sb3 (Stable-Baselines3), sbx (SAC and TD3 in JAX with SBX, the
@@ -93,6 +96,13 @@ class RunConfig:
     """Evaluate the MPC beside the policy in the report (reorientation; the mpc extra; minutes
     for 500 episodes). Without it the report shows the MPC's recorded results where its
     episodes are the recorded ones (rbenv.agents.policies.recorded)."""
+    policy_action: PolicyAction | None = None
+    """How the trained policy (SB3, SBX or TorchRL; RLlib's acts by its own module) acts
+    wherever it is evaluated without an explicit action (the periodic evaluations, the report,
+    rbenv evaluate and rbenv export): mean_throttle
+    E[clip(mu + sigma eps, low, high)], mode (the Gaussian's mean, clipped by the env), auto
+    (mean_throttle for PPO/A2C in throttle mode on a scene with thrusters, else mode); saved
+    in config.json. Unset: the task's run default for the algorithm, else auto."""
     threads: int | None = None
     """Torch intra-op threads; unset: 1 (fastest for these small networks, and robust to other
     busy processes), or with --resume the run's own. Part of what makes a run repeatable."""
@@ -126,6 +136,12 @@ class RunConfig:
         baselines = task_entry(self.env_id).baselines  # a named error for an unknown id
         if self.threads is None:
             self.threads = 1
+        if self.policy_action is None:
+            self.policy_action = "auto"
+        if self.policy_action not in get_args(PolicyAction):
+            raise InvalidParameterError(
+                f"policy_action must be one of {', '.join(get_args(PolicyAction))}, got "
+                f"{self.policy_action!r}")
         self.eval_every = GENERIC_EVAL_EVERY if self.eval_every is None else self.eval_every
         self.eval_episodes = GENERIC_EVAL_EPISODES if self.eval_episodes is None \
             else self.eval_episodes
@@ -306,7 +322,8 @@ class TrainConfig(RunConfig):
                                                     "stop_success")
     # Runs written before --save-replay-buffer kept their buffer: a resume goes on keeping it.
     # A run saved with stop_success null (before the run defaults) never stopped early.
-    LEGACY_DEFAULTS: ClassVar[dict] = {"save_replay_buffer": True, "stop_success": 0.0}
+    LEGACY_DEFAULTS: ClassVar[dict] = {**RunConfig.LEGACY_DEFAULTS, "save_replay_buffer": True,
+                                       "stop_success": 0.0}
 
     def resolve(self) -> TrainConfig:
         """Fill defaults that depend on the algorithm; validate names and counts."""
@@ -518,7 +535,7 @@ class TorchRLRunConfig(RunConfig):
 
     RESUME_OVERRIDES: ClassVar[tuple[str, ...]] = (*RunConfig.RESUME_OVERRIDES, "stop_success")
     # Folders written before this engine took the recipe's env options resume without them.
-    LEGACY_DEFAULTS: ClassVar[dict] = {"recipe_env_kwargs": False}
+    LEGACY_DEFAULTS: ClassVar[dict] = {**RunConfig.LEGACY_DEFAULTS, "recipe_env_kwargs": False}
 
     def default_out(self) -> str:
         return f"runs/torchrl-{self.algo}-{self.scene}-seed{self.seed}"

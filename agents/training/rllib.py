@@ -60,7 +60,7 @@ class RLlibConfig(RunConfig):
     """A run of the RLlib back end; saved as ``config.json``."""
 
     # Folders written before this engine took the recipe's env options resume without them.
-    LEGACY_DEFAULTS: ClassVar[dict] = {"recipe_env_kwargs": False}
+    LEGACY_DEFAULTS: ClassVar[dict] = {**RunConfig.LEGACY_DEFAULTS, "recipe_env_kwargs": False}
 
     engine: Engine = "rllib"
     env_runners: int = 0

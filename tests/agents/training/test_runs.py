@@ -5,6 +5,7 @@ trains one run with checkpoints at 128, 256, 384 and 512 timesteps, and each tes
 copy of it.
 """
 
+import dataclasses
 import fcntl
 import json
 import os
@@ -14,6 +15,7 @@ import subprocess
 import sys
 import textwrap
 import threading
+import typing
 from pathlib import Path
 
 import numpy as np
@@ -678,6 +680,44 @@ def test_policy_action_auto_is_mean_throttle_only_for_a_gaussian_policy_in_throt
     assert RunPolicy(sac).action == "mode"
     with pytest.raises(InvalidParameterError, match=r"mean_throttle.*SAC"):
         RunPolicy(sac, action="mean_throttle")
+
+
+def test_a_runs_policy_action_decides_what_auto_means_and_an_explicit_action_wins():
+    import gymnasium as gym
+    from rbenv.agents.policies.sb3 import POLICY_ACTIONS, RunPolicy
+    from rbenv.agents.training.config import PolicyAction
+    from rbenv.core.errors import InvalidParameterError
+    from stable_baselines3 import PPO
+
+    assert typing.get_args(PolicyAction) == POLICY_ACTIONS  # one set of names
+    ppo = PPO("MlpPolicy", gym.make(rbenv.ENV_ID), n_steps=64, device="cpu")
+    assert RunPolicy(ppo, config={"policy_action": "mode"}).action == "mode"
+    assert RunPolicy(ppo, config={"policy_action": "auto"}).action == "mean_throttle"
+    assert RunPolicy(ppo, config={"policy_action": None}).action == "mean_throttle"
+    assert RunPolicy(ppo, config={"policy_action": "mode"}, action="mean_throttle").action \
+        == "mean_throttle"
+    with pytest.raises(InvalidParameterError, match=r"policy_action.*'sample'"):
+        RunPolicy(ppo, config={"policy_action": "sample"})
+
+
+def test_policy_action_is_a_run_default_a_flag_and_absent_from_old_runs(tmp_path):
+    """The recipe's run default fills an unset policy_action, the caller's wins, a bad value is
+    named, and a config.json written before the field existed loads as auto (not as the
+    recipe's current default)."""
+    from rbenv.agents.settings.table import RUN_KEYS
+    from rbenv.agents.training.config import TrainConfig, resumed_config
+    from rbenv.core.errors import InvalidParameterError
+
+    assert "policy_action" in RUN_KEYS
+    assert TrainConfig(algo="sac").resolve().policy_action == "auto"
+    assert TrainConfig(algo="sac", policy_action="mode").resolve().policy_action == "mode"
+    with pytest.raises(InvalidParameterError, match=r"policy_action must be one of .*'best'"):
+        TrainConfig(algo="sac", policy_action="best").resolve()
+    cfg = TrainConfig(algo="ppo", out=str(tmp_path / "run")).resolve()
+    saved = {k: v for k, v in dataclasses.asdict(cfg).items() if k != "policy_action"}
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "config.json").write_text(json.dumps(saved))
+    assert resumed_config(TrainConfig, tmp_path / "run").policy_action == "auto"
 
 
 def test_the_mean_action_clips_each_entry_where_the_env_clips_it():
