@@ -72,17 +72,20 @@ REORIENT_V1_PPO = {**REORIENT_V1_PPO_EARLIER, "n_timesteps": 600_000, "gamma": 0
                    "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5,
                                      "activation_fn": "tanh"}}
 # Reorient-v1's PPO with SB3 on the default scene (cubesat-12u): REORIENT_V1_PPO's updates
-# trained to 2 M steps without the early stop, on a dearer propellant and a larger progress
-# pay (reward_weights fuel 2.0 for 1.0, progress 25). REORIENT_V1_PPO stopped at the first
-# 200/200 validation successes (200-300k steps): 100 % held out but 37.5-42.5 s and 3.0-5.3 g,
-# slower and dearer than the bang-bang (28.8 s, 2.14 g). Validation (200 episodes from seed
-# 5,000,000, seeds 0-2): 100 %, 19.5-20.75 s, 1.50-1.61 g (docs/performance.md, "The
-# Reorient rows of the per-task table"). Its validation is Reorient-v2's, 100 episodes every
-# 500k steps, for the curve only (the policy trained does not depend on it). Keyed to the sb3
-# engine: RLlib and TorchRL were not measured with this reward and budget, so they keep
-# REORIENT_V1_PPO and REORIENT_V1_TORCHRL.
+# trained to 2 M steps without the early stop, on a dearer propellant, a larger progress pay and
+# a dearer loss of control (reward_weights fuel 2.0 for 1.0, progress 25 for 10, failure 100
+# for 25). REORIENT_V1_PPO stopped at the first 200/200 validation successes (200-300k steps):
+# 100 % held out but 37.5-42.5 s and 3.0-5.3 g, slower and dearer than the bang-bang (28.8 s,
+# 2.14 g). With failure 25, validation (200 episodes from seed 5,000,000, seeds 0-2) was 100 %,
+# 20.25-20.5 s, 1.52-1.70 g, but on 3,000 from that seed seed 0 lost control twice, 5.5 s into
+# the episode; with failure 100: none of 3,000 on any seed, 21.0-23.25 s and 1.53-1.84 g on the
+# 200 (docs/performance.md, "The Reorient rows of the per-task table"). Its validation is
+# Reorient-v2's, 100 episodes every 500k steps, for the curve only (the policy trained does not
+# depend on it). Keyed to the sb3 engine: RLlib and TorchRL were not measured with this reward
+# and budget, so they keep REORIENT_V1_PPO and REORIENT_V1_TORCHRL.
 REORIENT_V1_PPO_12U = {"n_timesteps": 2_000_000,
-                       "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0}},
+                       "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0,
+                                                         "failure": 100.0}},
                        "run": {"stop_success": 0.0, "eval_every": 500_000,
                                "eval_episodes": 100}}
 # Reorient-v0's PPO with SB3 on cubesat-12u: Reorient-v1's updates (REORIENT_V1_PPO: 256 envs x

@@ -102,7 +102,7 @@ def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_has_its_own_reward
                                                       "gamma")}
     v1 = TrainConfig(env_id="rbenv/SatelliteReorient-v1").resolve()
     assert (v1.timesteps, v1.stop_success) == (2_000_000, 0.0)
-    assert v1.env_kwargs == {"reward_weights": {"fuel": 2.0, "progress": 25.0}}
+    assert v1.env_kwargs == {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}
     assert v1.hyperparams == cfg.hyperparams
 
 
@@ -121,7 +121,7 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     zoo = importlib.import_module("rbenv.agents.zoo.ppo").hyperparams[env_id]
     run = {"stop_success": 1.0, "eval_every": 50_000, "eval_episodes": 200}
     assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own, "run": run}
-    weights = {"reward_weights": {"fuel": 2.0, "progress": 25.0}}
+    weights = {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}
     assert shipped_settings("ppo", env_id, "sb3", "cubesat-12u") == {
         **tuned.PPO, **own, **scene, "env_kwargs": weights,
         "run": {"stop_success": 0.0, "eval_every": 500_000, "eval_episodes": 100}}

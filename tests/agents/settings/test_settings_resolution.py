@@ -39,7 +39,7 @@ ZOO_SCENE_RECIPES = {
     ("ppo", "rbenv/SatelliteTrack-v1"): {"env_kwargs": {"reward_weights": {"fuel": 3.0}}},
     ("ppo", "rbenv/SatelliteReorient-v1"): {
         "n_timesteps": 2_000_000,
-        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0}}},
+        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}},
     ("ppo", "rbenv/SatelliteReorient-v0"): {
         "n_timesteps": 2_000_000, **REORIENT_V0_12U, "n_envs": 256,
         "env_kwargs": {"reward_weights": {"fuel": 0.5, "progress": 25.0}}}}
@@ -57,7 +57,7 @@ ENGINE_RECIPES = {
     "sb3/ppo/rbenv/SatelliteReorient-v1/cubesat-12u": {
         "timesteps": 2_000_000, "stop_success": 0.0, "eval_every": 500_000,
         "eval_episodes": 100,
-        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0}}}}
+        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}}}
 # Budgets of a scene's recipe set after validation, on every engine that takes the recipe's
 # n_timesteps (sb3, rllib and the suite; torchrl has its own): algo/id/scene -> (8ef0698, now).
 # Track-v0 on cubesat-12u: 3 M steps, where 2 M missed a validation episode on seed 1.
