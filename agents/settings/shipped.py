@@ -63,10 +63,11 @@ REORIENT_V1_PPO_EARLIER = {"n_envs": 256, "n_timesteps": 1_500_000, "n_steps": 3
                            "batch_size": 4096, "n_epochs": 3, "learning_rate": 2e-3,
                            "gamma": tuned.PPO["gamma"],
                            "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0}}
-# Reorient-v1's PPO on the default scene (paths sb3-shipped and B-g0.98-std-0.5;
-# docs/performance.md): the same updates with a shorter horizon (gamma 0.98) and more
-# exploration at the start (log std -0.5). >= 99 % held out first at 200-250k steps on 9 of
-# 10 seeds, 400k on one; the budget keeps a margin, since PPO ends on its last policy.
+# Reorient-v1's general PPO recipe, the fast one (benchmarks/time_to_solve.py paths sb3-v1-fast
+# and B-g0.98-std-0.5; docs/performance.md): the same updates with a shorter horizon (gamma
+# 0.98) and more exploration at the start (log std -0.5). >= 99 % held out first at 200-250k
+# steps on 9 of 10 seeds, 400k on one; the budget keeps a margin, since PPO ends on its last
+# policy.
 # "tanh" is rbenv's fast tanh (rbenv.agents.policies.activations), torch's function.
 REORIENT_V1_PPO = {**REORIENT_V1_PPO_EARLIER, "n_timesteps": 600_000, "gamma": 0.98,
                    "policy_kwargs": {"net_arch": [64, 64], "log_std_init": -0.5,
