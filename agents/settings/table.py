@@ -205,13 +205,13 @@ def entries() -> tuple:
 
 
 def zoo_hyperparams(algo: str) -> dict:
-    """RL Zoo's table for ``algo``: env id → its recipe on the scene ``gym.make(env_id)`` uses
-    (the zoo's env, and rbenv train's without --scene) without ``"run"`` (rbenv train's own),
-    for every entry that has one."""
+    """RL Zoo's table for ``algo``: env id → its recipe for the sb3 engine (the zoo trains SB3's
+    models) on the scene ``gym.make(env_id)`` uses (the zoo's env, and rbenv train's without
+    --scene) without ``"run"`` (rbenv train's own), for every entry that has one."""
     table = {}
     for e in _ENTRIES.values():
         if algo in e.algos():
-            table[e.env_id] = e.recipe(algo, scene=default_scene(e.env_id))
+            table[e.env_id] = e.recipe(algo, "sb3", scene=default_scene(e.env_id))
             table[e.env_id].pop(RUN, None)
     return table
 

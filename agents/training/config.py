@@ -222,8 +222,13 @@ def resumed_config(cls: type[C], out: Path, overrides: dict | None = None,
                                         f"the caller, got {name!r}")
         if value is not None:
             setattr(cfg, name, value)
+    # The saved env options are the run's whole set (the recipe's of its start included): a
+    # recipe changed since must not change a run's reward halfway, so resolve() does not add
+    # the current recipe's under them.
+    env_kwargs = cfg.env_kwargs
     try:
-        cfg.resolve()
+        cfg.resolve()  # checks env_kwargs is a dict
+        cfg.env_kwargs = dict(env_kwargs)
         cfg.check_env()
     except (TypeError, ValueError) as e:
         raise RunFolderError(f"the run folder {str(out)!r} holds a configuration that cannot "

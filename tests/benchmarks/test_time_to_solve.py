@@ -29,7 +29,7 @@ def test_quick_run_writes_curve_and_table(results):
     time_to_solve.main(["--quick"])
     data = json.loads((results / "time_to_solve_quick.json").read_text())
     (run,) = data["runs"]
-    assert run["path"] == "sb3-shipped" and run["seed"] == 0
+    assert run["path"] == "sb3-v1-fast" and run["seed"] == 0
     # Evaluations every 4096 samples up to the 8192-sample budget, the clocks only counting
     # training: wall and CPU time grow with the samples.
     assert [p["samples"] for p in run["curve"]] == [4096, 8192]
@@ -39,7 +39,7 @@ def test_quick_run_writes_curve_and_table(results):
     assert not run["solved"] and run["time_to_solve_s"] is None
     assert run["best_success"] == max(p["success"] for p in run["curve"]) < 0.99
     (row,) = data["table"]
-    assert row["path"] == "sb3-shipped" and row["seeds"] == 1 and row["solved"] == 0
+    assert row["path"] == "sb3-v1-fast" and row["seeds"] == 1 and row["solved"] == 0
     assert len(run["load_before"]) == 3
     assert (results / "time_to_solve_quick.png").is_file()
 
@@ -48,8 +48,13 @@ def test_paths_name_known_engines_and_settings():
     for path in time_to_solve.PATHS.values():
         assert path.engine in time_to_solve.RUNNERS
         assert path.budget is None or path.budget >= path.eval_every > 0
-    # The shipped path takes the registry's settings unchanged.
-    assert time_to_solve.PATHS["sb3-shipped"].hyperparams == {}
+    # The fast path names Reorient-v1's fast recipe (600k steps), whatever the id ships now.
+    from rbenv.agents.settings.shipped import REORIENT_V1_PPO
+
+    fast = time_to_solve.PATHS["sb3-v1-fast"]
+    assert (fast.n_envs, fast.budget, fast.eval_every) == (256, 600_000, 50_000)
+    assert fast.hyperparams == {k: v for k, v in REORIENT_V1_PPO.items()
+                                if k not in ("n_envs", "n_timesteps")}
 
 
 @pytest.mark.slow  # a few seconds on an idle machine, plus JAX's compilation

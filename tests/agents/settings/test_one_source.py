@@ -76,12 +76,17 @@ def test_a_change_in_a_recipe_reaches_every_reader(monkeypatch):
         assert cfg.hyperparams["train_batch_size_per_learner"] == ppo["n_envs"] * ppo["n_steps"]
         assert cfg.model["fcnet_hiddens"] == ppo["policy_kwargs"]["net_arch"]
         assert cfg.log_std_init == ppo["policy_kwargs"]["log_std_init"]
+        # The zoo reads SB3's recipe on the default scene; v0's sets its own epochs there.
+        own = settings.get(env_id).recipes.get(Recipe("ppo", "sb3", scene="cubesat-12u"), {})
+        if "n_epochs" in own:
+            monkeypatch.setitem(own, "n_epochs", 7)
         assert settings.zoo_hyperparams("ppo")[env_id]["n_epochs"] == 7
 
 
-def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_keeps_its_settings():
+def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_has_its_own_reward_weights():
     """``rbenv train`` with no arguments: Reorient-v2 (rbenv.ENV_ID), v1's PPO updates to
-    2 M steps, no early stop; Reorient-v1's own entry is unchanged."""
+    2 M steps, no early stop, the reward's own weights; Reorient-v1 on cubesat-12u trains the
+    same updates to 2 M steps on its own recipe's reward weights."""
     from rbenv.agents.settings import shipped
     from rbenv.agents.training.config import TrainConfig
 
@@ -96,31 +101,40 @@ def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_keeps_its_settings
         == {k: shipped.REORIENT_V1_PPO[k] for k in ("n_steps", "batch_size", "n_epochs",
                                                       "gamma")}
     v1 = TrainConfig(env_id="rbenv/SatelliteReorient-v1").resolve()
-    assert (v1.timesteps, v1.stop_success) == (600_000, 1.0)
+    assert (v1.timesteps, v1.stop_success) == (2_000_000, 0.0)
+    assert v1.env_kwargs == {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}
+    assert v1.hyperparams == cfg.hyperparams
 
 
 def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
-    """Reorient-v1's own PPO values (its fast path, docs/performance.md) are what `rbenv train`
-    and the RL Zoo file use on that id; the keys it does not set are the shared dict's."""
+    """Reorient-v1's own PPO values (its fast path, docs/performance.md) are its general recipe;
+    on cubesat-12u, the default scene, SB3 (`rbenv train`) and the RL Zoo file train them to
+    2 M steps on the 12u recipe's reward weights, without the early stop; the keys neither
+    sets are the shared dict's."""
     import importlib
 
     from rbenv.agents.settings import shipped
     from rbenv.agents.training.config import TrainConfig, shipped_settings
 
     env_id = "rbenv/SatelliteReorient-v1"
-    own = shipped.REORIENT_V1_PPO
+    own, scene = shipped.REORIENT_V1_PPO, shipped.REORIENT_V1_PPO_12U
     zoo = importlib.import_module("rbenv.agents.zoo.ppo").hyperparams[env_id]
     run = {"stop_success": 1.0, "eval_every": 50_000, "eval_episodes": 200}
     assert shipped_settings("ppo", env_id) == {**tuned.PPO, **own, "run": run}
-    # The zoo gets the same dict without rbenv's run defaults, with the activation's name made
+    weights = {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}
+    assert shipped_settings("ppo", env_id, "sb3", "cubesat-12u") == {
+        **tuned.PPO, **own, **scene, "env_kwargs": weights,
+        "run": {"stop_success": 0.0, "eval_every": 500_000, "eval_episodes": 100}}
+    # The zoo gets SB3's dict without rbenv's run defaults, with the activation's name made
     # the class SB3 builds.
     from rbenv.agents.policies.activations import Tanh
 
     assert own["policy_kwargs"]["activation_fn"] == "tanh"
-    assert zoo == {**tuned.PPO, **own,
+    assert zoo == {**tuned.PPO, **own, "n_timesteps": 2_000_000, "env_kwargs": weights,
                    "policy_kwargs": {**own["policy_kwargs"], "activation_fn": Tanh}}
     cfg = TrainConfig(env_id=env_id).resolve()
-    assert (cfg.n_envs, cfg.timesteps) == (own["n_envs"], own["n_timesteps"])
+    assert (cfg.scene, cfg.n_envs, cfg.timesteps) == ("cubesat-12u", own["n_envs"], 2_000_000)
+    assert cfg.env_kwargs == weights
     assert cfg.hyperparams["batch_size"] == own["batch_size"]
     assert cfg.hyperparams["policy_kwargs"] == own["policy_kwargs"]
     assert cfg.hyperparams["gae_lambda"] == tuned.PPO["gae_lambda"]
@@ -128,11 +142,18 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     assert cfg.normalize == {"norm_obs": True, "norm_reward": True}
     # How a run of it is watched and ended: the recipe's run defaults, where no flag is given.
     assert (cfg.stop_success, cfg.eval_every, cfg.eval_episodes, cfg.keep_best) == \
-        (1.0, 50_000, 200, False)
-    given = TrainConfig(env_id=env_id, stop_success=0.0, eval_every=10_000,
+        (0.0, 500_000, 100, False)
+    # The fast recipe by its flags (docs/performance.md, "What ships: Reorient-v1's own PPO"):
+    # the env's own reward weights, 600k steps, the early stop.
+    fast = TrainConfig(env_id=env_id, recipe_env_kwargs=False, timesteps=600_000,
+                       stop_success=1.0, eval_every=50_000, eval_episodes=200).resolve()
+    assert (fast.timesteps, fast.stop_success, fast.eval_every, fast.eval_episodes) == \
+        (own["n_timesteps"], *run.values())
+    assert fast.env_kwargs == {} and fast.hyperparams == cfg.hyperparams
+    given = TrainConfig(env_id=env_id, stop_success=1.0, eval_every=10_000,
                         keep_best=True).resolve()
     assert (given.stop_success, given.eval_every, given.eval_episodes, given.keep_best) == \
-        (0.0, 10_000, 200, True)
+        (1.0, 10_000, 100, True)
     v0 = TrainConfig(env_id="rbenv/SatelliteReorient-v0").resolve()
     assert (v0.stop_success, v0.eval_every, v0.eval_episodes, v0.keep_best) == \
         (0.0, 200_000, 100, False)
@@ -140,6 +161,12 @@ def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():
     boom = TrainConfig(env_id=env_id, scene="boom-sat").resolve()
     assert boom.hyperparams["gamma"] == 0.99 and boom.timesteps == 2_000_000
     assert boom.hyperparams["policy_kwargs"] == {"net_arch": [64, 64], "log_std_init": -1.0}
+    assert (boom.stop_success, boom.env_kwargs) == (1.0, {})
+    # RLlib on cubesat-12u keeps the fast recipe: the 12u recipe is SB3's alone.
+    from rbenv.agents.training.rllib import RLlibConfig
+
+    rllib = RLlibConfig(env_id=env_id).resolve()
+    assert (rllib.scene, rllib.timesteps, rllib.env_kwargs) == ("cubesat-12u", 600_000, {})
     # Whole rollouts split into whole minibatches.
     assert (own["n_envs"] * own["n_steps"]) % own["batch_size"] == 0
 
@@ -180,7 +207,8 @@ def test_a_budget_reaches_train_the_suite_and_the_zoo_as_one_number():
     from rbenv.agents.training.config import TrainConfig
 
     for env_id, algo, scene, steps in (
-            ("rbenv/SatelliteReorient-v0", "ppo", "cubesat-12u", 1_000_000),
+            ("rbenv/SatelliteReorient-v0", "ppo", "cubesat-12u", 2_000_000),
+            ("rbenv/SatelliteReorient-v0", "ppo", "microsat-100kg", 1_000_000),
             ("rbenv/SatelliteReorient-v0", "sac", "cubesat-12u", 200_000),
             ("rbenv/SatelliteReorient-v0", "ppo", "boom-sat", 4_000_000),
             ("rbenv/SatelliteDetumble-v1", "ppo", "cubesat-12u", 300_000),
@@ -324,9 +352,10 @@ def test_the_ids_run_defaults_reach_every_engine_that_has_the_field():
     from rbenv.agents.training.rllib import RLlibConfig
 
     v1 = "rbenv/SatelliteReorient-v1"
-    watch = settings.get(v1).recipe("ppo")["run"]
     for cls in (TrainConfig, RLlibConfig, TorchRLRunConfig):
         cfg = cls(env_id=v1).resolve()
+        # The engine's recipe on the default scene (SB3's is keyed to sb3: no early stop).
+        watch = settings.get(v1).recipe("ppo", cfg.engine, cfg.scene)["run"]
         assert (cfg.eval_every, cfg.eval_episodes) == (watch["eval_every"],
                                                        watch["eval_episodes"]), cls
         assert getattr(cfg, "stop_success", watch["stop_success"]) == watch["stop_success"]

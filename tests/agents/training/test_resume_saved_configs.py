@@ -33,6 +33,18 @@ def test_an_sb3_run_of_main_resumes_with_its_own_settings(tmp_path):
             assert json.loads(json.dumps(got[name])) == value, name
 
 
+def test_a_run_resumes_with_its_own_env_options_after_the_recipe_changed(tmp_path):
+    """A Reorient-v1 run started when its cubesat-12u recipe had no reward weights (recipe env
+    options taken, none then) resumes on the env it trained on, not the recipe's weights of
+    today; a run that has them keeps them."""
+    cfg = TrainConfig(env_id="rbenv/SatelliteReorient-v1", out=str(tmp_path)).resolve()
+    today = cfg.env_kwargs
+    assert cfg.recipe_env_kwargs and today["reward_weights"]["fuel"] == 2.0
+    for saved in ({}, today, {"reward_weights": {"fuel": 1.5}}):
+        (tmp_path / "config.json").write_text(json.dumps({**asdict(cfg), "env_kwargs": saved}))
+        assert resumed_config(TrainConfig, tmp_path).env_kwargs == saved
+
+
 def test_a_torchrl_run_of_main_resumes_with_its_hyperparams_in_zoo_names(tmp_path):
     pytest.importorskip("torch", reason="the torch env needs torch (ecosystem extra)")
     run, saved = _run(tmp_path, "config_torchrl_8ef0698.json")

@@ -224,9 +224,9 @@ def test_reorient_v1_on_boom_sat_gets_the_longer_ppo_budget_and_only_there():
 
     v1 = "rbenv/SatelliteReorient-v1"
     assert default_timesteps("ppo", v1, "boom-sat") == 2_000_000
-    # On the default scene the suite trains v1's own PPO budget; on the other scenes, the
-    # budget measured there.
-    assert default_timesteps("ppo", v1, "cubesat-12u") == 600_000
+    # On the default scene the suite trains SB3's own recipe there (2 M steps); on the other
+    # scenes, the budget measured there.
+    assert default_timesteps("ppo", v1, "cubesat-12u") == 2_000_000
     assert default_timesteps("ppo", v1, "cubesat-12u-rw") == 1_500_000
     assert default_timesteps("ppo", "rbenv/SatelliteReorient-v0", "boom-sat") == 4_000_000
 
@@ -304,8 +304,9 @@ def test_a_run_saved_before_the_run_defaults_resumes_as_it_trained(tmp_path):
 
     from rbenv.agents.training.config import resumed_config
 
-    cfg = TrainConfig(env_id="rbenv/SatelliteReorient-v1", out=str(tmp_path)).resolve()
-    assert cfg.stop_success == 1.0  # the id's run default for a new run
+    cfg = TrainConfig(env_id="rbenv/SatelliteReorient-v1", scene="cubesat-12u-dr",
+                      out=str(tmp_path)).resolve()
+    assert cfg.stop_success == 1.0  # the id's run default for a new run on that scene
     for saved, resumed in ((None, 0.0), (1.0, 1.0)):
         (tmp_path / "config.json").write_text(json.dumps({**asdict(cfg),
                                                           "stop_success": saved}))
