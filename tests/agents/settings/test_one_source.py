@@ -83,27 +83,39 @@ def test_a_change_in_a_recipe_reaches_every_reader(monkeypatch):
         assert settings.zoo_hyperparams("ppo")[env_id]["n_epochs"] == 7
 
 
-def test_the_main_job_trains_reorient_v2_to_its_budget_and_v1_has_its_own_reward_weights():
-    """``rbenv train`` with no arguments: Reorient-v2 (rbenv.ENV_ID), v1's PPO updates to
-    2 M steps, no early stop, the reward's own weights; Reorient-v1 on cubesat-12u trains the
-    same updates to 2 M steps on its own recipe's reward weights."""
+def test_the_main_job_trains_reorient_v2_on_its_recipe_and_v1_has_its_own_reward_weights():
+    """``rbenv train`` with no arguments: Reorient-v2 (rbenv.ENV_ID) on cubesat-12u with SB3,
+    v1's PPO updates with 5 epochs and a [128, 128] network to 1.8 M steps, no early stop, time
+    and fuel weights 0.2 and 3.0, the policy acting with its mode (REORIENT_V2_PPO_12U);
+    Reorient-v1 on cubesat-12u trains v1's updates to 2 M steps on its own recipe's reward
+    weights; v2 on another scene, or with another engine, keeps v1's updates to 2 M."""
     from rbenv.agents.settings import shipped
-    from rbenv.agents.training.config import TrainConfig
+    from rbenv.agents.training.config import TorchRLRunConfig, TrainConfig
 
     import rbenv
 
     assert rbenv.ENV_ID == "rbenv/SatelliteReorient-v2"
     cfg = TrainConfig().resolve()
-    assert (cfg.env_id, cfg.algo, cfg.timesteps) == (rbenv.ENV_ID, "ppo", 2_000_000)
-    assert cfg.stop_success == 0.0 and "reward_weights" not in cfg.env_kwargs
-    assert cfg.hyperparams["policy_kwargs"] == shipped.REORIENT_V1_PPO["policy_kwargs"]
-    assert {k: cfg.hyperparams[k] for k in ("n_steps", "batch_size", "n_epochs", "gamma")} \
-        == {k: shipped.REORIENT_V1_PPO[k] for k in ("n_steps", "batch_size", "n_epochs",
+    main = shipped.REORIENT_V2_PPO_12U
+    assert (cfg.env_id, cfg.algo, cfg.scene, cfg.timesteps) == \
+        (rbenv.ENV_ID, "ppo", "cubesat-12u", 1_800_000)
+    assert (cfg.stop_success, cfg.policy_action) == (0.0, "mode")
+    assert cfg.env_kwargs == {"reward_weights": {"time": 0.2, "fuel": 3.0}}
+    assert cfg.hyperparams["policy_kwargs"] == main["policy_kwargs"] == {
+        **shipped.REORIENT_V1_PPO["policy_kwargs"], "net_arch": [128, 128]}
+    assert cfg.hyperparams["n_epochs"] == 5
+    assert {k: cfg.hyperparams[k] for k in ("n_steps", "batch_size", "learning_rate", "gamma")} \
+        == {k: shipped.REORIENT_V1_PPO[k] for k in ("n_steps", "batch_size", "learning_rate",
                                                       "gamma")}
+    other = TrainConfig(scene="microsat-100kg").resolve()
+    assert (other.policy_action, other.hyperparams["n_epochs"]) == ("auto", 3)
+    torchrl = TorchRLRunConfig(engine="torchrl").resolve()
+    assert "reward_weights" not in torchrl.env_kwargs and torchrl.policy_action == "auto"
     v1 = TrainConfig(env_id="rbenv/SatelliteReorient-v1").resolve()
-    assert (v1.timesteps, v1.stop_success) == (2_000_000, 0.0)
+    assert (v1.timesteps, v1.stop_success, v1.policy_action) == (2_000_000, 0.0, "auto")
     assert v1.env_kwargs == {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}
-    assert v1.hyperparams == cfg.hyperparams
+    assert v1.hyperparams == {**cfg.hyperparams, "n_epochs": 3,
+                              "policy_kwargs": shipped.REORIENT_V1_PPO["policy_kwargs"]}
 
 
 def test_reorient_v1_ppo_settings_reach_train_and_the_zoo():

@@ -42,7 +42,11 @@ ZOO_SCENE_RECIPES = {
         "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}},
     ("ppo", "rbenv/SatelliteReorient-v0"): {
         "n_timesteps": 2_000_000, **REORIENT_V0_12U, "n_envs": 256,
-        "env_kwargs": {"reward_weights": {"fuel": 0.5, "progress": 25.0}}}}
+        "env_kwargs": {"reward_weights": {"fuel": 0.5, "progress": 25.0}}},
+    ("ppo", "rbenv/SatelliteReorient-v2"): {
+        "n_timesteps": 1_800_000, "n_epochs": 5,
+        "policy_kwargs": {**REORIENT_V0_12U["policy_kwargs"], "net_arch": [128, 128]},
+        "env_kwargs": {"reward_weights": {"time": 0.2, "fuel": 3.0}}}}
 # Recipes keyed to one engine (Recipe(algo, engine, scene)), set after validation: Reorient-v1's
 # SB3 PPO on cubesat-12u trains to 2 M steps on its own reward weights without the early stop,
 # Reorient-v0's with Reorient-v1's updates, 2 M steps and its own reward weights
@@ -57,13 +61,22 @@ ENGINE_RECIPES = {
     "sb3/ppo/rbenv/SatelliteReorient-v1/cubesat-12u": {
         "timesteps": 2_000_000, "stop_success": 0.0, "eval_every": 500_000,
         "eval_episodes": 100,
-        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}}}
+        "env_kwargs": {"reward_weights": {"fuel": 2.0, "progress": 25.0, "failure": 100.0}}},
+    # The main job: Reorient-v2's SB3 PPO on cubesat-12u (shipped.REORIENT_V2_PPO_12U).
+    "sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u": {
+        "timesteps": 1_800_000,
+        "hyperparams": {**REORIENT_V0_12U, "n_epochs": 5, "gae_lambda": 0.95,
+                        "clip_range": 0.2, "ent_coef": 0.0,
+                        "policy_kwargs": {**REORIENT_V0_12U["policy_kwargs"],
+                                          "net_arch": [128, 128]}},
+        "env_kwargs": {"reward_weights": {"time": 0.2, "fuel": 3.0}}}}
 # Budgets of a scene's recipe set after validation, on every engine that takes the recipe's
 # n_timesteps (sb3, rllib and the suite; torchrl has its own): algo/id/scene -> (8ef0698, now).
 # Track-v0 on cubesat-12u: 3 M steps, where 2 M missed a validation episode on seed 1.
 SCENE_BUDGETS = {"ppo/rbenv/SatelliteTrack-v0/cubesat-12u": (2_000_000, 3_000_000)}
 SUITE_CHANGES = {"suite/ppo/rbenv/SatelliteReorient-v1/cubesat-12u": (600_000, 2_000_000),
                  "suite/ppo/rbenv/SatelliteReorient-v0/cubesat-12u": (1_000_000, 2_000_000),
+                 "suite/ppo/rbenv/SatelliteReorient-v2/cubesat-12u": (2_000_000, 1_800_000),
                  **{f"suite/{k}": v for k, v in SCENE_BUDGETS.items()}}
 # rbenv train combinations whose budget moved (118), or whose env options RLlib and TorchRL now
 # take from the recipe (20: 10 id x scene pairs, 6 of them with a moved RLlib budget too),
@@ -72,7 +85,8 @@ SUITE_CHANGES = {"suite/ppo/rbenv/SatelliteReorient-v1/cubesat-12u": (600_000, 2
 # Reorient-v1's SB3 PPO on cubesat-12u and its suite budget (ENGINE_RECIPES, SUITE_CHANGES): 2.
 # Track-v0's PPO on cubesat-12u, sb3, rllib and the suite (SCENE_BUDGETS): 3. Reorient-v0's
 # suite budget on cubesat-12u (its sb3 entry had already moved, to the suite's 1 M): 1.
-CHANGED = 138
+# Reorient-v2's SB3 PPO on cubesat-12u, the main job, and its suite budget: 2.
+CHANGED = 140
 
 
 @pytest.fixture(scope="module")
@@ -163,11 +177,12 @@ def test_the_count_of_changes(now):
     assert (moved, zoo) == (CHANGED, len(listed))
 
 
-def test_the_main_job_is_reorient_v2_ppo_at_2m(now):
+def test_the_main_job_is_reorient_v2_ppo_on_its_own_recipe(now):
     from rbenv.agents.training.config import TrainConfig
 
     cfg = TrainConfig().resolve()
+    key = "sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u"
     assert (cfg.env_id, cfg.algo, cfg.scene, cfg.timesteps) == \
-        ("rbenv/SatelliteReorient-v2", "ppo", "cubesat-12u", 2_000_000)
-    assert now["sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u"] == \
-        GOLDEN["sb3/ppo/rbenv/SatelliteReorient-v2/cubesat-12u"]
+        ("rbenv/SatelliteReorient-v2", "ppo", "cubesat-12u", 1_800_000)
+    assert GOLDEN[key]["timesteps"] == 2_000_000  # 8ef0698's
+    assert now[key] == _expected(key)

@@ -13,7 +13,7 @@ from rbenv.agents.cli import main as cli_main
 from rbenv.agents.policies import weights
 from rbenv.agents.policies.runfolder import latest_checkpoint
 from rbenv.agents.policies.sb3 import SB3Policy
-from rbenv.agents.training.config import TrainConfig
+from rbenv.agents.training.config import TrainConfig, shipped_settings
 from rbenv.agents.training.sb3 import make_vec_env, train
 
 SMALL = {"n_steps": 32, "batch_size": 128, "n_epochs": 2}
@@ -79,11 +79,14 @@ def test_the_checkpoint_at_the_last_step_is_the_final_model(run_dir):
         assert all(np.array_equal(a[k], b[k]) for k in a.files)
 
 
-def test_ppo_in_throttle_mode_acts_with_its_mean_throttle_by_default(run_dir):
+def test_the_main_jobs_ppo_acts_with_its_mode_and_on_request_with_its_mean_throttle(run_dir):
+    """The main job's recipe sets policy_action "mode" (saved in config.json); the mean throttle
+    (the auto rule's choice for PPO in throttle mode) is E[clip(mu + sigma eps, 0, 1)]."""
     from rbenv.agents.policies.sb3 import expected_throttle
 
-    policy = SB3Policy(run_dir / "policy.pt")
-    assert policy.action == "mean_throttle"
+    assert json.loads((run_dir / "config.json").read_text())["policy_action"] == "mode"
+    assert SB3Policy(run_dir / "policy.pt").action == "mode"
+    policy = SB3Policy(run_dir / "policy.pt", action="mean_throttle")
     model = policy.model
     n_obs = model.observation_space.shape[0]
     obs = np.random.default_rng(2).uniform(-1, 1, (5, n_obs)).astype(np.float32)
@@ -170,7 +173,8 @@ def test_cli_env_kwargs_reach_the_env_and_the_saved_config(tmp_path):
                      "--eval-every", "100000", "--env-kwargs", '{"action_mode": "torque"}',
                      "--no-report"]) == 0
     config = json.loads((out / "config.json").read_text())
-    assert config["env_kwargs"] == {"action_mode": "torque"}
+    recipe = shipped_settings("ppo", scene="cubesat-12u", engine="sb3")["env_kwargs"]
+    assert config["env_kwargs"] == {**recipe, "action_mode": "torque"}
     model = weights.load_model(out / "policy.pt")
     assert model.action_space.shape == (3,)  # torque mode: one action per body axis
 
@@ -179,22 +183,28 @@ def test_periodic_evaluation_acts_as_a_loaded_policy_does(run_dir):
     from rbenv.agents.training.sb3 import PeriodicEval
 
     model = weights.load_model(run_dir / "policy.pt")
-    for env_kwargs, action in (({}, "mean_throttle"), ({"action_mode": "torque"}, "mode")):
+    for env_kwargs, chosen, action in (({}, None, "mean_throttle"), ({}, "mode", "mode"),
+                                       ({"action_mode": "torque"}, None, "mode")):
         callback = PeriodicEval(None, run_dir / "unused.npz", 10, 1, 0,
-                                run_config={"scene": "cubesat-12u", "env_kwargs": env_kwargs})
+                                run_config={"scene": "cubesat-12u", "env_kwargs": env_kwargs,
+                                            "policy_action": chosen})
         callback.model = model
         assert callback.policy().action == action
 
 
 def test_a_scene_entry_of_the_training_settings_adds_its_env_options_to_training():
     """rbenv train on a wheel scene trains with the failure weight its training settings give
-    that scene; the default scene gets none, and the caller's --env-kwargs win."""
+    that scene; the default scene gets the main job's time and fuel weights, and the caller's
+    --env-kwargs win."""
     from rbenv.agents.settings import tuned
     from rbenv.agents.training.config import TrainConfig
 
     wheels = TrainConfig(algo="ppo", scene="cubesat-6u-rw").resolve()
     assert wheels.env_kwargs["reward_weights"] == tuned.WHEELS_FAILURE["reward_weights"]
-    assert "reward_weights" not in TrainConfig(algo="ppo").resolve().env_kwargs
+    assert TrainConfig(algo="ppo").resolve().env_kwargs == {
+        "reward_weights": {"time": 0.2, "fuel": 3.0}}
+    assert "reward_weights" not in TrainConfig(algo="ppo", scene="microsat-100kg").resolve(
+    ).env_kwargs
     mine = TrainConfig(algo="ppo", scene="cubesat-6u-rw",
                        env_kwargs={"reward_weights": {"failure": 50.0}}).resolve()
     assert mine.env_kwargs["reward_weights"] == {"failure": 50.0}
