@@ -18,7 +18,8 @@ benchmark runs the documented commands, in a subprocess each::
 with every setting but the fuel weight named (:data:`TRADE_RECIPE`): the main job's recipe
 before it moved to 5 epochs, a [128, 128] network, time 0.2, fuel 3.0, 1.8 M steps and the
 mode action (agents/settings/shipped.py REORIENT_V2_PPO_12U), so that the figure's runs stay
-reproducible and its default fuel weight, 1.5, is the main job of that recipe. The scripted PD and bang-bang (and MPC where ``rbenv evaluate --policy mpc`` exists)
+reproducible and its default fuel weight, 1.5, is the main job of that recipe. The scripted
+PD and bang-bang (and MPC where ``rbenv evaluate --policy mpc`` exists)
 act on the same 500 held-out episodes (seeds 1,000,000 + i, the report's; never used to
 choose a setting). Beside them the figure shows the lower bounds per episode and the optimised
 open-loop trajectories of benchmarks/results/bounds (``python -m benchmarks.bounds``), which

@@ -274,8 +274,9 @@ class SB3Policy(RunPolicy):
     ``model_path`` is a run folder, a final ``policy.pt`` (statistics: ``obs_stats.npz``
     beside it) or a checkpoint ``policy_<N>.pt`` (statistics: its own ``obs_stats_<N>.npz``);
     ``vecnormalize_path`` overrides the statistics; ``action`` as :class:`RunPolicy` (default:
-    the run's ``policy_action``, else the mean throttle for PPO/A2C in throttle mode). Pickle-based files (an older run's
-    ``model.zip``/``vecnormalize.pkl``, a foreign SB3 ``.zip``) load only with
+    the run's ``policy_action``, else the mean throttle for PPO/A2C in throttle mode).
+    Pickle-based files (an older run's ``model.zip``/``vecnormalize.pkl``, a foreign SB3
+    ``.zip``) load only with
     ``trust_pickle=True``. Same as :func:`load_run_policy`, with a statistics override.
     """
 

@@ -43,6 +43,7 @@ def test_the_default_setting_is_the_env_default_and_the_recipe_the_old_main_jobs
     import copy
 
     from rbenv.agents.training.config import TrainConfig
+
     from rbenv.tasks.reorient import ReorientV2Weights
 
     assert trade.DEFAULT_FUEL == ReorientV2Weights().fuel
