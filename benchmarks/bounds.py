@@ -444,7 +444,7 @@ def main(argv=()) -> dict:
     data["machine"] = common.machine()
     out = Path(args.out) if args.out else OUT[env_id]
     out.mkdir(parents=True, exist_ok=True)
-    (out / "bounds.json").write_text(json.dumps(common._jsonable(data), indent=1) + "\n")
+    (out / "bounds.json").write_text(common.dumps(common._jsonable(data)) + "\n")
     table = markdown(data)
     (out / "bounds.md").write_text(table)
     plot(data, per_episode, out / "bounds.png")
