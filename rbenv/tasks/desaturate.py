@@ -29,6 +29,7 @@ from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
+from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
 from rbenv.tasks.base import (
     Weights,
     conj,
@@ -160,12 +161,13 @@ class Desaturate(Reorient):
 class DesaturateV1(Desaturate):
     """Desaturate with the wheels' attitude hold in the loop: the policy commands the rods.
 
-    v0's starts, observation, reward, success and failure, episode for episode; only the
-    action's meaning changes. Every control step, before the actuators, :meth:`command`
-    replaces the wheel entries of the action by the inner loop's motor torques (the law of
-    ``WheelHoldPD`` with the rods' torque fed forward, as the ``unload`` baseline commands
-    them) and keeps the rod entries, the dipole fractions the policy chose. Attitude hold
-    stays the classical inner loop; the policy is the momentum-management law.
+    v0's starts, reward, success and failure, episode for episode; the action's meaning
+    changes, and the observation adds ``dump_B`` (:meth:`observe`). Every control step,
+    before the actuators, :meth:`command` replaces the wheel entries of the action by the
+    inner loop's motor torques (the law of ``WheelHoldPD`` with the rods' torque fed forward,
+    as the ``unload`` baseline commands them) and keeps the rod entries, the dipole
+    fractions the policy chose. Attitude hold stays the classical inner loop; the policy is
+    the momentum-management law.
 
     The inner loop, from the true state of the step's start (body axes, SI):
     ``τ = −I c (ω − ω_c) + ω × (I ω + h_w) − m × B`` with ``ω_c = −(k/c) q_v`` capped at
@@ -180,6 +182,7 @@ class DesaturateV1(Desaturate):
     name: ClassVar[str] = "desaturate_v1"
     scene_table: ClassVar[str] = "desaturate"
     inner_loop: ClassVar[bool] = True  # command() closes the wheel loop
+    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3, "dump_B": 3}
 
     hold_stiffness: float = 0.0  # k, 1/s²
     hold_damping: float = 0.0  # c, 1/s
@@ -190,6 +193,22 @@ class DesaturateV1(Desaturate):
     wheel_columns: tuple = ()  # the wheel entries' indices in the action
     rod_dipoles: tuple = ()  # rows μ_max,i ĝ_i (A·m², body axes), one per rod
     rod_columns: tuple = ()  # the rod entries' indices in the action
+
+    def observation_scale(self) -> dict:
+        return {**super().observation_scale(), "dump_B": self.momentum_scale * FIELD_SCALE_T}
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """v0's (q_err 4, ω_B/L 3), then ``dump_B`` (3): ``(h_w × B)/(h_0 · 50 µT)`` clipped
+        to [-1, 1], h_w the wheels' stored momentum and B the field (true values, as the inner
+        loop's): the direction of the cross-product law's dipole, ``m ∝ h_w × B``, whose
+        torque ``m × B`` takes momentum out of the wheels."""
+        h = (0.0, 0.0, 0.0)
+        for i, s in enumerate(st.wheel_speed):
+            h = k.add(h, self.axes[i], self.spin[i] * s)
+        d = k.scale(k.cross(h, st.field_B_T), 1.0 / (self.momentum_scale * FIELD_SCALE_T))
+        clip = xp.clip
+        return (*super().observe(st, q, w, xp), clip(d[0], -1.0, 1.0), clip(d[1], -1.0, 1.0),
+                clip(d[2], -1.0, 1.0))
 
     def hold_torque_B(self, st, xp) -> tuple:
         """The inner loop's body-torque demand before the feedforward, N·m (3 components):
@@ -359,8 +378,8 @@ SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate, make=mak
 
 ENV_DOC_V1 = """Hold a satellite's attitude while its policy unloads the wheels with the rods.
 
-    Made by ``gym.make("rbenv/SatelliteDesaturate-v1", **kwargs)``; arguments, observation,
-    reward, episode end, info and reset options as ``rbenv/SatelliteDesaturate-v0``
+    Made by ``gym.make("rbenv/SatelliteDesaturate-v1", **kwargs)``; arguments, reward,
+    episode end, info and reset options as ``rbenv/SatelliteDesaturate-v0``
     (:class:`SatelliteDesaturateEnv`), and the same episodes for the same seed. The scene
     (default ``"cubesat-6u-rw"``) must have ``[wheels]`` and ``[magnetorquers]``;
     ``action_mode`` must be ``"throttle"``. ``task_options`` as v0's: ``initial_speed_fraction``,
@@ -376,13 +395,19 @@ ENV_DOC_V1 = """Hold a satellite's attitude while its policy unloads the wheels 
     torques ``u = −G⁺ τ``, scaled down as a whole at a wheel's limit. A zero action holds the
     attitude and unloads nothing; the ``unload`` baseline's rod law unloads.
 
+    **Observation** ``Box(-1, 1, (16,), float32)`` on cubesat-6u-rw: v0's ``q_err`` 4 and
+    ``omega_B`` 3, then ``dump_B`` 3, ``(h_w × B)/(h_0 · 50 µT)`` clipped (h_w the wheels'
+    stored momentum, B the field, both true values as the inner loop's; h_0 the start's
+    momentum): the direction of the cross-product law's dipole, the product a network would
+    otherwise have to learn; then the actuators' ``wheel_speed`` and ``field_B`` as v0.
+
     **Version History**
 
     * v1: the policy commands the magnetorquers and the wheels hold the attitude in the
-      loop. On v0 the policy drives the wheels too, and one wheel at full torque for a 10 s
-      step turns cubesat-6u-rw's bus by three times the rate limit: PPO lost the attitude
-      on every episode (0 % on 3 seeds, docs/results.md). Physics, starts, observation,
-      reward, success and failure are v0's, episode for episode.
+      loop; the observation adds ``dump_B``. On v0 the policy drives the wheels too, and one
+      wheel at full torque for a 10 s step turns cubesat-6u-rw's bus by three times the rate
+      limit: PPO lost the attitude on every episode (0 % on 3 seeds, docs/results.md).
+      Physics, starts, reward, success and failure are v0's, episode for episode.
     * v0: see ``rbenv/SatelliteDesaturate-v0``.
     """
 

@@ -1,7 +1,8 @@
 """Desaturate-v1 (issue 45): the policy commands the rods, the wheels' attitude hold is in the
-loop (rbenv/tasks/desaturate.py, DesaturateV1). Checked against v0 run by hand: the same
-starts and, under the same wheel torques, the same episode; the inner loop's torques against
-the WheelHoldPD law written out here; the unload baseline's episode equal to its v0 one."""
+loop (rbenv/tasks/desaturate.py, DesaturateV1), and the observation adds the cross-product
+law's direction. Checked against v0 run by hand: the same starts and, under the same wheel
+torques, the same episode; the inner loop's torques and the new feature against their
+formulas written out here; the unload baseline's episode equal to its v0 one."""
 
 from __future__ import annotations
 
@@ -108,13 +109,38 @@ def test_the_rod_entries_are_the_dipole_and_the_wheels_feed_its_torque_forward()
     np.testing.assert_allclose(env._st.mtq_dipole_B, [0.2 * 0.5, -0.2, 0.2 * 0.25], rtol=1e-7)
 
 
+def _v0_part(obs):
+    """v0's observation inside v1's: q_err, ω_B, then the actuators' parts (v1 adds dump_B)."""
+    return np.concatenate([obs[..., :7], obs[..., 10:]], axis=-1)
+
+
+def test_dump_b_is_the_cross_product_laws_direction():
+    """dump_B = (h_w × B)/(h_0 · 50 µT) from the wheel speeds and the field (written out);
+    decoded by name, it is h_w × B in N·m·s·T."""
+    env = _make(V1).unwrapped
+    assert list(env.observation_structure) == ["q_err", "omega_B", "dump_B", "wheel_speed",
+                                               "field_B"]
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(seed * 5):
+            obs, *_ = env.step(env.action_space.sample())
+        ws = env.plant.actuator("wheels").wheels
+        h = (np.array(env._st.wheel_speed) * ws.inertia) @ ws.axes_B
+        b = np.array(env._st.field_B_T)
+        h0 = 0.3 * float(np.min(ws.inertia * ws.max_speed))
+        np.testing.assert_allclose(obs[7:10], np.cross(h, b) / (h0 * 5e-5), rtol=1e-6,
+                                   atol=1e-7)
+        np.testing.assert_allclose(env.task.decode(obs[:10])["dump_B"], np.cross(h, b),
+                                   rtol=1e-6, atol=1e-13)
+
+
 def test_v1_episodes_are_v0_episodes_under_the_same_plant_action():
     """Same seed: the same start and observation; stepping v0 with the action v1 makes for
     the plant gives v1's episode exactly (observation, reward, info)."""
     new, old = _make(V1).unwrapped, _make(V0).unwrapped
     o1, i1 = new.reset(seed=11)
     o0, i0 = old.reset(seed=11)
-    np.testing.assert_array_equal(o1, o0)
+    np.testing.assert_array_equal(_v0_part(o1), o0)
     assert i1["wheel_momentum_Nms"] == i0["wheel_momentum_Nms"]
     rng = np.random.default_rng(0)
     for _ in range(20):
@@ -122,7 +148,7 @@ def test_v1_episodes_are_v0_episodes_under_the_same_plant_action():
         plant_action = new.task.command(new._st, a, rbenv.core.backend.FLOAT)
         r1 = new.step(a)
         r0 = old.step(plant_action)
-        np.testing.assert_array_equal(r1[0], r0[0])
+        np.testing.assert_array_equal(_v0_part(r1[0]), r0[0])
         assert r1[1] == r0[1] and r1[4]["wheel_momentum_Nms"] == r0[4]["wheel_momentum_Nms"]
 
 
@@ -157,6 +183,7 @@ def test_vector_env_equals_single_env():
     obs, _ = envs.reset(seed=21)
     single = _make(V1)
     o, _ = single.reset(seed=21)
+    assert obs.shape == (3, 16)
     np.testing.assert_array_equal(obs[0], o)
     rng = np.random.default_rng(1)
     for _ in range(10):
