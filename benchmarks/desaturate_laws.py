@@ -12,7 +12,7 @@ Each law maps the stored wheel momentum h_w and the field B (read from the obser
 - ``lin c``: ``μ = clip(c · dump_B)`` (the observation's dump_B, Desaturate-v1);
 - ``bang``: ``μ = sign(h_w × B)``, every rod at its limit.
 
-Writes ``OUT/desaturate-v1-laws.json`` (default ``benchmarks/results/task_table``): success,
+Writes ``OUT/v1-laws.json`` (default ``benchmarks/results/desaturate``): success,
 settle median (s) and energy mean (J) per law, on validation episodes (seeds 5,000,000 + i by
 default; never the held-out ones).
 """
@@ -74,7 +74,7 @@ def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--episodes", type=int, default=200)
     p.add_argument("--seed", type=int, default=5_000_000)
-    p.add_argument("--out", type=Path, default=common.RESULTS / "task_table")
+    p.add_argument("--out", type=Path, default=common.RESULTS / "desaturate")
     a = p.parse_args(argv)
     env = gym.make(ENV_ID)
     rows, start = [], time.process_time()
@@ -86,7 +86,7 @@ def main(argv=None) -> dict:
                      "settle_time_median_s": r["settle_time_s"]["median"],
                      "energy_mean_J": round(r["energy"]["mean"], 1)})
         print(json.dumps(rows[-1]), flush=True)
-    out = {"benchmark": "task_table/desaturate-v1-laws",
+    out = {"benchmark": "desaturate/v1-laws",
            "command": "python -m benchmarks.desaturate_laws",
            "episodes": a.episodes, "seed": a.seed, "env_id": ENV_ID, "scene": "cubesat-6u-rw",
            "cpu_s": round(time.process_time() - start, 1),
@@ -94,7 +94,7 @@ def main(argv=None) -> dict:
     a.out.mkdir(parents=True, exist_ok=True)
     text = json.dumps({k: v for k, v in out.items() if k != "rows"})[:-1]  # a row a line
     text += ', "rows": [\n' + ",\n".join(json.dumps(r) for r in rows) + "\n]}\n"
-    (a.out / "desaturate-v1-laws.json").write_text(text)
+    (a.out / "v1-laws.json").write_text(text)
     return out
 
 

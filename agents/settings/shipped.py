@@ -59,7 +59,7 @@ DESATURATE_BASELINES = {"unload": f"{_CONTROLLERS}:Unload", "pd": f"{_CONTROLLER
 # settled in 925-1050 s at 942-1099 J, since a tail of long episodes spends the wheels'
 # standby power. The effort weight 0.2 (the env's 0.05) at 2 M steps is the closest faster
 # one: 100 %, 1010 s, 975 J (docs/results.md, "Every shipped task against its scripted
-# baseline"; benchmarks/results/task_table/desaturate-v1-validation.json).
+# baseline"; benchmarks/results/desaturate/v1-validation.json).
 DESATURATE_V1_PPO = {"n_timesteps": 2_000_000,
                      "env_kwargs": {"reward_weights": {"effort": 0.2}}}
 
