@@ -84,7 +84,8 @@ from benchmarks import common
 
 # The ids this benchmark trains by default; the Reorient ids' rows come from reorient.json.
 OWN_IDS = ("rbenv/SatelliteDetumble-v0", "rbenv/SatelliteDetumble-v1", "rbenv/SatelliteTrack-v0",
-           "rbenv/SatelliteTrack-v1", "rbenv/SatelliteDesaturate-v0")
+           "rbenv/SatelliteTrack-v1", "rbenv/SatelliteDesaturate-v0",
+           "rbenv/SatelliteDesaturate-v1")
 SETTLE = "settle_time_median_s"
 PROPELLANT, ENERGY = "propellant_mean_g", "energy_mean_J"
 FIGURES = ("success_rate", "time", "cost", "final_error_deg")  # of a policy on the episodes

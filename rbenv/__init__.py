@@ -10,7 +10,7 @@ vector env (its ``vector_entry_point``)::
     env = gym.make("rbenv/SatelliteReorient-v2", scene="cubesat-12u")
     envs = gym.make_vec("rbenv/SatelliteDetumble-v1", num_envs=1024)
     env = gym.make("rbenv/SatelliteTrack-v1", randomize={"inertia_scale": 0.2})
-    env = gym.make("rbenv/SatelliteDesaturate-v0")  # a wheel scene: cubesat-6u-rw
+    env = gym.make("rbenv/SatelliteDesaturate-v1")  # a wheel and rod scene: cubesat-6u-rw
 
 The v0 ids of reorient, detumble and track stay registered (their episodes are v1's; their
 observation and reward are the first release's), and Gymnasium calls them out of date.
@@ -67,6 +67,8 @@ registry.register(track.SPEC_V1, env=_env.SatelliteTrackV1Env,
                   vector_env=_vector_env.SatelliteTrackV1VectorEnv)
 registry.register(reorient.SPEC_V2, env=_env.SatelliteReorientV2Env,
                   vector_env=_vector_env.SatelliteReorientV2VectorEnv)
+registry.register(desaturate.SPEC_V1, env=_env.SatelliteDesaturateV1Env,
+                  vector_env=_vector_env.SatelliteDesaturateV1VectorEnv)
 # The goal-conditioned form of Reorient-v1: its own id, not a task of its own (no vector or
 # torch shell; registry.specs() and ENV_IDS leave it out).
 registry.register(goal.SPEC, env=goal.GoalReorientEnv)
@@ -99,12 +101,14 @@ __all__ = [
 ]
 
 # The current version of each task (v1: v0's episodes, a new observation and reward; Reorient
-# v2: v1's with a reward that prices time and propellant); the older ids stay registered, and
+# v2: v1's with a reward that prices time and propellant; Desaturate v1: v0's episodes, the
+# policy commanding the rods with the wheels' attitude hold in the loop); the older ids stay
+# registered (Desaturate-v0 for scenes without rods, cubesat-12u-rw's thrusters), and
 # Gymnasium calls them out of date.
 ENV_ID = reorient.SPEC_V2.env_id
 DETUMBLE_ID = detumble.SPEC_V1.env_id
 TRACK_ID = track.SPEC_V1.env_id
-DESATURATE_ID = desaturate.SPEC.env_id
+DESATURATE_ID = desaturate.SPEC_V1.env_id
 MAX_EPISODE_STEPS = registry.MAX_EPISODE_STEPS
 # id -> (single env class name, vector env class name), for every registered task.
 ENV_IDS = {s.env_id: (s.class_stem + "Env", s.class_stem + "VectorEnv")

@@ -443,7 +443,10 @@ class WheelHoldPD(QuaternionPD):
         single = obs.ndim == 1
         obs = obs.reshape(-1, obs.shape[-1])
         tau, new_state = self.hold_torque(obs, state, episode_start)
-        action = self._act(tau)
+        # A task with the wheel loop inside (Desaturate-v1) holds the attitude itself and
+        # does not read the wheel entries: zero there, the env's own hold acts.
+        action = np.zeros((len(obs), self.plant.action_shape[0]), np.float32) \
+            if self.task.inner_loop else self._act(tau)
         return (action[0], new_state[0]) if single else (action, new_state)
 
 
@@ -501,9 +504,10 @@ class Unload(WheelHoldPD):
             throttle = self.allocate(demand).astype(np.float32)
             tau_ext = throttle.astype(float) @ plant.scene.thrusters.torque_matrix_B.T
             out[:, plant.action_slices[plant.actuators.index(thr)]] = throttle
-        wheel_action = self._act(tau - tau_ext)
-        idx = plant.action_slices[plant.actuators.index(self.wheels)]
-        out[:, idx] = wheel_action[:, idx]
+        if not self.task.inner_loop:  # else the env's hold (the same law) drives the wheels
+            wheel_action = self._act(tau - tau_ext)
+            idx = plant.action_slices[plant.actuators.index(self.wheels)]
+            out[:, idx] = wheel_action[:, idx]
         return (out[0], new_state[0]) if single else (out, new_state)
 
 

@@ -169,3 +169,8 @@ class SatelliteTrackV1Env(AttitudeEnv):
 class SatelliteReorientV2Env(AttitudeEnv):
     __doc__ = reorient.SPEC_V2.env_doc
     task_spec = reorient.SPEC_V2
+
+
+class SatelliteDesaturateV1Env(AttitudeEnv):
+    __doc__ = desaturate.SPEC_V1.env_doc
+    task_spec = desaturate.SPEC_V1

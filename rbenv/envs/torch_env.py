@@ -135,7 +135,7 @@ def _refuse(option: str, value, rule: str):
 def check_supported(plant, task, render_mode, compiled) -> None:
     """Raise, naming the option and value, for what the torch backend cannot run yet."""
     sc = plant.scene
-    if task.name == "desaturate":
+    if task.table_name() == "desaturate":  # v0 and v1
         _refuse("task", task.name, "its wheel-load start is drawn with NumPy row operations")
     integrator = sc.physics.integrator
     if integrator in IMPLICIT:

@@ -69,6 +69,8 @@ def step(plant: Plant, task, st, action: np.ndarray, noise: StepNoise, xp,
     (it draws nothing and changes no state).
     """
     new = st if donate else st.copy()
+    if task.inner_loop:  # the task's inner loop makes the plant's action (Desaturate-v1)
+        action = task.command(new, action, xp)
     contribution = plant.actuate(new, action, noise, xp, in_place=own_action)
     diverged = plant.advance(new, contribution, noise.disturbance, xp)
     if diverged if type(diverged) is bool else xp.any(diverged):  # the adapter raises

@@ -320,6 +320,11 @@ class SatelliteReorientV2VectorEnv(AttitudeVectorEnv):
     task_spec = reorient.SPEC_V2
 
 
+class SatelliteDesaturateV1VectorEnv(AttitudeVectorEnv):
+    __doc__ = vector_doc(desaturate.SPEC_V1)
+    task_spec = desaturate.SPEC_V1
+
+
 
 
 def _array_ids(st) -> set:

@@ -118,6 +118,9 @@ class Task:
     start_slots: ClassVar[int] = 32  # slots of stream "task" that sample_start draws (a hint)
     WeightsType: ClassVar[type] = Weights
     scene_table: ClassVar[str | None] = None  # the scene's [tasks.<x>] table read (None: name)
+    # True: the task closes an inner loop: :meth:`command` turns the policy's action into the
+    # plant's every step (Desaturate-v1's wheel attitude hold); scripted baselines read it.
+    inner_loop: ClassVar[bool] = False
 
     plant: object  # rbenv.satellite.plant.Plant
 
@@ -203,6 +206,11 @@ class Task:
 
     def info(self, st, xp) -> dict:
         """The task's info values (units in the key names)."""
+        raise NotImplementedError
+
+    def command(self, st, action, xp):
+        """The plant's action for the policy's ``action`` at state ``st`` (only tasks with
+        ``inner_loop``; a new array, ``action`` unchanged)."""
         raise NotImplementedError
 
     def advance_target(self, st) -> None:

@@ -29,6 +29,7 @@ from rbenv.core import kernels as k
 from rbenv.core import validation
 from rbenv.core.backend import FLOAT
 from rbenv.core.errors import InvalidParameterError
+from rbenv.satellite.actuators.magnetorquers import FIELD_SCALE_T
 from rbenv.tasks.base import (
     Weights,
     conj,
@@ -156,16 +157,151 @@ class Desaturate(Reorient):
         st.angle, st.momentum = angle, momentum
         return terms, st.hold >= self.hold_steps, failure
 
+@dataclass(frozen=True, eq=False)
+class DesaturateV1(Desaturate):
+    """Desaturate with the wheels' attitude hold in the loop: the policy commands the rods.
+
+    v0's starts, reward, success and failure, episode for episode; the action's meaning
+    changes, and the observation adds ``dump_B`` (:meth:`observe`). Every control step,
+    before the actuators, :meth:`command` replaces the wheel entries of the action by the
+    inner loop's motor torques (the law of ``WheelHoldPD`` with the rods' torque fed forward,
+    as the ``unload`` baseline commands them) and keeps the rod entries, the dipole
+    fractions the policy chose. Attitude hold stays the classical inner loop; the policy is
+    the momentum-management law.
+
+    The inner loop, from the true state of the step's start (body axes, SI):
+    ``τ = −I c (ω − ω_c) + ω × (I ω + h_w) − m × B`` with ``ω_c = −(k/c) q_v`` capped at
+    ``hold_max_rate``, ``k = 2 ω_n²``, ``c = 2 ω_n`` (ζ = 1), ``ω_n = min(0.3, 0.2/dt)`` rad/s,
+    h_w = G J Ω the wheels' stored momentum, m the rods' commanded dipole (nominal axes and
+    strengths) and B the field now; the motor torques ``u = −G⁺ τ``, scaled down as a whole
+    where one exceeds its limit. q_v is the vector part of the canonical error quaternion
+    (w ≥ 0): the episode fails above ``max_error_deg`` (< 180°), so no sign hysteresis is
+    needed.
+    """
+
+    name: ClassVar[str] = "desaturate_v1"
+    scene_table: ClassVar[str] = "desaturate"
+    inner_loop: ClassVar[bool] = True  # command() closes the wheel loop
+    observation_structure: ClassVar[dict] = {"q_err": 4, "omega_B": 3, "dump_B": 3}
+
+    hold_stiffness: float = 0.0  # k, 1/s²
+    hold_damping: float = 0.0  # c, 1/s
+    hold_max_rate: float = 0.0  # rad/s, the cap on the commanded rate ω_c
+    inertia_rows: tuple = ()  # the body's nominal inertia, 3 rows of 3 floats, kg·m²
+    wheel_pinv_rows: tuple = ()  # G⁺, n rows of 3 floats (1/1: body torque → motor torques)
+    wheel_max_torque: tuple = ()  # n floats, N·m
+    wheel_columns: tuple = ()  # the wheel entries' indices in the action
+    rod_dipoles: tuple = ()  # rows μ_max,i ĝ_i (A·m², body axes), one per rod
+    rod_columns: tuple = ()  # the rod entries' indices in the action
+
+    def observation_scale(self) -> dict:
+        return {**super().observation_scale(), "dump_B": self.momentum_scale * FIELD_SCALE_T}
+
+    def observe(self, st, q, w, xp) -> tuple:
+        """v0's (q_err 4, ω_B/L 3), then ``dump_B`` (3): ``(h_w × B)/(h_0 · 50 µT)`` clipped
+        to [-1, 1], h_w the wheels' stored momentum and B the field (true values, as the inner
+        loop's): the direction of the cross-product law's dipole, ``m ∝ h_w × B``, whose
+        torque ``m × B`` takes momentum out of the wheels."""
+        h = (0.0, 0.0, 0.0)
+        for i, s in enumerate(st.wheel_speed):
+            h = k.add(h, self.axes[i], self.spin[i] * s)
+        d = k.scale(k.cross(h, st.field_B_T), 1.0 / (self.momentum_scale * FIELD_SCALE_T))
+        clip = xp.clip
+        return (*super().observe(st, q, w, xp), clip(d[0], -1.0, 1.0), clip(d[1], -1.0, 1.0),
+                clip(d[2], -1.0, 1.0))
+
+    def hold_torque_B(self, st, xp) -> tuple:
+        """The inner loop's body-torque demand before the feedforward, N·m (3 components):
+        ``−I c (ω − ω_c) + ω × (I ω + h_w)``."""
+        w = st.omega_B
+        e = st.q_err
+        gain = self.hold_stiffness / self.hold_damping
+        wc = (-gain * e[1], -gain * e[2], -gain * e[3])
+        speed = xp.sqrt(k.dot(wc, wc))
+        cap = xp.minimum(1.0, self.hold_max_rate / xp.maximum(speed, 1e-300))
+        dw = k.sub(w, k.scale(wc, cap))
+        i_rows = self.inertia_rows
+        i_dw = tuple([k.dot(row, dw) for row in i_rows])
+        h = tuple([k.dot(row, w) for row in i_rows])
+        for i, s in enumerate(st.wheel_speed):
+            h = k.add(h, self.axes[i], self.spin[i] * s)
+        return k.add(k.scale(i_dw, -self.hold_damping), k.cross(w, h))
+
+    def command(self, st, action, xp):
+        """The plant's action for the policy's ``action`` ((n,) or (N, n), v0's layout): the
+        rod entries as given, the wheel entries the inner loop's torques over their limits
+        (a copy; the policy's wheel entries are not read)."""
+        a = action.clone() if hasattr(action, "clone") else np.array(action, dtype=np.float64)
+        clip = xp.clip
+        rods = [clip(a[..., j], -1.0, 1.0) for j in self.rod_columns]
+        if xp is FLOAT:
+            rods = [float(r) for r in rods]
+        m_B = k.scale(self.rod_dipoles[0], rods[0])
+        for dipole, r in zip(self.rod_dipoles[1:], rods[1:], strict=True):
+            m_B = k.add(m_B, dipole, r)
+        tau = k.sub(self.hold_torque_B(st, xp), k.cross(m_B, st.field_B_T))
+        u = [-k.dot(row, tau) for row in self.wheel_pinv_rows]
+        ratio = abs(u[0]) / self.wheel_max_torque[0]
+        for ui, u_max in zip(u[1:], self.wheel_max_torque[1:], strict=True):
+            ratio = xp.maximum(ratio, abs(ui) / u_max)
+        scale = 1.0 / xp.maximum(ratio, 1.0)
+        for j, ui, u_max in zip(self.wheel_columns, u, self.wheel_max_torque, strict=True):
+            a[..., j] = ui * scale / u_max
+        return a
+
+
 def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                     max_initial_rate=None, task_options=None) -> Desaturate:
     """The desaturation task on ``plant`` (options: scene ``[tasks.desaturate]``, then
     ``task_options``); a scene without wheels is refused by name."""
-    opts = option_table(plant.scene, Desaturate, task_options)
+    return _make(Desaturate, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options, {})
+
+
+def make_desaturate_v1(plant, reward_weights=None, max_initial_angle_deg=None,
+                       max_initial_rate=None, task_options=None) -> DesaturateV1:
+    """The v1 desaturation task (options as :func:`make_desaturate`); it needs the rods
+    (``[magnetorquers]``) and the throttle action mode (the inner loop commands torques)."""
+    _check_wheels(plant)
+    rods = plant.actuator("magnetorquers")
+    if rods is None:
+        raise InvalidParameterError(
+            f"rbenv/SatelliteDesaturate-v1 commands magnetorquers, but scene "
+            f"{plant.scene.name!r} has no [magnetorquers] table; use cubesat-6u-rw")
+    if plant.action_mode != "throttle":
+        raise InvalidParameterError(
+            f"action_mode must be 'throttle' for rbenv/SatelliteDesaturate-v1 (its inner loop "
+            f"commands the wheels' motor torques), got {plant.action_mode!r}")
     wheels = plant.actuator("wheels")
-    if wheels is None:
+    nat = min(0.3, 0.2 / plant.control_dt)  # rad/s: damping per step c·dt = 0.4 (ζ = 1)
+    inertia = plant.scene.body.inertia
+
+    def columns(act):
+        s = plant.action_slices[plant.actuators.index(act)]
+        return tuple(range(s.start, s.stop))
+
+    extra = {"hold_stiffness": 2.0 * nat * nat, "hold_damping": 2.0 * nat,
+             "hold_max_rate": 0.1 * plant.scene.episode.rate_limit,
+             "inertia_rows": tuple(tuple(float(c) for c in row) for row in inertia),
+             "wheel_pinv_rows": wheels.pinv_rows, "wheel_max_torque": wheels.max_torque,
+             "wheel_columns": columns(wheels), "rod_dipoles": rods.dipoles,
+             "rod_columns": columns(rods)}
+    return _make(DesaturateV1, plant, reward_weights, max_initial_angle_deg, max_initial_rate,
+                 task_options, extra)
+
+
+def _check_wheels(plant) -> None:
+    if plant.actuator("wheels") is None:
         raise InvalidParameterError(
             f"task 'desaturate' unloads reaction wheels, but scene {plant.scene.name!r} has "
             "no [wheels] table; use a scene with wheels (cubesat-6u-rw, cubesat-12u-rw)")
+
+
+def _make(cls, plant, reward_weights, max_initial_angle_deg, max_initial_rate, task_options,
+          extra: dict) -> Desaturate:
+    opts = option_table(plant.scene, cls, task_options)
+    _check_wheels(plant)
+    wheels = plant.actuator("wheels")
     ws = wheels.wheels
     frac = validation.number("tasks.desaturate.initial_speed_fraction",
                              opts["initial_speed_fraction"], low=0.0, high=1.0)
@@ -180,14 +316,14 @@ def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                              opts["max_initial_rate_fraction"], low=0.0, high=1.0,
                              high_open=True)
     h_wheel = float(np.min(ws.inertia * ws.max_speed))  # one wheel's largest momentum
-    task = Desaturate(plant=plant, weights=DesaturateWeights.from_mapping(reward_weights),
+    task = cls(plant=plant, weights=DesaturateWeights.from_mapping(reward_weights),
                       initial_speed_fraction=frac, momentum_threshold=thr * h_wheel,
                       momentum_scale=max(frac, thr) * h_wheel, max_error=math.radians(fail),
                       max_initial_angle=math.radians(deg),
                       max_initial_rate=rate * plant.scene.episode.rate_limit,
                       axes_B=ws.axes_B, spin_inertia=ws.inertia, max_speed=ws.max_speed,
                       axes=tuple(tuple(float(c) for c in g) for g in ws.axes_B),
-                      spin=tuple(float(j) for j in ws.inertia))
+                      spin=tuple(float(j) for j in ws.inertia), **extra)
     if task.success_angle >= task.max_error:
         raise InvalidParameterError(
             f"tasks.desaturate.max_error_deg must exceed the success angle "
@@ -239,3 +375,42 @@ ENV_DOC = """Hold a satellite's attitude while unloading its reaction wheels' mo
 SPEC = TaskSpec(env_id="rbenv/SatelliteDesaturate-v0", task=Desaturate, make=make_desaturate,
                 max_episode_steps=300, env_doc=ENV_DOC, default_scene="cubesat-6u-rw",
                 needs=("wheels",))
+
+ENV_DOC_V1 = """Hold a satellite's attitude while its policy unloads the wheels with the rods.
+
+    Made by ``gym.make("rbenv/SatelliteDesaturate-v1", **kwargs)``; arguments, reward,
+    episode end, info and reset options as ``rbenv/SatelliteDesaturate-v0``
+    (:class:`SatelliteDesaturateEnv`), and the same episodes for the same seed. The scene
+    (default ``"cubesat-6u-rw"``) must have ``[wheels]`` and ``[magnetorquers]``;
+    ``action_mode`` must be ``"throttle"``. ``task_options`` as v0's: ``initial_speed_fraction``,
+    ``momentum_threshold_fraction``, ``max_error_deg``, ``max_initial_angle_deg`` and
+    ``max_initial_rate_fraction``.
+
+    **Action** ``Box(-1, 1, (n_wheels + n_rods,), float32)``, v0's layout: the rod entries
+    are the dipole fractions the policy commands (clipped to [-1, 1]). The wheel entries are
+    not read: the wheels are driven by the classical inner loop that holds the attitude, the
+    ``WheelHoldPD`` law with the rods' torque fed forward (:class:`DesaturateV1`):
+    ``τ = −I c (ω − ω_c) + ω × (I ω + h_w) − m × B``, ``ω_c = −(k/c) q_v`` capped at 0.1 of
+    the rate limit, ``k = 2 ω_n²``, ``c = 2 ω_n``, ``ω_n = min(0.3, 0.2/dt)`` rad/s; motor
+    torques ``u = −G⁺ τ``, scaled down as a whole at a wheel's limit. A zero action holds the
+    attitude and unloads nothing; the ``unload`` baseline's rod law unloads.
+
+    **Observation** ``Box(-1, 1, (16,), float32)`` on cubesat-6u-rw: v0's ``q_err`` 4 and
+    ``omega_B`` 3, then ``dump_B`` 3, ``(h_w × B)/(h_0 · 50 µT)`` clipped (h_w the wheels'
+    stored momentum, B the field, both true values as the inner loop's; h_0 the start's
+    momentum): the direction of the cross-product law's dipole, the product a network would
+    otherwise have to learn; then the actuators' ``wheel_speed`` and ``field_B`` as v0.
+
+    **Version History**
+
+    * v1: the policy commands the magnetorquers and the wheels hold the attitude in the
+      loop; the observation adds ``dump_B``. On v0 the policy drives the wheels too, and one
+      wheel at full torque for a 10 s step turns cubesat-6u-rw's bus by three times the rate
+      limit: PPO lost the attitude on every episode (0 % on 3 seeds, docs/results.md).
+      Physics, starts, reward, success and failure are v0's, episode for episode.
+    * v0: see ``rbenv/SatelliteDesaturate-v0``.
+    """
+
+SPEC_V1 = TaskSpec(env_id="rbenv/SatelliteDesaturate-v1", task=DesaturateV1,
+                   make=make_desaturate_v1, max_episode_steps=300, env_doc=ENV_DOC_V1,
+                   default_scene="cubesat-6u-rw", needs=("wheels", "magnetorquers"))

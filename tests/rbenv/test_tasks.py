@@ -251,6 +251,7 @@ RELEASED_TERMS = {
     "ReorientV1": ("error", "rate", "fuel", "progress", "success", "failure"),
     "ReorientV2": ("error", "rate", "fuel", "progress", "success", "failure", "time"),
     "Desaturate": ("attitude", "momentum", "progress", "effort", "hold", "failure"),
+    "DesaturateV1": ("attitude", "momentum", "progress", "effort", "hold", "failure"),
     "Track": ("attitude", "rate", "fuel", "progress", "on_target", "failure"),
     "TrackV1": ("error", "rate", "fuel", "progress", "success", "failure"),
 }

@@ -239,6 +239,10 @@ def test_both_checkers_pass_on_the_wheel_scene_for_every_task(env_id, mode):
 
     sb3 = pytest.importorskip("stable_baselines3.common.env_checker",
                               reason="stable-baselines3 is not installed (train extra)")
+    if rbenv.envs.registry.get(env_id).task.inner_loop and mode != "throttle":
+        with pytest.raises(InvalidParameterError, match="action_mode must be 'throttle'"):
+            gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode)  # its loop: torques
+        return
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         check_env(gym.make(env_id, scene="cubesat-6u-rw", action_mode=mode,
