@@ -166,20 +166,29 @@ def test_the_object_holds_no_mutable_global_and_calls_only_libm(algo, runs, tmp_
 @pytest.mark.slow
 def test_footprint_counts_the_networks_arithmetic(runs, tmp_path):
     """Multiply-adds and bytes from the weights themselves: sum of n_in n_out over the dense
-    layers, plus one per observation entry for the normalisation."""
-    done = ex.export(runs["ppo"], "c", tmp_path)
+    layers, plus one per observation entry for the normalisation; the head's constants and
+    libm calls as the policy acts: the run's own action (the main job's recipe: its mode, a
+    clip) and its mean throttle (std and bounds, erfcf and expf per action)."""
+    from rbenv.agents.policies.sb3 import SB3Policy
+
     params = torch.load(runs["ppo"] / "policy.pt", weights_only=True)["params"]["policy"]
     dense = [params[k] for k in params if k.endswith(".weight")
              and (k.startswith("mlp_extractor.policy_net") or k.startswith("action_net"))]
     n_obs, n_act = dense[0].shape[1], dense[-1].shape[0]
     macs = sum(w.shape[0] * w.shape[1] for w in dense) + n_obs
-    consts = sum(w.numel() + w.shape[0] for w in dense) + 2 * n_obs + 4 * n_act
-    fp = done.footprint
-    assert fp["multiply_adds"] == macs
-    assert fp["weight_bytes"] == 4 * consts
     hidden = sum(w.shape[0] for w in dense[:-1])
-    assert fp["transcendental_calls"] == {"tanhf": hidden, "erfcf": 3 * n_act, "expf": 2 * n_act}
-    assert json.loads((tmp_path / "footprint.json").read_text()) == fp
+    for source, head, per_action, calls in (
+            (runs["ppo"], "clip", 2, {"tanhf": hidden}),
+            (SB3Policy(runs["ppo"], action="mean_throttle"), "mean_throttle", 4,
+             {"tanhf": hidden, "erfcf": 3 * n_act, "expf": 2 * n_act})):
+        out = tmp_path / head
+        fp = ex.export(source, "c", out).footprint
+        consts = sum(w.numel() + w.shape[0] for w in dense) + 2 * n_obs + per_action * n_act
+        assert fp["head"] == head
+        assert fp["multiply_adds"] == macs
+        assert fp["weight_bytes"] == 4 * consts
+        assert fp["transcendental_calls"] == calls
+        assert json.loads((out / "footprint.json").read_text()) == fp
 
 
 @pytest.mark.slow
