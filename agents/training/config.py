@@ -25,6 +25,7 @@ from rbenv.agents.policies.runfolder import RunFolderError
 from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.agents.settings import tuned
 from rbenv.agents.settings.table import RUN
+from rbenv.core import validation
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
@@ -136,12 +137,9 @@ class RunConfig:
         baselines = task_entry(self.env_id).baselines  # a named error for an unknown id
         if self.threads is None:
             self.threads = 1
-        if self.policy_action is None:
-            self.policy_action = "auto"
-        if self.policy_action not in get_args(PolicyAction):
-            raise InvalidParameterError(
-                f"policy_action must be one of {', '.join(get_args(PolicyAction))}, got "
-                f"{self.policy_action!r}")
+        self.policy_action = validation.choice(
+            "policy_action", "auto" if self.policy_action is None else self.policy_action,
+            get_args(PolicyAction))
         self.eval_every = GENERIC_EVAL_EVERY if self.eval_every is None else self.eval_every
         self.eval_episodes = GENERIC_EVAL_EPISODES if self.eval_episodes is None \
             else self.eval_episodes

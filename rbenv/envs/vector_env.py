@@ -325,8 +325,6 @@ class SatelliteDesaturateV1VectorEnv(AttitudeVectorEnv):
     task_spec = desaturate.SPEC_V1
 
 
-
-
 def _array_ids(st) -> set:
     """The ids of the arrays that ``st`` holds (fields, and the components of vector fields)."""
     ids = set()

@@ -92,12 +92,18 @@ class Desaturate(Reorient):
 
     # ------------------------------------------------------------------- momentum
 
-    def stored_momentum(self, wheel_speed: tuple, xp):
-        """``|G (J ⊙ Ω)|``, N·m·s: wheel_speed one component per wheel, rad/s (floats for
-        one satellite, (N,) arrays for N; the wheels' state kind ``cn``)."""
-        h = (0.0, 0.0, 0.0)
+    def wheel_momentum_B(self, wheel_speed: tuple, start: tuple = (0.0, 0.0, 0.0)) -> tuple:
+        """``start + G (J ⊙ Ω)``, N·m·s, body axes (3 components): the wheels' stored momentum
+        added to ``start`` wheel by wheel; wheel_speed one component per wheel, rad/s (floats
+        for one satellite, (N,) arrays for N; the wheels' state kind ``cn``)."""
+        h = start
         for i, s in enumerate(wheel_speed):
             h = k.add(h, self.axes[i], self.spin[i] * s)
+        return h
+
+    def stored_momentum(self, wheel_speed: tuple, xp):
+        """``|G (J ⊙ Ω)|``, N·m·s (:meth:`wheel_momentum_B`'s norm)."""
+        h = self.wheel_momentum_B(wheel_speed)
         return xp.sqrt(k.dot(h, h))
 
     # ------------------------------------------------------------------- episode start
@@ -202,9 +208,7 @@ class DesaturateV1(Desaturate):
         to [-1, 1], h_w the wheels' stored momentum and B the field (true values, as the inner
         loop's): the direction of the cross-product law's dipole, ``m ∝ h_w × B``, whose
         torque ``m × B`` takes momentum out of the wheels."""
-        h = (0.0, 0.0, 0.0)
-        for i, s in enumerate(st.wheel_speed):
-            h = k.add(h, self.axes[i], self.spin[i] * s)
+        h = self.wheel_momentum_B(st.wheel_speed)
         d = k.scale(k.cross(h, st.field_B_T), 1.0 / (self.momentum_scale * FIELD_SCALE_T))
         clip = xp.clip
         return (*super().observe(st, q, w, xp), clip(d[0], -1.0, 1.0), clip(d[1], -1.0, 1.0),
@@ -222,16 +226,14 @@ class DesaturateV1(Desaturate):
         dw = k.sub(w, k.scale(wc, cap))
         i_rows = self.inertia_rows
         i_dw = tuple([k.dot(row, dw) for row in i_rows])
-        h = tuple([k.dot(row, w) for row in i_rows])
-        for i, s in enumerate(st.wheel_speed):
-            h = k.add(h, self.axes[i], self.spin[i] * s)
+        h = self.wheel_momentum_B(st.wheel_speed, tuple([k.dot(row, w) for row in i_rows]))
         return k.add(k.scale(i_dw, -self.hold_damping), k.cross(w, h))
 
     def command(self, st, action, xp):
         """The plant's action for the policy's ``action`` ((n,) or (N, n), v0's layout): the
         rod entries as given, the wheel entries the inner loop's torques over their limits
         (a copy; the policy's wheel entries are not read)."""
-        a = action.clone() if hasattr(action, "clone") else np.array(action, dtype=np.float64)
+        a = np.array(action, dtype=np.float64)  # NumPy alone: the torch backend refuses v1
         clip = xp.clip
         rods = [clip(a[..., j], -1.0, 1.0) for j in self.rod_columns]
         if xp is FLOAT:
