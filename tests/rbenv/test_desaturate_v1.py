@@ -15,15 +15,10 @@ from rbenv.agents.baselines.controllers import Unload, WheelHoldPD, applicable_b
 from rbenv.core.errors import InvalidParameterError
 
 import rbenv
+from tests.rbenv.quiet import make as _make
 
 V1, V0 = "rbenv/SatelliteDesaturate-v1", "rbenv/SatelliteDesaturate-v0"
 SCENE = "cubesat-6u-rw"
-
-
-def _make(env_id, **kwargs):
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
-        return gym.make(env_id, **kwargs)
 
 
 def test_v1_is_registered_with_its_own_classes_and_history():

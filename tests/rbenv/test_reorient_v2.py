@@ -13,15 +13,10 @@ from rbenv.agents.baselines.controllers import QuaternionPD
 
 import rbenv
 from rbenv.tasks.reorient import ReorientV2Weights
+from tests.rbenv.quiet import make as _make
 
 V2, V1 = "rbenv/SatelliteReorient-v2", "rbenv/SatelliteReorient-v1"
 G0 = 9.80665
-
-
-def _make(env_id, **kwargs):
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
-        return gym.make(env_id, **kwargs)
 
 
 def test_v2_is_registered_with_its_own_classes_and_history():
