@@ -233,7 +233,8 @@ class DesaturateV1(Desaturate):
         """The plant's action for the policy's ``action`` ((n,) or (N, n), v0's layout): the
         rod entries as given, the wheel entries the inner loop's torques over their limits
         (a copy; the policy's wheel entries are not read)."""
-        a = np.array(action, dtype=np.float64)  # NumPy alone: the torch backend refuses v1
+        # torch tensors too: the torch env refuses v1, but transition.step runs on tensors
+        a = action.clone() if hasattr(action, "clone") else np.array(action, dtype=np.float64)
         clip = xp.clip
         rods = [clip(a[..., j], -1.0, 1.0) for j in self.rod_columns]
         if xp is FLOAT:
