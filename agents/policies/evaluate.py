@@ -35,6 +35,7 @@ ANY_TASK = ("zero", "random")  # scripted policies of every task, beside each id
 SENSED_ERROR = "sensed_attitude_error_deg"  # info key of scenes with sensors as flown
 ESTIMATED_ERROR = "estimated_attitude_error_deg"  # info key of scenes with an [estimator]
 SENSED_NOTE = "success is judged on the true state, while the policy sees the sensed one"
+GYRO_SEEN = "attitude integrated from the gyro"
 
 
 def _baselines(env_id: str) -> tuple[str, ...]:
@@ -254,7 +255,7 @@ def sensed_observation(plant) -> str | None:
     seen = []
     sensors = plant.sensors  # None unless [sensors] is on
     if sensors is not None and sensors.attitude == "gyro":
-        seen.append("attitude integrated from the gyro")
+        seen.append(GYRO_SEEN)
     if plant.scene.sensors.attitude == "estimator":  # plant.sensors is None then
         seen.append("the attitude and rate the MEKF estimates")
     if sensors is not None and sensors.delay_steps:
@@ -348,7 +349,8 @@ def format_table(results: list[EvalResult]) -> str:
             + (f" {fmt(s['final_error_deg'].get('sensed_median'), '.3g')} |" if sensed else ""))
     lines += _optimality_notes(results)
     seen = dict.fromkeys((r.scene, r.observation) for r in results if r.observation)
-    lines += [f"\nNote: {SENSED_NOTE} (scene {scene!r}: {what}; no estimator yet)."
+    lines += [f"\nNote: {SENSED_NOTE} (scene {scene!r}: {what}"
+              + ("; no [estimator] corrects it" if GYRO_SEEN in what else "") + ")."
               for scene, what in seen]
     return "\n".join(lines)
 

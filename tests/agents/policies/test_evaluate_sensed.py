@@ -62,6 +62,19 @@ def test_sensor_noise_is_named_and_the_plain_scene_summary_is_unchanged():
     assert "Note" not in format_table([plain]) and "sensed" not in format_table([plain])
 
 
+def test_the_note_names_what_corrects_the_attitude():
+    """A gyro-integrated attitude is uncorrected; an estimator scene's note names the MEKF and
+    says nothing of a missing estimator."""
+    star = evaluate("pd", episodes=2, scene=str(ROOT / "docs/estimation/cubesat-12u-star.toml"))
+    note = format_table([star]).splitlines()[-1]
+    assert star.observation == "the attitude and rate the MEKF estimates"
+    assert note.startswith(f"Note: {SENSED_NOTE}") and "estimator" not in note.split(":", 2)[2]
+    gyro = evaluate("innocube-slew", episodes=2, scene="innocube-3u", env_kwargs=LIFTED)
+    note = format_table([gyro]).splitlines()[-1]
+    assert "attitude integrated from the gyro" in note
+    assert note.endswith("; no [estimator] corrects it).")
+
+
 @pytest.mark.slow
 def test_one_note_for_a_report_of_several_policies():
     kwargs = {"episodes": 2, "scene": "innocube-3u", "env_kwargs": LIFTED}
