@@ -5,7 +5,7 @@
 Each case runs seeded episodes with fixed random actions through ``gym.make`` (single env) or
 ``gym.make_vec`` (native vector env, N = 1, 7 and 40 000) and hashes, step by step, the raw
 bytes of every observation, reward, termination and truncation flag and every info value
-(keys sorted). The cases cover every shipped id (v0 and v1), scene, action mode, allocator and
+(keys sorted). The cases cover every shipped id (v0, v1 and v2), scene, action mode, allocator and
 integrator, with and without the compiled kernels, in all three autoreset modes, and the torch
 vector env (CPU, float64) in its two. A case that raises (a task on a scene it cannot run on)
 digests its error message. The probe runs in a fresh
@@ -36,7 +36,8 @@ QUICK = sys.argv[1] == "1"
 IDS = {"reorient": "rbenv/SatelliteReorient-v0", "detumble": "rbenv/SatelliteDetumble-v0",
        "track": "rbenv/SatelliteTrack-v0", "desaturate": "rbenv/SatelliteDesaturate-v0",
        "reorient_v1": "rbenv/SatelliteReorient-v1", "detumble_v1": "rbenv/SatelliteDetumble-v1",
-       "track_v1": "rbenv/SatelliteTrack-v1"}
+       "track_v1": "rbenv/SatelliteTrack-v1", "reorient_v2": "rbenv/SatelliteReorient-v2",
+       "desaturate_v1": "rbenv/SatelliteDesaturate-v1"}
 INTEGRATORS = ("euler_seed", "euler", "semi_implicit", "rk4", "midpoint", "splitting")
 
 
