@@ -118,15 +118,23 @@ def _bounds() -> dict:
 
 def plot(data: dict, name: str) -> None:
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(10.5, 5.0))
     learned = data["learned"]
-    for fuel in sorted({r["fuel_weight"] for r in learned}):
+    for i, fuel in enumerate(sorted({r["fuel_weight"] for r in learned})):
         rows = [r for r in learned if r["fuel_weight"] == fuel and r["settle_median_s"]]
         failed = any(r["fuel_weight"] == fuel and not r["settle_median_s"] for r in learned)
-        ax.scatter([r["fuel_mean_g"] for r in rows], [r["settle_median_s"] for r in rows],
-                   s=40, label=f"PPO, Reorient-v2 fuel weight {fuel:g}"
+        color = f"C{i}"
+        for r in rows:  # hollow where the policy settles under 99 % of the episodes
+            low = r["success_rate"] < 0.99
+            ax.scatter(r["fuel_mean_g"], r["settle_median_s"], s=40, zorder=3,
+                       facecolors="none" if low else color, edgecolors=color)
+            if low:
+                ax.annotate(f"{100 * r['success_rate']:.0f} %",
+                            (r["fuel_mean_g"], r["settle_median_s"]), fontsize=7,
+                            xytext=(4, 3), textcoords="offset points", color=color)
+        ax.scatter([], [], s=40, c=color, label=f"PPO, Reorient-v2 fuel weight {fuel:g}"
                    + (" (the main job)" if fuel == DEFAULT_FUEL else "")
-                   + (" (no episode settled: not shown)" if failed else ""), zorder=3)
+                   + (" (a seed settled no episode)" if failed else ""))
     marks = {"pd": ("s", "k"), "bangbang": ("D", "tab:red"), "mpc": ("P", "tab:purple")}
     for name_, row in data["scripted"].items():
         if row is not None:
@@ -152,7 +160,8 @@ def plot(data: dict, name: str) -> None:
     ax.set_title(f"Reorient on cubesat-12u: time against propellant ({data['episodes']} "
                  "held-out episodes)", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              title="hollow: under 99 % success", title_fontsize=7)
     save_figure(fig, name)
     plt.close(fig)
 
