@@ -116,10 +116,9 @@ def _bounds() -> dict:
                         for o in data["optimal"]]}
 
 
-def plot(data: dict, name: str) -> None:
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(10.5, 5.0))
-    learned = data["learned"]
+def _plot_learned(ax, learned: list[dict]) -> None:
+    """One colour per fuel weight, one point per seed; hollow and labelled with its success
+    rate where a policy settles under 99 % of the episodes."""
     for i, fuel in enumerate(sorted({r["fuel_weight"] for r in learned})):
         rows = [r for r in learned if r["fuel_weight"] == fuel and r["settle_median_s"]]
         failed = any(r["fuel_weight"] == fuel and not r["settle_median_s"] for r in learned)
@@ -135,6 +134,13 @@ def plot(data: dict, name: str) -> None:
         ax.scatter([], [], s=40, c=color, label=f"PPO, Reorient-v2 fuel weight {fuel:g}"
                    + (" (the main job)" if fuel == DEFAULT_FUEL else "")
                    + (" (a seed settled no episode)" if failed else ""))
+
+
+def plot(data: dict, name: str) -> None:
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(10.5, 5.0))
+    learned = data["learned"]
+    _plot_learned(ax, learned)
     marks = {"pd": ("s", "k"), "bangbang": ("D", "tab:red"), "mpc": ("P", "tab:purple")}
     for name_, row in data["scripted"].items():
         if row is not None:
