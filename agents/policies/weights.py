@@ -250,9 +250,17 @@ def load_model(path: Path, env=None, hyperparams: dict | None = None,
 # --- observation statistics -------------------------------------------------------------------
 
 def save_stats(vecnormalize, path: Path) -> None:
-    """VecNormalize's statistics and options as an ``.npz`` of arrays."""
+    """VecNormalize's statistics and options as an ``.npz`` of arrays. Without observation
+    normalisation SB3 keeps no ``obs_rms``: the file then holds the identity (mean 0, var 1,
+    count 0), which ``norm_obs`` False tells every reader to skip."""
     v = vecnormalize
-    arrays = {"obs_mean": v.obs_rms.mean, "obs_var": v.obs_rms.var, "obs_count": v.obs_rms.count,
+    obs_rms = getattr(v, "obs_rms", None)
+    if obs_rms is None:
+        from stable_baselines3.common.running_mean_std import RunningMeanStd  # the train extra
+
+        obs_rms = RunningMeanStd(shape=v.observation_space.shape)
+        obs_rms.count = 0.0
+    arrays = {"obs_mean": obs_rms.mean, "obs_var": obs_rms.var, "obs_count": obs_rms.count,
               "ret_mean": v.ret_rms.mean, "ret_var": v.ret_rms.var, "ret_count": v.ret_rms.count,
               "clip_obs": v.clip_obs, "clip_reward": v.clip_reward, "gamma": v.gamma,
               "epsilon": v.epsilon, "norm_obs": v.norm_obs, "norm_reward": v.norm_reward}

@@ -420,6 +420,27 @@ def test_a_checkpoint_is_paired_with_its_own_statistics(base_run):
     assert ckpt.config["n_envs"] == 4 and ckpt.env_kwargs["scene"] == "cubesat-12u"
 
 
+@pytest.mark.parametrize("norm_reward", [True, False])
+def test_a_run_without_observation_normalisation_checkpoints_resumes_and_loads(tmp_path,
+                                                                                norm_reward):
+    """SB3 keeps no ``obs_rms`` when ``norm_obs`` is off: the checkpoints still save (the
+    identity), a resume continues, and the loaded policy acts on the raw observation."""
+    from rbenv.agents.policies import weights
+
+    out = tmp_path / "raw"
+    normalize = {"norm_obs": False, "norm_reward": norm_reward}
+    run(tiny(out, timesteps=256, normalize=normalize))
+    stats = sb3_policies.load_stats(out / "checkpoints" / "obs_stats_256.npz")
+    assert not stats.norm_obs and stats.norm_reward == norm_reward
+    obs = np.linspace(-3.0, 3.0, 15).astype(np.float32)
+    assert np.array_equal(stats.normalize_obs(obs), obs)
+    run(tiny(out, timesteps=512, normalize=normalize), resume=True)
+    assert summary(out)["timesteps"] == 512
+    policy = load_policy(out, action="mode")
+    expected, _ = weights.load_model(out / "policy.pt").predict(obs, deterministic=True)
+    assert np.array_equal(policy.predict(obs)[0], expected)
+
+
 def test_a_checkpoint_without_its_statistics_is_refused(copy):
     (copy / "checkpoints" / "obs_stats_256.npz").unlink()
     with pytest.raises(RunFolderError, match=r"obs_stats_256.npz"):
