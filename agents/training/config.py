@@ -283,6 +283,32 @@ def normalize_kwargs(setting) -> dict | None:
     return dict(setting)
 
 
+# VecNormalize's keyword arguments a run may set, with their rule (the engine passes gamma,
+# the hyperparameters' discount, and training itself).
+NORMALIZE_FLAGS = ("norm_obs", "norm_reward")
+NORMALIZE_LIMITS = ("clip_obs", "clip_reward", "epsilon")
+
+
+def check_normalize(value: dict | None) -> None:
+    """``normalize``: None or an object of VecNormalize's options, flags true or false and
+    limits numbers > 0; else an error naming the key, the value and the rule."""
+    if value is None:
+        return
+    if not isinstance(value, dict):
+        raise InvalidParameterError(f"normalize must be a JSON object, got {value!r}")
+    unknown = sorted(set(value) - set(NORMALIZE_FLAGS) - set(NORMALIZE_LIMITS))
+    if unknown:
+        raise InvalidParameterError(
+            f"normalize has unknown key(s) {unknown}; keys are "
+            f"{', '.join(NORMALIZE_FLAGS + NORMALIZE_LIMITS)} (gamma is the hyperparameters')")
+    for key in NORMALIZE_FLAGS:
+        if key in value:
+            validation.flag(f"normalize['{key}']", value[key])
+    for key in NORMALIZE_LIMITS:
+        if key in value:
+            validation.positive(f"normalize['{key}']", value[key])
+
+
 SBX_ALGOS = ("sac", "td3")
 
 
@@ -346,6 +372,7 @@ class TrainConfig(RunConfig):
             self.n_envs = shipped["n_envs"]
         if self.normalize is None:
             self.normalize = normalize_kwargs(shipped.get("normalize", False))
+        check_normalize(self.normalize)
         self.check_counts(("n_envs",))
         if self.keep_best is None:
             self.keep_best = self.algo in OFF_POLICY

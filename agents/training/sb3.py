@@ -193,7 +193,11 @@ _OWN_FLAGS = {"n_envs": "--n-envs", "n_timesteps": "--timesteps", "normalize": "
 
 def check_hyperparams(cfg: TrainConfig) -> None:
     """Each key of ``cfg.hyperparams`` a keyword argument of the algorithm's model class (or RL
-    Zoo's ``noise_type``/``noise_std``); else an error naming the keys and what is valid."""
+    Zoo's ``noise_type``/``noise_std``), and a schedule written as one (``"lin_X"``); else an
+    error naming the keys and what is valid, before anything is written."""
+    for key in ("learning_rate", "clip_range"):
+        if isinstance(cfg.hyperparams.get(key), str):
+            linear_schedule(key, cfg.hyperparams[key])
     cls = algo_class(cfg.algo, cfg.engine)
     takes = set(inspect.signature(cls.__init__).parameters) - set(_ENGINE_ARGS)
     unknown = sorted(set(cfg.hyperparams) - takes - {"noise_type", "noise_std"})

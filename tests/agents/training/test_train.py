@@ -271,6 +271,30 @@ def test_a_learning_rate_string_that_is_no_linear_schedule_is_refused(spec):
         model_kwargs(cfg, None)
 
 
+def test_a_bad_schedule_is_refused_by_the_dry_run_before_anything_is_written(tmp_path):
+    from rbenv.agents import cli
+
+    out = tmp_path / "run"
+    assert cli.console(["train", "--hyperparams", '{"learning_rate": "lin_x"}', "--dry-run",
+                        "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("normalize, match", [
+    ({"foo": 1}, r"normalize has unknown key\(s\) \['foo'\]; keys are norm_obs"),
+    ({"gamma": 0.9}, r"unknown key\(s\) \['gamma'\].*gamma is the hyperparameters'"),
+    ({"norm_obs": "yes"}, r"normalize\['norm_obs'\] must be true or false, got 'yes'"),
+    ({"clip_obs": -1}, r"normalize\['clip_obs'\] must be > 0.0, got -1"),
+    ([1], r"normalize must be a JSON object"),
+])
+def test_bad_normalize_options_are_named_before_training(normalize, match):
+    from rbenv.core.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match=match):
+        TrainConfig(normalize=normalize).resolve()
+    TrainConfig(normalize={"norm_obs": False, "clip_obs": 5.0}).resolve()  # a valid one
+
+
 def test_stop_success_ends_training_at_the_first_validation_that_reaches_it(tmp_path):
     """On a scene whose success needs only a 2 s hold inside 170°, the first periodic
     evaluation succeeds: training stops there, on the policy it measured, and says so."""
