@@ -455,12 +455,13 @@ def _feature(args) -> str:
 
 def _one_line(args, parser: Parser, error: Exception) -> str:
     """``rbenv COMMAND: error: ...`` in one line; an input error whose field is a flag of the
-    command names the flag (``argument --scene: ...``)."""
+    command names the flag (``argument --scene: ...``) where the flag gave the value (not
+    where ``--env-kwargs`` did)."""
     text = " ".join(str(error).split())
     if isinstance(error, usage.InvalidChoiceError):
         command = parser._subparsers._group_actions[0].choices[args.command]
         dests = {a.dest: a.option_strings[0] for a in command._actions if a.option_strings}
-        if error.field in dests:
+        if error.field in dests and getattr(args, error.field, None) is not None:
             text = f"argument {dests[error.field]}: {' '.join(error.reason.split())}"
     return f"rbenv {args.command}: error: {text}"
 

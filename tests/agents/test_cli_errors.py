@@ -277,3 +277,11 @@ def test_a_foreign_model_on_another_task_names_the_flags_that_pick_its_env(tmp_p
                               "--episodes", "2"], capsys)
     assert "observation shape (2, 15) does not match the policy's (7,)" in err
     assert "--env-id" in err
+
+
+def test_a_bad_scene_from_env_kwargs_is_not_blamed_on_the_scene_flag(capsys):
+    """The value came from --env-kwargs, so the error names the field, not ``--scene``."""
+    err = one_line_error(["evaluate", "--policy", "pd", "--episodes", "1", "--env-kwargs",
+                          '{"scene": "cubesat12u"}'], capsys)
+    assert "argument --scene" not in err
+    assert "scene: 'cubesat12u' is not a shipped name" in err
