@@ -174,6 +174,20 @@ def components(arr) -> tuple:
     return parts if isinstance(parts[0], float) else tuple(np.ascontiguousarray(p) for p in parts)
 
 
+def with_general_recipe(cfg):
+    """``cfg`` (a ``TrainConfig``) set to its task's general recipe for its algorithm: the
+    hyperparameters and envs of ``shipped_settings(algo, env_id)`` with no scene's, none of a
+    recipe's env options, and the auto action. What the committed results of
+    ``benchmarks.robustness`` and ``benchmarks.fidelity`` measured on Reorient-v0 and
+    cubesat-12u, before that scene had its own SB3 recipe; returns ``cfg``."""
+    from rbenv.agents.training.config import ZOO_KEYS, shipped_settings
+
+    general = shipped_settings(cfg.algo, cfg.env_id)
+    cfg.hyperparams = {k: v for k, v in general.items() if k not in ZOO_KEYS}
+    cfg.n_envs, cfg.recipe_env_kwargs, cfg.policy_action = general["n_envs"], False, "auto"
+    return cfg
+
+
 def machine() -> dict:
     """Machine and library versions to store beside every result."""
     info = {

@@ -39,6 +39,8 @@ import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
 from rbenv.agents.training import suite
 
+from benchmarks import common
+
 # The first release's id: the committed results (and the A/B against an older checkout)
 # measured it; v1 has its episodes, with another observation and reward.
 REORIENT_V0 = "rbenv/SatelliteReorient-v0"
@@ -99,7 +101,8 @@ def _evaluate(policy, setting: Setting, episodes: int, seed: int) -> dict:
 
 def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, threads: int
                   ) -> dict:
-    """Train PPO (shipped defaults) on ``setting``; training.json plus this process's CPU time.
+    """Train PPO (Reorient-v0's general recipe, :func:`benchmarks.common.with_general_recipe`)
+    on ``setting``; training.json plus this process's CPU time.
 
     ``cpu_time_s`` is the CPU time of this process during :func:`rbenv.agents.training.sb3.train`
     (one
@@ -109,7 +112,7 @@ def train_setting(setting: Setting, seed: int, timesteps: int, run: Path, thread
     from rbenv.agents.training.sb3 import train
 
     cell = suite.Cell("ppo", REORIENT_V0, SCENE, seed, timesteps)
-    cfg = suite.train_config(cell, run, threads)
+    cfg = common.with_general_recipe(suite.train_config(cell, run, threads))
     cfg.env_kwargs = setting.env_kwargs
     resume = (run / runs.CONFIG).is_file()
     cpu = time.process_time()

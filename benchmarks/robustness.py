@@ -38,6 +38,7 @@ import numpy as np
 from rbenv.agents.policies.runfolder import RunFolderError, read_json, write_json
 from rbenv.agents.training import suite
 
+from benchmarks import common
 from benchmarks.common import RESULTS
 
 OUT = RESULTS / "robustness"
@@ -240,7 +241,7 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     with the best validation success (the latest among equals), as the suite selects.
     """
     from rbenv.agents.policies import runfolder as runs
-    from rbenv.agents.training.config import ZOO_KEYS, shipped_settings
+    from rbenv.agents.training.config import shipped_settings
     from rbenv.agents.training.sb3 import set_threads, train
 
     path = train_record(out, seed, timesteps)
@@ -259,11 +260,7 @@ def train_randomized(out: Path, seed: int, timesteps: int, validation_episodes: 
     rollout = ppo["n_envs"] * ppo["n_steps"]
     cfg.eval_every = cfg.checkpoint_every = max(cfg.eval_every, rollout)
     randomize = randomize_at(TRAIN_SIZE)
-    # The recipe the committed results measured: Reorient-v0's general one (the env's reward
-    # weights, its updates and envs), not the SB3 recipe cubesat-12u has had since.
-    general = shipped_settings("ppo", ENV_ID)
-    cfg.hyperparams = {k: v for k, v in general.items() if k not in ZOO_KEYS}
-    cfg.n_envs, cfg.recipe_env_kwargs = general["n_envs"], False
+    common.with_general_recipe(cfg)  # the recipe the committed results measured
     cfg.env_kwargs = {"randomize": randomize}
     resume = (run / runs.CONFIG).is_file()
     train(cfg, resume=resume, force=not resume, progress_bar=False, report=False)
