@@ -39,6 +39,7 @@ from rbenv.agents.policies.evaluate import (
     scripted_by_task,
     write_json,
 )
+from rbenv.agents.policies.sb3 import POLICY_ACTIONS
 from rbenv.agents.policies.weights import ALGOS
 from rbenv.agents.training import flags, rllib, suite, tune
 from rbenv.agents.training.config import (
@@ -201,7 +202,7 @@ def _parser() -> Parser:
                    help=f"the task (default: a run's own, else {rbenv.ENV_ID})")
     e.add_argument("--env-kwargs", type=flags.json_object, default={}, metavar="JSON",
                    help="JSON of gym.make options (docs/api.md lists them)")
-    e.add_argument("--action", default="auto", choices=["auto", "mean_throttle", "mode"],
+    e.add_argument("--action", default="auto", choices=POLICY_ACTIONS,
                    help="how a trained SB3 model acts: mean_throttle E[clip(mu + sigma eps, "
                         "low, high)] with the env's clip bounds (thrusters 0..1, wheels and "
                         "rods -1..1), mode (SB3's deterministic mu), auto (default): the run's "

@@ -20,6 +20,7 @@ import functools
 import pickle
 import zipfile
 from pathlib import Path
+from typing import Literal, get_args
 
 import numpy as np
 from rbenv.agents.policies import weights
@@ -115,7 +116,9 @@ def _load_zip(path: Path, algo: str | None, env):
                          f"{' or '.join(c.__name__ for c in classes)}: {'; '.join(errors)}")
 
 
-POLICY_ACTIONS = ("auto", "mean_throttle", "mode")
+# How a trained policy acts when evaluated (RunPolicy; a run config's policy_action).
+PolicyAction = Literal["auto", "mean_throttle", "mode"]
+POLICY_ACTIONS: tuple[str, ...] = get_args(PolicyAction)
 NO_CONFIG = ("see its config.json; a model without one (a foreign SB3 .zip) needs its task, "
              "scene and options named (--env-id, --scene, --env-kwargs)")
 

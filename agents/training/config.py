@@ -22,6 +22,7 @@ from rbenv.agents import settings
 from rbenv.agents.policies import runfolder
 from rbenv.agents.policies.envcheck import check_env_options
 from rbenv.agents.policies.runfolder import RunFolderError
+from rbenv.agents.policies.sb3 import POLICY_ACTIONS, PolicyAction
 from rbenv.agents.policies.weights import ALGOS, Algo
 from rbenv.agents.settings import tuned
 from rbenv.agents.settings.table import RUN
@@ -36,8 +37,6 @@ GENERIC_EVAL_EVERY, GENERIC_EVAL_EPISODES = 200_000, 100
 
 
 Engine = Literal["sb3", "sbx", "rllib", "torchrl"]
-# How a trained policy acts when evaluated: rbenv.agents.policies.sb3.POLICY_ACTIONS.
-PolicyAction = Literal["auto", "mean_throttle", "mode"]
 
 
 @dataclass
@@ -139,7 +138,7 @@ class RunConfig:
             self.threads = 1
         self.policy_action = validation.choice(
             "policy_action", "auto" if self.policy_action is None else self.policy_action,
-            get_args(PolicyAction))
+            POLICY_ACTIONS)
         self.eval_every = GENERIC_EVAL_EVERY if self.eval_every is None else self.eval_every
         self.eval_episodes = GENERIC_EVAL_EPISODES if self.eval_episodes is None \
             else self.eval_episodes

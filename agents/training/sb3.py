@@ -195,7 +195,7 @@ def check_hyperparams(cfg: TrainConfig) -> None:
     """Each key of ``cfg.hyperparams`` a keyword argument of the algorithm's model class (or RL
     Zoo's ``noise_type``/``noise_std``), and a schedule written as one (``"lin_X"``); else an
     error naming the keys and what is valid, before anything is written."""
-    for key in ("learning_rate", "clip_range"):
+    for key in SCHEDULES:
         if isinstance(cfg.hyperparams.get(key), str):
             linear_schedule(key, cfg.hyperparams[key])
     cls = algo_class(cfg.algo, cfg.engine)
@@ -531,6 +531,10 @@ def _load_pair(cfg: TrainConfig, ckpt: runfolder.Checkpoint, base, trust_pickle:
     return model, env
 
 
+# Hyperparameters RL Zoo writes as schedules ("lin_X"): linear_schedule turns them into one.
+SCHEDULES = ("learning_rate", "clip_range")
+
+
 def linear_schedule(name: str, spec: str):
     """RL Zoo's ``"lin_X"``: a value falling linearly from X at the start of training to 0 at
     its end (SB3 calls it with the remaining fraction, 1 → 0; below 0 when the last rollout
@@ -562,7 +566,7 @@ def model_kwargs(cfg: TrainConfig, env) -> dict:
                 "policy_kwargs activation_fn is not supported by --engine sbx (its networks "
                 f"use ReLU), got {hp['policy_kwargs']['activation_fn']!r}")
         hp["policy_kwargs"] = activations.to_classes(hp["policy_kwargs"])
-    for key in ("learning_rate", "clip_range"):
+    for key in SCHEDULES:
         if isinstance(hp.get(key), str):
             hp[key] = linear_schedule(key, hp[key])
     noise_type, noise_std = hp.pop("noise_type", None), hp.pop("noise_std", None)
