@@ -29,6 +29,7 @@ from rbenv.satellite.actuators.wheels import ACCELERATION_MODES
 from rbenv.satellite.allocation import axis_authority, make_allocator
 from rbenv.satellite.plant import Plant
 from rbenv.tasks import Task
+from rbenv.tasks.desaturate import HOLD_MAX_RATE_FRACTION, hold_natural_frequency
 
 
 def env_parts(env) -> tuple[Plant, Task]:
@@ -420,8 +421,8 @@ class WheelHoldPD(QuaternionPD):
         object.__setattr__(self, "wheels", wheels)
         object.__setattr__(self, "slices", _full_slices(self.plant, self.task))
         if self.max_rate is None:
-            object.__setattr__(self, "max_rate", 0.1 * self.task.rate_limit)
-        nat = min(0.3, 0.2 / self.plant.control_dt)
+            object.__setattr__(self, "max_rate", HOLD_MAX_RATE_FRACTION * self.task.rate_limit)
+        nat = hold_natural_frequency(self.plant.control_dt)
         object.__setattr__(self, "natural_frequency", nat)
 
     def wheel_momentum_B(self, obs: np.ndarray) -> np.ndarray:

@@ -253,6 +253,19 @@ class DesaturateV1(Desaturate):
         return a
 
 
+# The wheels' attitude hold of a magnetic desaturation, shared by Desaturate-v1's inner loop
+# and the WheelHoldPD and Unload baselines: its cap on the commanded rate, a fraction of the
+# scene's rate limit.
+HOLD_MAX_RATE_FRACTION = 0.1
+
+
+def hold_natural_frequency(control_dt: float) -> float:
+    """ω_n of the wheels' attitude hold, rad/s, at a control step of ``control_dt`` s:
+    ``min(0.3, 0.2/dt)``, so that the damping per step ``c·dt = 2ζω_n·dt`` stays at 0.4
+    (ζ = 1), well inside the discrete limit of 2, at a magnetic desaturation's 10 s step."""
+    return min(0.3, 0.2 / control_dt)
+
+
 def make_desaturate(plant, reward_weights=None, max_initial_angle_deg=None,
                     max_initial_rate=None, task_options=None) -> Desaturate:
     """The desaturation task on ``plant`` (options: scene ``[tasks.desaturate]``, then
@@ -276,7 +289,7 @@ def make_desaturate_v1(plant, reward_weights=None, max_initial_angle_deg=None,
             f"action_mode must be 'throttle' for rbenv/SatelliteDesaturate-v1 (its inner loop "
             f"commands the wheels' motor torques), got {plant.action_mode!r}")
     wheels = plant.actuator("wheels")
-    nat = min(0.3, 0.2 / plant.control_dt)  # rad/s: damping per step c·dt = 0.4 (ζ = 1)
+    nat = hold_natural_frequency(plant.control_dt)
     inertia = plant.scene.body.inertia
 
     def columns(act):
@@ -284,7 +297,7 @@ def make_desaturate_v1(plant, reward_weights=None, max_initial_angle_deg=None,
         return tuple(range(s.start, s.stop))
 
     extra = {"hold_stiffness": 2.0 * nat * nat, "hold_damping": 2.0 * nat,
-             "hold_max_rate": 0.1 * plant.scene.episode.rate_limit,
+             "hold_max_rate": HOLD_MAX_RATE_FRACTION * plant.scene.episode.rate_limit,
              "inertia_rows": tuple(tuple(float(c) for c in row) for row in inertia),
              "wheel_pinv_rows": wheels.pinv_rows, "wheel_max_torque": wheels.max_torque,
              "wheel_columns": columns(wheels), "rod_dipoles": rods.dipoles,
