@@ -55,14 +55,12 @@ class RodLaw(Unload):
         obs = obs.reshape(-1, obs.shape[-1])
         h = self.wheel_momentum_B(obs)
         b = obs[:, self.slices["field_B"]] * FIELD_SCALE_T
-        v = cross(h, b)
         if self.kind == "lin":
             mu = np.clip(self.k * obs[:, self.slices["dump_B"]], -1.0, 1.0)
         elif self.kind == "bang":
-            mu = np.sign(v)
+            mu = np.sign(cross(h, b))
         else:
-            mu = self.k * v / np.maximum(np.sum(b * b, axis=1, keepdims=True), 1e-18) \
-                @ self.rod_pinv
+            mu = self.dipole_fractions(h, b, self.k)
             mu = np.clip(mu, -1.0, 1.0) if self.kind == "clipped" else \
                 mu / np.maximum(np.abs(mu).max(axis=1, keepdims=True), 1.0)
         out = np.zeros((len(obs), self.plant.action_shape[0]), np.float32)

@@ -482,6 +482,13 @@ class Unload(WheelHoldPD):
         object.__setattr__(self, "rod_pinv",
                            None if rods is None else np.linalg.pinv(rods.dipole_matrix))
 
+    def dipole_fractions(self, h_w: np.ndarray, b: np.ndarray, gain: float) -> np.ndarray:
+        """The rods' fractions (N, n) of the cross-product law's dipole ``gain (h_w × B)/|B|²``
+        (h_w N·m·s and B T, (N, 3) body axes; gain 1/s), by the pseudo-inverse of the rods'
+        axes, before any limit."""
+        m = gain * cross(h_w, b) / np.maximum(np.sum(b * b, axis=1, keepdims=True), 1e-18)
+        return m @ self.rod_pinv
+
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
@@ -492,9 +499,7 @@ class Unload(WheelHoldPD):
         out = np.zeros((len(obs), plant.action_shape[0]), np.float32)
         if self.rods is not None:
             b = obs[:, self.slices["field_B"]] * FIELD_SCALE_T
-            m = self.gain * cross(h_w, b) / np.maximum(np.sum(b * b, axis=1, keepdims=True),
-                                                       1e-18)
-            mu = m @ self.rod_pinv  # rod fractions (N, n)
+            mu = self.dipole_fractions(h_w, b, self.gain)
             mu = mu / np.maximum(np.abs(mu).max(axis=1, keepdims=True), 1.0)
             mu = mu.astype(np.float32)  # what the env receives
             tau_ext = cross(mu.astype(float) @ self.rods.dipole_matrix, b)
