@@ -159,7 +159,8 @@ REORIENT_V2_PPO = {**REORIENT_V1_PPO, "n_timesteps": 2_000_000}
 # acting with its mode, clip(mu, 0, 1), not its mean throttle. Validation (200 episodes from
 # seed 5,000,000, seeds 0-2): 100 %, 22.5-23.75 s, 1.11-1.16 g (mean throttle: 21.0-22.25 s,
 # 1.26-1.32 g). 2 M steps gave 100 %, 21.5 s, 1.19-1.20 g but trained 62-64 s at load 1.1-1.5,
-# past the main job's 60 s (1.8 M: 58.4-59.5 s). With 3 epochs, [64, 64] or [96, 96], or the
+# past the main job's 60 s (1.8 M: 58.4-59.5 s in those runs, but 62.8 s in two later
+# fresh-clone runs, so 1.8 M is at the limit too). With 3 epochs, [64, 64] or [96, 96], or the
 # defaults' weights, policies spent 1.29-1.42 g, or lost episodes acting with their mode
 # (docs/performance.md, "What ships: Reorient-v2's main job";
 # benchmarks/results/rl/reorient_v2_sweep3.json). Keyed to the sb3 engine, the one measured.
